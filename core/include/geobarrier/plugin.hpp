@@ -1,0 +1,221 @@
+// The core's side of the plugin boundary: loading plugin libraries with
+// Boost.DLL, finding plugins by kind and name, validating parameters against
+// their schemas, and C++ objects (System, Forcing, Extractor) that wrap a
+// created plugin instance and keep its library loaded for as long as they live.
+#ifndef GEOBARRIER_PLUGIN_HPP
+#define GEOBARRIER_PLUGIN_HPP
+
+#include <geobarrier/abi.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <deque>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace geobarrier {
+
+enum class PluginKind { system, forcing, extractor };
+const char *to_string(PluginKind kind);
+
+enum class ParamType { real, integer, boolean, string };
+const char *to_string(ParamType type);
+
+// A parameter declaration, copied out of the plugin's gb_param_spec.
+struct ParamSpec {
+    std::string name;
+    ParamType type = ParamType::real;
+    double default_value = 0.0;
+    double min_value = 0.0;
+    double max_value = 0.0;
+    std::string default_string;
+    std::vector<std::string> choices; // strings only; empty = any string
+    std::string unit;
+    std::string doc;
+};
+
+// A plugin library kept loaded (the boost::dll::shared_library lives inside).
+class PluginLibrary;
+
+// One plugin found in a library: its descriptor and a copy of what it declares.
+struct PluginInfo {
+    PluginKind kind = PluginKind::system;
+    std::string name;
+    std::string version;
+    std::string doc;
+    std::vector<ParamSpec> params;
+    std::uint32_t thread_safety = 0;
+    std::filesystem::path file;
+    std::uint32_t abi_major = 0, abi_minor = 0;
+    // Systems only.
+    std::uint32_t dimension = 0;
+    bool has_jacobian = false, has_divergence = false, uses_forcing = false;
+    // Extractors only.
+    std::vector<std::string> required_fields;
+};
+
+struct PluginHandle {
+    std::shared_ptr<const PluginLibrary> library;
+    const gb_plugin_descriptor *descriptor = nullptr;
+    PluginInfo info;
+};
+
+// Loads one plugin library and returns every plugin it declares. Throws
+// PluginError "<file>: <reason>" for a file that is not a loadable library, has
+// no entry symbol, was built for another ABI major version, or declares
+// malformed descriptors.
+std::vector<PluginHandle> load_plugin_library(const std::filesystem::path &file);
+
+// Parameter values validated against a schema, in declaration order.
+class ParamValues {
+  public:
+    ParamValues() = default;
+    ParamValues(std::vector<double> values, std::vector<std::string> strings, std::vector<bool> is_string);
+    // The C view handed to a factory; valid while this object lives.
+    const gb_param_values *c_view() const { return &m_view; }
+    ParamValues(const ParamValues &other);
+    ParamValues &operator=(const ParamValues &other);
+    double value(std::size_t i) const { return m_values.at(i); }
+    const std::string &string(std::size_t i) const { return m_strings.at(i); }
+
+  private:
+    void rebuild_view();
+    std::vector<double> m_values;
+    std::vector<std::string> m_strings;
+    std::vector<bool> m_is_string;
+    std::vector<const char *> m_string_ptrs;
+    gb_param_values m_view{0, nullptr, nullptr};
+};
+
+// Validates `params` (a JSON object, or null for all defaults) against the
+// plugin's schema: unknown names (with a "did you mean" hint), wrong types and
+// values outside the declared range are ConfigErrors naming json_path/name.
+ParamValues validate_params(const PluginInfo &info, const nlohmann::json &params, const std::string &json_path);
+
+// The resolved parameters as JSON (defaults filled in), for the manifest.
+nlohmann::json params_to_json(const PluginInfo &info, const ParamValues &values);
+
+// The schema as JSON, for `geobarrier plugins --json` and generated docs.
+nlohmann::json plugin_info_to_json(const PluginInfo &info);
+
+// Turns a failed call's status into a PluginError naming the plugin.
+void check_plugin_status(gb_status status, const PluginInfo &info, const char *what, const char *message);
+
+// A created plugin instance, destroyed (and its library released) with the last copy.
+class PluginInstance {
+  public:
+    PluginInstance() = default;
+    PluginInstance(const PluginHandle &handle, const ParamValues &values);
+    const PluginInfo &info() const { return m_handle->info; }
+    void *self() const { return m_self.get(); }
+    const gb_plugin_descriptor &descriptor() const { return *m_handle->descriptor; }
+    explicit operator bool() const { return static_cast<bool>(m_self); }
+
+  private:
+    std::shared_ptr<const PluginHandle> m_handle;
+    std::shared_ptr<void> m_self;
+};
+
+// A dynamical system x' = v(x, t; f). Calls throw PluginError when the plugin fails.
+class System {
+  public:
+    System() = default;
+    System(const PluginHandle &handle, const ParamValues &values);
+    const PluginInfo &info() const { return m_instance.info(); }
+    unsigned dimension() const { return m_table->dimension; }
+    bool has_jacobian() const { return m_table->jacobian != nullptr; }
+    bool has_divergence() const { return m_table->divergence != nullptr; }
+    bool uses_forcing() const { return (m_table->capabilities & GB_SYSTEM_USES_FORCING) != 0; }
+    // See gb_system_vtable for the layouts; lane_status receives n entries.
+    void rhs(std::size_t n, std::size_t ld, const double *t, const double *x, const double *f, double *dxdt,
+             std::int32_t *lane_status) const;
+    void jacobian(std::size_t n, std::size_t ld, const double *t, const double *x, const double *f, double *jac,
+                  std::int32_t *lane_status) const;
+    void divergence(std::size_t n, std::size_t ld, const double *t, const double *x, const double *f, double *div,
+                    std::int32_t *lane_status) const;
+
+  private:
+    PluginInstance m_instance;
+    const gb_system_vtable *m_table = nullptr;
+};
+
+// A forcing f(t).
+class Forcing {
+  public:
+    Forcing() = default;
+    Forcing(const PluginHandle &handle, const ParamValues &values);
+    const PluginInfo &info() const { return m_instance.info(); }
+    void evaluate(std::size_t n, const double *t, double *f) const;
+    double operator()(double t) const {
+        double f = 0.0;
+        evaluate(1, &t, &f);
+        return f;
+    }
+
+  private:
+    PluginInstance m_instance;
+    const gb_forcing_vtable *m_table = nullptr;
+};
+
+// One barrier reported by an extractor.
+struct Barrier {
+    std::string kind;
+    bool closed = false;
+    std::vector<double> xy; // x0, y0, x1, y1, ...
+    std::vector<std::pair<std::string, double>> metrics;
+};
+
+// A barrier extractor.
+class Extractor {
+  public:
+    Extractor() = default;
+    Extractor(const PluginHandle &handle, const ParamValues &values);
+    const PluginInfo &info() const { return m_instance.info(); }
+    const std::vector<std::string> &required_fields() const { return info().required_fields; }
+    // Runs the extractor; log lines go to spdlog, barriers are returned.
+    std::vector<Barrier> extract(const gb_extract_input &input) const;
+
+  private:
+    PluginInstance m_instance;
+    const gb_extractor_vtable *m_table = nullptr;
+};
+
+// All plugins found in a list of folders. Files that are not plugins are
+// skipped with a warning (see warnings()); a plugin named twice keeps the
+// first one found, so earlier folders take precedence.
+class PluginRegistry {
+  public:
+    PluginRegistry() = default;
+    explicit PluginRegistry(const std::vector<std::filesystem::path> &folders);
+
+    // Folders searched by default, in order: `extra` (e.g. the experiment's
+    // plugin_paths), GEOBARRIER_PLUGIN_PATH (':'-separated), then the plugins
+    // installed or built beside the running program (<exe>/../lib/geobarrier/plugins).
+    static std::vector<std::filesystem::path> default_folders(const std::vector<std::filesystem::path> &extra = {});
+    static std::filesystem::path builtin_folder();
+
+    const std::deque<PluginHandle> &plugins() const { return m_plugins; }
+    const std::vector<std::string> &warnings() const { return m_warnings; }
+    const std::vector<std::filesystem::path> &folders() const { return m_folders; }
+
+    // Finds a plugin by kind and name, or loads it from a file when `name` is
+    // a path (contains '/' or ends in ".so"). Unknown names are ConfigErrors at
+    // json_path listing what exists, with a "did you mean" hint.
+    const PluginHandle &find(PluginKind kind, const std::string &name, const std::string &json_path) const;
+
+  private:
+    void add_library(const std::filesystem::path &file, bool strict) const;
+    std::vector<std::filesystem::path> m_folders;
+    mutable std::deque<PluginHandle> m_plugins; // deque: find() hands out stable references
+    mutable std::vector<std::string> m_warnings;
+};
+
+// Closest candidate by edit distance, or "" when nothing is close enough.
+std::string did_you_mean(const std::string &word, const std::vector<std::string> &candidates);
+
+}  // namespace geobarrier
+
+#endif  // GEOBARRIER_PLUGIN_HPP

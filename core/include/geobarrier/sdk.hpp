@@ -1,0 +1,297 @@
+// Plugin SDK: turns a plain C++ class into the C tables of <geobarrier/abi.h>.
+// A plugin includes only this header (and the ABI header it pulls in); it never
+// links the core. Exceptions thrown by plugin code are caught here and become a
+// GB_ERROR status with the exception's message: nothing throws across the ABI.
+//
+// A system plugin, in full:
+//
+//   struct Pendulum {
+//       static constexpr const char *name = "pendulum", *version = "1.0.0",
+//                                   *doc = "x' = y, y' = -sin x + f(t)";
+//       static constexpr unsigned dimension = 2;
+//       static constexpr gb_param_spec params[] = {
+//           geobarrier::sdk::real_param("damping", 0.0, 0.0, HUGE_VAL, "1/s", "linear damping")};
+//       // (a plugin without parameters leaves `params` out)
+//       explicit Pendulum(const geobarrier::sdk::Params &p) : c(p.real("damping")) {}
+//       void rhs(const geobarrier::sdk::Batch &b, double *dxdt) const { ... }
+//       // optional: void jacobian(const Batch &, double *jac) const;
+//       //           void divergence(const Batch &, double *div) const;
+//       double c;
+//   };
+//   GEOBARRIER_PLUGINS(geobarrier::sdk::system<Pendulum>())
+//
+// Forcings provide `void evaluate(std::size_t n, const double *t, double *f) const`;
+// extractors provide `static constexpr const char *required_fields[]` (NULL-terminated)
+// and `void extract(const geobarrier::sdk::Host &, const gb_extract_input &) const`.
+#ifndef GEOBARRIER_SDK_HPP
+#define GEOBARRIER_SDK_HPP
+
+#include <geobarrier/abi.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <exception>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+namespace geobarrier::sdk {
+
+// ------------------------------------------------------------ parameters
+
+constexpr gb_param_spec real_param(const char *name, double default_value, double min_value, double max_value,
+                                   const char *unit, const char *doc) {
+    return gb_param_spec{name, GB_PARAM_REAL, default_value, min_value, max_value, "", nullptr, unit, doc};
+}
+constexpr gb_param_spec integer_param(const char *name, double default_value, double min_value, double max_value,
+                                      const char *doc) {
+    return gb_param_spec{name, GB_PARAM_INTEGER, default_value, min_value, max_value, "", nullptr, "", doc};
+}
+constexpr gb_param_spec bool_param(const char *name, bool default_value, const char *doc) {
+    return gb_param_spec{name, GB_PARAM_BOOL, default_value ? 1.0 : 0.0, 0.0, 1.0, "", nullptr, "", doc};
+}
+// `choices` is a '|'-separated list of allowed values, or nullptr for any string.
+constexpr gb_param_spec string_param(const char *name, const char *default_value, const char *choices,
+                                     const char *doc) {
+    return gb_param_spec{name, GB_PARAM_STRING, 0.0, 0.0, 0.0, default_value, choices, "", doc};
+}
+
+// Read access by name to the validated values the core passes to a factory.
+class Params {
+  public:
+    Params(const gb_param_spec *specs, std::uint32_t spec_count, const gb_param_values *values)
+        : m_specs(specs), m_count(spec_count), m_values(values) {}
+
+    double real(const char *name) const { return m_values->values[index(name)]; }
+    long long integer(const char *name) const { return static_cast<long long>(m_values->values[index(name)]); }
+    bool flag(const char *name) const { return m_values->values[index(name)] != 0.0; }
+    std::string string(const char *name) const {
+        const char *s = m_values->strings ? m_values->strings[index(name)] : nullptr;
+        return s ? std::string(s) : std::string();
+    }
+
+  private:
+    std::uint32_t index(const char *name) const {
+        for (std::uint32_t i = 0; i < m_count && i < m_values->count; ++i)
+            if (std::strcmp(m_specs[i].name, name) == 0) return i;
+        throw std::invalid_argument(std::string("plugin asked for undeclared parameter '") + name + "'");
+    }
+    const gb_param_spec *m_specs;
+    std::uint32_t m_count;
+    const gb_param_values *m_values;
+};
+
+// One batch of lanes: component i of lane k is x[i * ld + k]; lane k has time t[k]
+// and forcing value f[k].
+struct Batch {
+    std::size_t n;
+    std::size_t ld;
+    const double *t;
+    const double *x;
+    const double *f;
+};
+
+// What an extractor may ask of the core while it runs.
+class Host {
+  public:
+    explicit Host(const gb_host *host) : m_host(host) {}
+    void info(const std::string &line) const { m_host->log(m_host->context, 1, line.c_str()); }
+    void warn(const std::string &line) const { m_host->log(m_host->context, 2, line.c_str()); }
+    // Returns true when the user asked to stop.
+    bool progress(double fraction) const { return m_host->progress(m_host->context, fraction) != 0; }
+    void add_barrier(const char *kind, bool closed, const std::vector<double> &xy,
+                     const std::vector<std::pair<std::string, double>> &metrics) const {
+        std::vector<const char *> names;
+        std::vector<double> values;
+        for (const auto &m : metrics) {
+            names.push_back(m.first.c_str());
+            values.push_back(m.second);
+        }
+        const gb_status s = m_host->add_barrier(m_host->context, kind, closed ? 1 : 0, xy.size() / 2, xy.data(),
+                                                static_cast<std::uint32_t>(names.size()), names.data(), values.data());
+        if (s != GB_OK) throw std::runtime_error("the core refused a barrier");
+    }
+
+  private:
+    const gb_host *m_host;
+};
+
+namespace detail {
+
+inline void write_message(gb_message *msg, const char *text) noexcept {
+    if (!msg || !msg->text || msg->capacity == 0) return;
+    std::strncpy(msg->text, text, msg->capacity - 1);
+    msg->text[msg->capacity - 1] = '\0';
+}
+
+// Runs `body`, turning any exception into GB_ERROR and a message.
+template <class Body> gb_status guarded(gb_message *msg, Body &&body) noexcept {
+    try {
+        body();
+        return GB_OK;
+    } catch (const std::exception &e) {
+        write_message(msg, e.what());
+    } catch (...) {
+        write_message(msg, "unknown exception in plugin");
+    }
+    return GB_ERROR;
+}
+
+template <class T, class = void> struct has_jacobian : std::false_type {};
+template <class T>
+struct has_jacobian<T, std::void_t<decltype(std::declval<const T &>().jacobian(std::declval<const Batch &>(),
+                                                                               static_cast<double *>(nullptr)))>>
+    : std::true_type {};
+
+template <class T, class = void> struct has_divergence : std::false_type {};
+template <class T>
+struct has_divergence<T, std::void_t<decltype(std::declval<const T &>().divergence(
+                             std::declval<const Batch &>(), static_cast<double *>(nullptr)))>> : std::true_type {};
+
+// A plugin may set lane_status itself by declaring rhs(const Batch&, double*, int32_t*).
+template <class T, class = void> struct has_lane_status_rhs : std::false_type {};
+template <class T>
+struct has_lane_status_rhs<T, std::void_t<decltype(std::declval<const T &>().rhs(
+                                  std::declval<const Batch &>(), static_cast<double *>(nullptr),
+                                  static_cast<std::int32_t *>(nullptr)))>> : std::true_type {};
+
+template <class T, class = void> struct uses_forcing : std::true_type {};
+template <class T> struct uses_forcing<T, std::void_t<decltype(T::uses_forcing)>> {
+    static constexpr bool value = T::uses_forcing;
+};
+
+// A plugin without parameters simply declares no `params` member.
+template <class T, class = void> struct has_params : std::false_type {};
+template <class T> struct has_params<T, std::void_t<decltype(T::params)>> : std::true_type {};
+
+template <class T> constexpr std::uint32_t param_count() {
+    if constexpr (has_params<T>::value)
+        return sizeof(T::params) / sizeof(T::params[0]);
+    else
+        return 0;
+}
+template <class T> constexpr const gb_param_spec *param_specs() {
+    if constexpr (has_params<T>::value)
+        return T::params;
+    else
+        return nullptr;
+}
+
+template <class T> void *create(const gb_param_values *values, gb_message *msg) noexcept {
+    T *made = nullptr;
+    guarded(msg, [&] { made = new T(Params(param_specs<T>(), param_count<T>(), values)); });
+    return made;
+}
+template <class T> void destroy(void *self) noexcept { delete static_cast<T *>(self); }
+
+inline void clear_lanes(std::int32_t *lane_status, std::uint64_t n) {
+    for (std::uint64_t k = 0; k < n; ++k) lane_status[k] = GB_OK;
+}
+
+template <class T> struct SystemThunks {
+    static gb_status rhs(void *self, std::uint64_t n, std::uint64_t ld, const double *t, const double *x,
+                         const double *f, double *dxdt, std::int32_t *lane_status, gb_message *msg) noexcept {
+        return guarded(msg, [&] {
+            const Batch b{n, ld, t, x, f};
+            clear_lanes(lane_status, n);
+            if constexpr (has_lane_status_rhs<T>::value)
+                static_cast<const T *>(self)->rhs(b, dxdt, lane_status);
+            else
+                static_cast<const T *>(self)->rhs(b, dxdt);
+        });
+    }
+    static gb_status jacobian(void *self, std::uint64_t n, std::uint64_t ld, const double *t, const double *x,
+                              const double *f, double *jac, std::int32_t *lane_status, gb_message *msg) noexcept {
+        return guarded(msg, [&] {
+            if constexpr (has_jacobian<T>::value) {
+                clear_lanes(lane_status, n);
+                static_cast<const T *>(self)->jacobian(Batch{n, ld, t, x, f}, jac);
+            }
+        });
+    }
+    static gb_status divergence(void *self, std::uint64_t n, std::uint64_t ld, const double *t, const double *x,
+                                const double *f, double *div, std::int32_t *lane_status, gb_message *msg) noexcept {
+        return guarded(msg, [&] {
+            if constexpr (has_divergence<T>::value) {
+                clear_lanes(lane_status, n);
+                static_cast<const T *>(self)->divergence(Batch{n, ld, t, x, f}, div);
+            }
+        });
+    }
+    static constexpr std::uint32_t capabilities() {
+        return (has_jacobian<T>::value ? GB_SYSTEM_HAS_JACOBIAN : 0u) |
+               (has_divergence<T>::value ? GB_SYSTEM_HAS_DIVERGENCE : 0u) |
+               (uses_forcing<T>::value ? GB_SYSTEM_USES_FORCING : 0u);
+    }
+    static inline const gb_system_vtable table{T::dimension, capabilities(), &rhs,
+                                               has_jacobian<T>::value ? &jacobian : nullptr,
+                                               has_divergence<T>::value ? &divergence : nullptr};
+};
+
+template <class T> struct ForcingThunks {
+    static gb_status evaluate(void *self, std::uint64_t n, const double *t, double *f, gb_message *msg) noexcept {
+        return guarded(msg, [&] { static_cast<const T *>(self)->evaluate(static_cast<std::size_t>(n), t, f); });
+    }
+    static inline const gb_forcing_vtable table{&evaluate};
+};
+
+template <class T> struct ExtractorThunks {
+    static gb_status extract(void *self, const gb_host *host, const gb_extract_input *input,
+                             gb_message *msg) noexcept {
+        return guarded(msg, [&] { static_cast<const T *>(self)->extract(Host(host), *input); });
+    }
+    static inline const gb_extractor_vtable table{T::required_fields, &extract};
+};
+
+template <class T> gb_plugin_descriptor descriptor(gb_plugin_kind kind) {
+    return gb_plugin_descriptor{kind,
+                                T::name,
+                                T::version,
+                                T::doc,
+                                param_count<T>(),
+                                param_specs<T>(),
+                                GB_THREAD_SAFE_CONCURRENT,
+                                &create<T>,
+                                &destroy<T>,
+                                nullptr,
+                                nullptr,
+                                nullptr};
+}
+
+}  // namespace detail
+
+// Descriptors for GEOBARRIER_PLUGINS(...). The object's const methods must be
+// safe to call from several threads at once (GB_THREAD_SAFE_CONCURRENT).
+template <class T> gb_plugin_descriptor system() {
+    gb_plugin_descriptor d = detail::descriptor<T>(GB_KIND_SYSTEM);
+    d.system = &detail::SystemThunks<T>::table;
+    return d;
+}
+template <class T> gb_plugin_descriptor forcing() {
+    gb_plugin_descriptor d = detail::descriptor<T>(GB_KIND_FORCING);
+    d.forcing = &detail::ForcingThunks<T>::table;
+    return d;
+}
+template <class T> gb_plugin_descriptor extractor() {
+    gb_plugin_descriptor d = detail::descriptor<T>(GB_KIND_EXTRACTOR);
+    d.extractor = &detail::ExtractorThunks<T>::table;
+    return d;
+}
+
+}  // namespace geobarrier::sdk
+
+// Defines the library's one exported entry point, listing its plugins.
+#define GEOBARRIER_PLUGINS(...)                                                                          \
+    extern "C" GB_PLUGIN_EXPORT const gb_plugin_entry *geobarrier_plugin_entry(void) {                   \
+        static const gb_plugin_descriptor geobarrier_descriptors[] = {__VA_ARGS__};                      \
+        static const gb_plugin_entry geobarrier_entry = {                                                \
+            GB_ABI_VERSION_MAJOR, GB_ABI_VERSION_MINOR,                                                  \
+            static_cast<std::uint32_t>(sizeof(geobarrier_descriptors) / sizeof(geobarrier_descriptors[0])), \
+            geobarrier_descriptors};                                                                     \
+        return &geobarrier_entry;                                                                        \
+    }
+
+#endif  // GEOBARRIER_SDK_HPP

@@ -1,0 +1,596 @@
+// Loading plugin libraries (Boost.DLL), checking what they declare, validating
+// parameters against their schemas, and the wrappers that call across the ABI.
+#include <geobarrier/errors.hpp>
+#include <geobarrier/plugin.hpp>
+
+#include <dlfcn.h>
+
+#include <boost/dll/runtime_symbol_info.hpp>
+#include <boost/dll/shared_library.hpp>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <fstream>
+#include <mutex>
+#include <regex>
+#include <sstream>
+
+namespace fs = std::filesystem;
+
+namespace geobarrier {
+
+class PluginLibrary {
+  public:
+    PluginLibrary(boost::dll::shared_library lib, fs::path file) : m_lib(std::move(lib)), m_file(std::move(file)) {}
+    const fs::path &file() const { return m_file; }
+
+  private:
+    boost::dll::shared_library m_lib;
+    fs::path m_file;
+};
+
+const char *to_string(PluginKind kind) {
+    switch (kind) {
+    case PluginKind::system: return "system";
+    case PluginKind::forcing: return "forcing";
+    case PluginKind::extractor: return "extractor";
+    }
+    return "?";
+}
+
+const char *to_string(ParamType type) {
+    switch (type) {
+    case ParamType::real: return "real";
+    case ParamType::integer: return "integer";
+    case ParamType::boolean: return "bool";
+    case ParamType::string: return "string";
+    }
+    return "?";
+}
+
+namespace {
+
+// Boost.DLL and dlopen are not documented as safe to call concurrently.
+std::mutex &load_mutex() {
+    static std::mutex m;
+    return m;
+}
+
+std::string text_or_empty(const char *s) { return s ? std::string(s) : std::string(); }
+
+std::vector<std::string> split(const std::string &s, char sep) {
+    std::vector<std::string> out;
+    std::string item;
+    std::istringstream in(s);
+    while (std::getline(in, item, sep))
+        if (!item.empty()) out.push_back(item);
+    return out;
+}
+
+bool looks_like_shared_library(const fs::path &p) {
+    const std::string name = p.filename().string();
+    return p.extension() == ".so" || name.find(".so.") != std::string::npos || p.extension() == ".dylib" ||
+           p.extension() == ".dll";
+}
+
+// Copies and checks one descriptor; throws a reason string on malformed input.
+PluginInfo read_descriptor(const gb_plugin_descriptor &d, const fs::path &file, const gb_plugin_entry &entry) {
+    PluginInfo info;
+    info.file = file;
+    info.abi_major = entry.abi_major;
+    info.abi_minor = entry.abi_minor;
+    if (!d.name || !*d.name) throw std::string("a descriptor has no name");
+    info.name = d.name;
+    static const std::regex name_rule("[a-z0-9][a-z0-9-]*");
+    if (!std::regex_match(info.name, name_rule))
+        throw "plugin name '" + info.name + "' must match [a-z0-9][a-z0-9-]*";
+    info.version = text_or_empty(d.version);
+    info.doc = text_or_empty(d.doc);
+    info.thread_safety = d.thread_safety;
+    if (!d.create || !d.destroy) throw "plugin '" + info.name + "' has no create/destroy function";
+    switch (d.kind) {
+    case GB_KIND_SYSTEM:
+        info.kind = PluginKind::system;
+        if (!d.system || !d.system->rhs) throw "system '" + info.name + "' has no right-hand side";
+        info.dimension = d.system->dimension;
+        info.has_jacobian = d.system->jacobian != nullptr;
+        info.has_divergence = d.system->divergence != nullptr;
+        info.uses_forcing = (d.system->capabilities & GB_SYSTEM_USES_FORCING) != 0;
+        if (info.dimension != 2)
+            throw "system '" + info.name + "' has dimension " + std::to_string(info.dimension) +
+                " (this version handles planar systems, dimension 2)";
+        break;
+    case GB_KIND_FORCING:
+        info.kind = PluginKind::forcing;
+        if (!d.forcing || !d.forcing->evaluate) throw "forcing '" + info.name + "' has no evaluate function";
+        break;
+    case GB_KIND_EXTRACTOR:
+        info.kind = PluginKind::extractor;
+        if (!d.extractor || !d.extractor->extract) throw "extractor '" + info.name + "' has no extract function";
+        if (d.extractor->required_fields)
+            for (const char *const *f = d.extractor->required_fields; *f; ++f) info.required_fields.emplace_back(*f);
+        break;
+    default: throw "plugin '" + info.name + "' has unknown kind " + std::to_string(d.kind);
+    }
+    if (d.param_count > 0 && !d.params) throw "plugin '" + info.name + "' declares parameters but gives none";
+    for (std::uint32_t i = 0; i < d.param_count; ++i) {
+        const gb_param_spec &s = d.params[i];
+        ParamSpec p;
+        if (!s.name || !*s.name) throw "plugin '" + info.name + "' has a parameter without a name";
+        p.name = s.name;
+        switch (s.type) {
+        case GB_PARAM_REAL: p.type = ParamType::real; break;
+        case GB_PARAM_INTEGER: p.type = ParamType::integer; break;
+        case GB_PARAM_BOOL: p.type = ParamType::boolean; break;
+        case GB_PARAM_STRING: p.type = ParamType::string; break;
+        default: throw "parameter '" + p.name + "' of '" + info.name + "' has unknown type " + std::to_string(s.type);
+        }
+        p.default_value = s.default_value;
+        p.min_value = s.min_value;
+        p.max_value = s.max_value;
+        p.default_string = text_or_empty(s.default_string);
+        if (s.choices) p.choices = split(s.choices, '|');
+        p.unit = text_or_empty(s.unit);
+        p.doc = text_or_empty(s.doc);
+        for (const ParamSpec &q : info.params)
+            if (q.name == p.name) throw "plugin '" + info.name + "' declares parameter '" + p.name + "' twice";
+        info.params.push_back(std::move(p));
+    }
+    return info;
+}
+
+}  // namespace
+
+std::vector<PluginHandle> load_plugin_library(const fs::path &file) {
+    const std::string where = file.string() + ": ";
+    std::error_code ec;
+    if (!fs::exists(file, ec)) throw PluginError(where + "no such file");
+    if (!fs::is_regular_file(file, ec)) throw PluginError(where + "not a regular file");
+
+    std::lock_guard<std::mutex> lock(load_mutex());
+    boost::dll::shared_library lib;
+    boost::dll::fs::error_code dll_ec;
+    lib.load(file, boost::dll::load_mode::rtld_lazy | boost::dll::load_mode::rtld_local, dll_ec);
+    if (dll_ec) {
+        // Boost's error code drops dlerror's text ("invalid ELF header", a
+        // missing dependency...); ask dlopen once more for the real reason.
+        std::string reason = dll_ec.message();
+        if (void *again = ::dlopen(file.c_str(), RTLD_LAZY | RTLD_LOCAL)) {
+            ::dlclose(again);
+        } else if (const char *text = ::dlerror()) {
+            reason = text;
+            const std::string prefix = file.string() + ": ";
+            if (reason.rfind(prefix, 0) == 0) reason = reason.substr(prefix.size()); // dlerror repeats the path
+        }
+        throw PluginError(where + "not a loadable shared library (" + reason + ")");
+    }
+    if (!lib.has(GB_PLUGIN_ENTRY_SYMBOL))
+        throw PluginError(where + "not a geobarrier plugin (no '" GB_PLUGIN_ENTRY_SYMBOL "' entry symbol)");
+    const auto entry_fn = lib.get<const gb_plugin_entry *()>(GB_PLUGIN_ENTRY_SYMBOL);
+    const gb_plugin_entry *entry = entry_fn();
+    if (!entry) throw PluginError(where + "the entry function returned no entry");
+    if (entry->abi_major != GB_ABI_VERSION_MAJOR)
+        throw PluginError(where + "built for plugin ABI " + std::to_string(entry->abi_major) + "." +
+                          std::to_string(entry->abi_minor) + ", this geobarrier speaks ABI " +
+                          std::to_string(GB_ABI_VERSION_MAJOR) + "." + std::to_string(GB_ABI_VERSION_MINOR) +
+                          " (rebuild the plugin against this version)");
+    if (entry->count == 0 || !entry->descriptors) throw PluginError(where + "the entry declares no plugins");
+
+    auto shared = std::make_shared<const PluginLibrary>(std::move(lib), file);
+    std::vector<PluginHandle> out;
+    for (std::uint32_t i = 0; i < entry->count; ++i) {
+        try {
+            out.push_back(PluginHandle{shared, &entry->descriptors[i], read_descriptor(entry->descriptors[i], file, *entry)});
+        } catch (const std::string &reason) {
+            throw PluginError(where + reason);
+        }
+    }
+    return out;
+}
+
+// ------------------------------------------------------------ param values
+
+ParamValues::ParamValues(std::vector<double> values, std::vector<std::string> strings, std::vector<bool> is_string)
+    : m_values(std::move(values)), m_strings(std::move(strings)), m_is_string(std::move(is_string)) {
+    rebuild_view();
+}
+ParamValues::ParamValues(const ParamValues &other)
+    : m_values(other.m_values), m_strings(other.m_strings), m_is_string(other.m_is_string) {
+    rebuild_view();
+}
+ParamValues &ParamValues::operator=(const ParamValues &other) {
+    if (this != &other) {
+        m_values = other.m_values;
+        m_strings = other.m_strings;
+        m_is_string = other.m_is_string;
+        rebuild_view();
+    }
+    return *this;
+}
+void ParamValues::rebuild_view() {
+    m_string_ptrs.assign(m_values.size(), nullptr);
+    for (std::size_t i = 0; i < m_values.size(); ++i)
+        if (i < m_is_string.size() && m_is_string[i]) m_string_ptrs[i] = m_strings[i].c_str();
+    m_view = gb_param_values{static_cast<std::uint32_t>(m_values.size()), m_values.data(), m_string_ptrs.data()};
+}
+
+std::string did_you_mean(const std::string &word, const std::vector<std::string> &candidates) {
+    // Optimal-string-alignment distance: a transposition ("detla") costs one edit.
+    auto distance = [](const std::string &a, const std::string &b) {
+        const auto same = [](char p, char q) { return std::tolower(p) == std::tolower(q); };
+        std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
+        for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
+        for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
+        for (std::size_t i = 1; i <= a.size(); ++i)
+            for (std::size_t j = 1; j <= b.size(); ++j) {
+                d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (same(a[i - 1], b[j - 1]) ? 0 : 1)});
+                if (i > 1 && j > 1 && same(a[i - 1], b[j - 2]) && same(a[i - 2], b[j - 1]))
+                    d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
+            }
+        return d[a.size()][b.size()];
+    };
+    std::string best;
+    std::size_t best_d = std::string::npos;
+    for (const auto &c : candidates) {
+        const std::size_t d = distance(word, c);
+        if (d < best_d) {
+            best_d = d;
+            best = c;
+        }
+    }
+    // Close enough: at most a third of the word's letters changed (and at least one allowed).
+    if (best_d == std::string::npos || best_d > std::max<std::size_t>(1, (word.size() + 2) / 3)) return {};
+    return best;
+}
+
+namespace {
+std::string format_number(double v) {
+    std::ostringstream s;
+    s.precision(17);
+    s << v;
+    return s.str();
+}
+std::string range_text(const ParamSpec &p) {
+    return "[" + format_number(p.min_value) + ", " + format_number(p.max_value) + "]";
+}
+}  // namespace
+
+ParamValues validate_params(const PluginInfo &info, const nlohmann::json &params, const std::string &json_path) {
+    if (!params.is_null() && !params.is_object())
+        throw ConfigError(json_path, "expected an object of parameters for " + std::string(to_string(info.kind)) +
+                                         " '" + info.name + "', got " + params.dump());
+    std::vector<std::string> names;
+    for (const auto &p : info.params) names.push_back(p.name);
+    if (params.is_object()) {
+        for (const auto &item : params.items()) {
+            if (std::find(names.begin(), names.end(), item.key()) != names.end()) continue;
+            std::string msg = "unknown parameter of " + std::string(to_string(info.kind)) + " '" + info.name + "'";
+            const std::string hint = did_you_mean(item.key(), names);
+            if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
+            else if (names.empty()) msg += "; it takes no parameters";
+            else {
+                msg += "; it takes:";
+                for (const auto &n : names) msg += " " + n;
+            }
+            throw ConfigError(json_path + "/" + item.key(), msg);
+        }
+    }
+    std::vector<double> values;
+    std::vector<std::string> strings;
+    std::vector<bool> is_string;
+    for (const ParamSpec &p : info.params) {
+        const std::string path = json_path + "/" + p.name;
+        const bool given = params.is_object() && params.contains(p.name);
+        const nlohmann::json v = given ? params.at(p.name) : nlohmann::json();
+        double number = p.default_value;
+        std::string text = p.default_string;
+        switch (p.type) {
+        case ParamType::real:
+        case ParamType::integer:
+            if (given) {
+                if (!v.is_number())
+                    throw ConfigError(path, v.dump() + " is not a number (" + to_string(p.type) + " expected)");
+                number = v.get<double>();
+                if (!std::isfinite(number)) throw ConfigError(path, v.dump() + " is not finite");
+                if (p.type == ParamType::integer && number != std::floor(number))
+                    throw ConfigError(path, v.dump() + " is not an integer");
+            }
+            if (number < p.min_value || number > p.max_value)
+                throw ConfigError(path, format_number(number) + " is outside the allowed range " + range_text(p) +
+                                            (p.unit.empty() ? "" : " " + p.unit));
+            break;
+        case ParamType::boolean:
+            if (given) {
+                if (!v.is_boolean()) throw ConfigError(path, v.dump() + " is not true or false");
+                number = v.get<bool>() ? 1.0 : 0.0;
+            }
+            break;
+        case ParamType::string:
+            if (given) {
+                if (!v.is_string()) throw ConfigError(path, v.dump() + " is not a string");
+                text = v.get<std::string>();
+            }
+            if (!p.choices.empty() && std::find(p.choices.begin(), p.choices.end(), text) == p.choices.end()) {
+                std::string msg = "\"" + text + "\" is not one of:";
+                for (const auto &c : p.choices) msg += " \"" + c + "\"";
+                const std::string hint = did_you_mean(text, p.choices);
+                if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
+                throw ConfigError(path, msg);
+            }
+            break;
+        }
+        values.push_back(number);
+        strings.push_back(text);
+        is_string.push_back(p.type == ParamType::string);
+    }
+    return ParamValues(std::move(values), std::move(strings), std::move(is_string));
+}
+
+nlohmann::json params_to_json(const PluginInfo &info, const ParamValues &values) {
+    nlohmann::json out = nlohmann::json::object();
+    for (std::size_t i = 0; i < info.params.size(); ++i) {
+        const ParamSpec &p = info.params[i];
+        switch (p.type) {
+        case ParamType::real: out[p.name] = values.value(i); break;
+        case ParamType::integer: out[p.name] = static_cast<long long>(values.value(i)); break;
+        case ParamType::boolean: out[p.name] = values.value(i) != 0.0; break;
+        case ParamType::string: out[p.name] = values.string(i); break;
+        }
+    }
+    return out;
+}
+
+nlohmann::json plugin_info_to_json(const PluginInfo &info) {
+    nlohmann::json j;
+    j["kind"] = to_string(info.kind);
+    j["name"] = info.name;
+    j["version"] = info.version;
+    j["doc"] = info.doc;
+    j["file"] = info.file.string();
+    j["abi"] = std::to_string(info.abi_major) + "." + std::to_string(info.abi_minor);
+    j["thread_safety"] = info.thread_safety == GB_THREAD_SAFE_CONCURRENT ? "concurrent" : "per-instance";
+    auto json_number = [](double v) -> nlohmann::json {
+        if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+        return v;
+    };
+    nlohmann::json params = nlohmann::json::array();
+    for (const ParamSpec &p : info.params) {
+        nlohmann::json q;
+        q["name"] = p.name;
+        q["type"] = to_string(p.type);
+        if (p.type == ParamType::string) {
+            q["default"] = p.default_string;
+            if (!p.choices.empty()) q["choices"] = p.choices;
+        } else if (p.type == ParamType::boolean) {
+            q["default"] = p.default_value != 0.0;
+        } else {
+            q["default"] = p.type == ParamType::integer ? nlohmann::json(static_cast<long long>(p.default_value))
+                                                        : nlohmann::json(p.default_value);
+            q["min"] = json_number(p.min_value);
+            q["max"] = json_number(p.max_value);
+        }
+        q["unit"] = p.unit;
+        q["doc"] = p.doc;
+        params.push_back(q);
+    }
+    j["params"] = params;
+    if (info.kind == PluginKind::system) {
+        j["dimension"] = info.dimension;
+        j["jacobian"] = info.has_jacobian;
+        j["divergence"] = info.has_divergence;
+        j["uses_forcing"] = info.uses_forcing;
+    }
+    if (info.kind == PluginKind::extractor) j["required_fields"] = info.required_fields;
+    return j;
+}
+
+void check_plugin_status(gb_status status, const PluginInfo &info, const char *what, const char *message) {
+    if (status == GB_OK) return;
+    throw PluginError(info.file.string() + ": " + to_string(info.kind) + " '" + info.name + "' failed in " + what +
+                      ": " + (message && *message ? message : "no message"));
+}
+
+// ------------------------------------------------------------ instances
+
+PluginInstance::PluginInstance(const PluginHandle &handle, const ParamValues &values)
+    : m_handle(std::make_shared<const PluginHandle>(handle)) {
+    char text[512] = {0};
+    gb_message msg{text, sizeof text};
+    void *self = handle.descriptor->create(values.c_view(), &msg);
+    if (!self)
+        throw PluginError(handle.info.file.string() + ": " + to_string(handle.info.kind) + " '" + handle.info.name +
+                          "' could not be created: " + (text[0] ? text : "no message"));
+    // The deleter holds the handle (and so the library) until the object is gone.
+    auto keep = m_handle;
+    m_self = std::shared_ptr<void>(self, [keep](void *p) { keep->descriptor->destroy(p); });
+}
+
+namespace {
+// One message buffer per call keeps the wrappers thread-safe.
+// Only the first byte is cleared: this runs on every batched call.
+struct CallMessage {
+    char text[512];
+    gb_message msg{text, sizeof text};
+    CallMessage() { text[0] = '\0'; }
+};
+}  // namespace
+
+System::System(const PluginHandle &handle, const ParamValues &values) : m_instance(handle, values) {
+    if (handle.info.kind != PluginKind::system)
+        throw PluginError(handle.info.file.string() + ": '" + handle.info.name + "' is not a system");
+    m_table = handle.descriptor->system;
+}
+
+void System::rhs(std::size_t n, std::size_t ld, const double *t, const double *x, const double *f, double *dxdt,
+                 std::int32_t *lane_status) const {
+    CallMessage m;
+    check_plugin_status(m_table->rhs(m_instance.self(), n, ld, t, x, f, dxdt, lane_status, &m.msg), info(),
+                        "rhs", m.text);
+}
+
+void System::jacobian(std::size_t n, std::size_t ld, const double *t, const double *x, const double *f, double *jac,
+                      std::int32_t *lane_status) const {
+    if (!m_table->jacobian) throw PluginError(info().file.string() + ": system '" + info().name + "' has no Jacobian");
+    CallMessage m;
+    check_plugin_status(m_table->jacobian(m_instance.self(), n, ld, t, x, f, jac, lane_status, &m.msg), info(),
+                        "jacobian", m.text);
+}
+
+void System::divergence(std::size_t n, std::size_t ld, const double *t, const double *x, const double *f, double *div,
+                        std::int32_t *lane_status) const {
+    if (!m_table->divergence)
+        throw PluginError(info().file.string() + ": system '" + info().name + "' has no divergence");
+    CallMessage m;
+    check_plugin_status(m_table->divergence(m_instance.self(), n, ld, t, x, f, div, lane_status, &m.msg), info(),
+                        "divergence", m.text);
+}
+
+Forcing::Forcing(const PluginHandle &handle, const ParamValues &values) : m_instance(handle, values) {
+    if (handle.info.kind != PluginKind::forcing)
+        throw PluginError(handle.info.file.string() + ": '" + handle.info.name + "' is not a forcing");
+    m_table = handle.descriptor->forcing;
+}
+
+void Forcing::evaluate(std::size_t n, const double *t, double *f) const {
+    CallMessage m;
+    check_plugin_status(m_table->evaluate(m_instance.self(), n, t, f, &m.msg), info(), "evaluate", m.text);
+}
+
+Extractor::Extractor(const PluginHandle &handle, const ParamValues &values) : m_instance(handle, values) {
+    if (handle.info.kind != PluginKind::extractor)
+        throw PluginError(handle.info.file.string() + ": '" + handle.info.name + "' is not an extractor");
+    m_table = handle.descriptor->extractor;
+}
+
+namespace {
+struct ExtractContext {
+    std::string plugin;
+    std::vector<Barrier> barriers;
+};
+void host_log(void *context, std::int32_t level, const char *line) {
+    auto *c = static_cast<ExtractContext *>(context);
+    if (level >= 2) spdlog::warn("{}: {}", c->plugin, line ? line : "");
+    else if (level == 1) spdlog::info("{}: {}", c->plugin, line ? line : "");
+    else spdlog::debug("{}: {}", c->plugin, line ? line : "");
+}
+std::int32_t host_progress(void *, double) { return 0; }
+gb_status host_add_barrier(void *context, const char *kind, std::int32_t closed, std::uint64_t count,
+                           const double *xy, std::uint32_t metric_count, const char *const *names,
+                           const double *values) {
+    auto *c = static_cast<ExtractContext *>(context);
+    if (!kind || (count > 0 && !xy) || (metric_count > 0 && (!names || !values))) return GB_ERROR;
+    Barrier b;
+    b.kind = kind;
+    b.closed = closed != 0;
+    b.xy.assign(xy, xy + 2 * count);
+    for (std::uint32_t i = 0; i < metric_count; ++i) b.metrics.emplace_back(names[i] ? names[i] : "", values[i]);
+    c->barriers.push_back(std::move(b));
+    return GB_OK;
+}
+}  // namespace
+
+std::vector<Barrier> Extractor::extract(const gb_extract_input &input) const {
+    ExtractContext context{info().name, {}};
+    const gb_host host{&context, &host_log, &host_progress, &host_add_barrier};
+    CallMessage m;
+    check_plugin_status(m_table->extract(m_instance.self(), &host, &input, &m.msg), info(), "extract", m.text);
+    return std::move(context.barriers);
+}
+
+// ------------------------------------------------------------ registry
+
+fs::path PluginRegistry::builtin_folder() {
+    // The program lives in <prefix>/bin; plugins in <prefix>/lib/geobarrier/plugins,
+    // in the build tree and in an install alike.
+    const fs::path exe = boost::dll::program_location().parent_path().string();
+    return exe.parent_path() / "lib" / "geobarrier" / "plugins";
+}
+
+std::vector<fs::path> PluginRegistry::default_folders(const std::vector<fs::path> &extra) {
+    std::vector<fs::path> folders = extra;
+    if (const char *env = std::getenv("GEOBARRIER_PLUGIN_PATH"))
+        for (const auto &p : split(env, ':')) folders.emplace_back(p);
+    folders.push_back(builtin_folder());
+    return folders;
+}
+
+PluginRegistry::PluginRegistry(const std::vector<fs::path> &folders) : m_folders(folders) {
+    for (const fs::path &folder : folders) {
+        std::error_code ec;
+        if (!fs::is_directory(folder, ec)) {
+            m_warnings.push_back(folder.string() + ": plugin folder does not exist");
+            continue;
+        }
+        std::vector<fs::path> files;
+        for (const auto &e : fs::directory_iterator(folder, ec))
+            if (e.is_regular_file() && looks_like_shared_library(e.path())) files.push_back(e.path());
+        std::sort(files.begin(), files.end());
+        for (const auto &f : files) add_library(f, false);
+    }
+}
+
+void PluginRegistry::add_library(const fs::path &file, bool strict) const {
+    std::vector<PluginHandle> found;
+    try {
+        found = load_plugin_library(file);
+    } catch (const PluginError &e) {
+        if (strict) throw;
+        m_warnings.push_back(e.what());
+        return;
+    }
+    for (auto &h : found) {
+        const auto same = std::find_if(m_plugins.begin(), m_plugins.end(), [&](const PluginHandle &o) {
+            return o.info.kind == h.info.kind && o.info.name == h.info.name;
+        });
+        if (same != m_plugins.end()) {
+            if (same->info.file != h.info.file)
+                m_warnings.push_back(h.info.file.string() + ": " + to_string(h.info.kind) + " '" + h.info.name +
+                                     "' is shadowed by " + same->info.file.string());
+            continue;
+        }
+        m_plugins.push_back(std::move(h));
+    }
+}
+
+const PluginHandle &PluginRegistry::find(PluginKind kind, const std::string &name, const std::string &json_path) const {
+    const bool is_path = name.find('/') != std::string::npos || fs::path(name).extension() == ".so";
+    if (is_path) {
+        const fs::path file = fs::absolute(name);
+        std::vector<PluginHandle> found;
+        try {
+            found = load_plugin_library(file);
+        } catch (const PluginError &e) {
+            throw ConfigError(json_path, e.what());
+        }
+        for (auto &h : found)
+            if (h.info.kind == kind) {
+                m_plugins.push_back(std::move(h));
+                return m_plugins.back();
+            }
+        throw ConfigError(json_path, file.string() + " holds no " + to_string(kind) + " plugin");
+    }
+    std::vector<std::string> names;
+    for (const PluginHandle &h : m_plugins) {
+        if (h.info.kind != kind) continue;
+        if (h.info.name == name) return h;
+        names.push_back(h.info.name);
+    }
+    std::string msg = "no " + std::string(to_string(kind)) + " plugin named \"" + name + "\"";
+    const std::string hint = did_you_mean(name, names);
+    if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
+    if (names.empty()) {
+        msg += "; no " + std::string(to_string(kind)) + " plugins were found in:";
+        for (const auto &f : m_folders) msg += " " + f.string();
+    } else {
+        std::sort(names.begin(), names.end());
+        msg += " (available:";
+        for (const auto &n : names) msg += " " + n;
+        msg += ")";
+    }
+    throw ConfigError(json_path, msg);
+}
+
+}  // namespace geobarrier

@@ -1,0 +1,567 @@
+// The plugin conformance checks of <geobarrier/conformance.hpp>: each check calls the plugin through the same
+// System/Forcing wrappers the runner uses and reports what it found, with the offending values.
+#include <geobarrier/conformance.hpp>
+#include <geobarrier/errors.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <exception>
+#include <functional>
+#include <limits>
+#include <memory>
+#include <regex>
+#include <set>
+#include <sstream>
+
+namespace geobarrier {
+
+namespace {
+
+// splitmix64: the checks draw the same states on every platform (std:: distributions are implementation-defined).
+class Random {
+  public:
+    explicit Random(std::uint64_t seed) : m_state(seed) {}
+    std::uint64_t next() {
+        std::uint64_t z = (m_state += 0x9E3779B97F4A7C15ull);
+        z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+        z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+        return z ^ (z >> 31);
+    }
+    double uniform(double lo, double hi) { return lo + (hi - lo) * (static_cast<double>(next() >> 11) * 0x1.0p-53); }
+
+  private:
+    std::uint64_t m_state;
+};
+
+// Written into outputs before a call, to see which entries a plugin wrote.
+constexpr double output_sentinel = -1.2345678901234567e301;
+constexpr std::int32_t status_sentinel = 0x5A5A5A5A;
+
+std::string num(double v) {
+    std::ostringstream s;
+    s.precision(17);
+    s << v;
+    return s.str();
+}
+std::string short_num(double v) {
+    std::ostringstream s;
+    s.precision(3);
+    s << v;
+    return s.str();
+}
+
+bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+// Equal, both NaN, or within rtol of the larger magnitude.
+bool close(double a, double b, double rtol) {
+    if (a == b || (std::isnan(a) && std::isnan(b))) return true;
+    return std::fabs(a - b) <= rtol * std::max(std::fabs(a), std::fabs(b));
+}
+
+ConformanceCheck pass(const std::string &name, std::string detail) { return {name, true, std::move(detail), false}; }
+ConformanceCheck fail(const std::string &name, std::string detail) { return {name, false, std::move(detail), false}; }
+ConformanceCheck skip(const std::string &name, std::string detail) { return {name, true, std::move(detail), true}; }
+
+// Runs one check; an exception from the plugin (a failed call) is a failed check, not a crash of the checker.
+ConformanceCheck guarded(const std::string &name, const std::function<ConformanceCheck()> &body) {
+    try {
+        return body();
+    } catch (const std::exception &e) {
+        return fail(name, e.what());
+    }
+}
+
+// ------------------------------------------------------------ ABI and schema
+
+ConformanceCheck check_abi(const PluginInfo &info) {
+    const std::string versions = "plugin ABI " + std::to_string(info.abi_major) + "." +
+                                 std::to_string(info.abi_minor) + ", core ABI " +
+                                 std::to_string(GB_ABI_VERSION_MAJOR) + "." + std::to_string(GB_ABI_VERSION_MINOR);
+    if (info.abi_major != GB_ABI_VERSION_MAJOR) return fail("abi_version", versions);
+    return pass("abi_version", versions);
+}
+
+ConformanceCheck check_schema(const PluginInfo &info) {
+    static const std::regex plugin_name_rule("[a-z0-9][a-z0-9-]*");
+    static const std::regex param_name_rule("[a-z0-9_]+");
+    std::vector<std::string> problems;
+    if (!std::regex_match(info.name, plugin_name_rule))
+        problems.push_back("plugin name '" + info.name + "' does not match [a-z0-9][a-z0-9-]*");
+    if (info.version.empty()) problems.push_back("no version");
+    if (info.doc.empty()) problems.push_back("no doc line");
+    if (info.doc.find('\n') != std::string::npos) problems.push_back("doc is more than one line");
+    if (info.thread_safety != GB_THREAD_SAFE_CONCURRENT && info.thread_safety != GB_THREAD_SAFE_PER_INSTANCE)
+        problems.push_back("unknown thread_safety " + std::to_string(info.thread_safety));
+    if (info.kind == PluginKind::system && info.dimension == 0) problems.push_back("dimension 0");
+    std::set<std::string> seen;
+    for (const ParamSpec &p : info.params) {
+        const std::string who = "parameter '" + p.name + "'";
+        if (!std::regex_match(p.name, param_name_rule)) problems.push_back(who + ": name does not match [a-z0-9_]+");
+        if (!seen.insert(p.name).second) problems.push_back(who + ": declared twice");
+        if (p.doc.empty()) problems.push_back(who + ": no doc line");
+        if (p.doc.find('\n') != std::string::npos) problems.push_back(who + ": doc is more than one line");
+        switch (p.type) {
+        case ParamType::real:
+        case ParamType::integer:
+            if (std::isnan(p.min_value) || std::isnan(p.max_value) || std::isnan(p.default_value))
+                problems.push_back(who + ": NaN in default or range");
+            else if (!(p.min_value <= p.default_value && p.default_value <= p.max_value))
+                problems.push_back(who + ": default " + num(p.default_value) + " outside its range [" +
+                                   num(p.min_value) + ", " + num(p.max_value) + "]");
+            if (!std::isfinite(p.default_value)) problems.push_back(who + ": default is not finite");
+            if (p.type == ParamType::integer && std::isfinite(p.default_value) &&
+                p.default_value != std::floor(p.default_value))
+                problems.push_back(who + ": integer default " + num(p.default_value) + " is not an integer");
+            break;
+        case ParamType::boolean:
+            if (p.default_value != 0.0 && p.default_value != 1.0)
+                problems.push_back(who + ": bool default " + num(p.default_value) + " is not 0 or 1");
+            break;
+        case ParamType::string:
+            if (!p.choices.empty() &&
+                std::find(p.choices.begin(), p.choices.end(), p.default_string) == p.choices.end())
+                problems.push_back(who + ": default \"" + p.default_string + "\" is not one of its choices");
+            break;
+        }
+    }
+    if (problems.empty())
+        return pass("schema", std::to_string(info.params.size()) + " parameter(s), all well-formed");
+    std::string detail;
+    for (const auto &p : problems) detail += (detail.empty() ? "" : "; ") + p;
+    return fail("schema", detail);
+}
+
+// ------------------------------------------------------------ systems
+
+// The box of states, one bound per component.
+struct Box {
+    std::vector<double> lo, hi;
+};
+
+Box make_box(const ConformanceOptions &o, unsigned dim) {
+    auto expand = [dim](const std::vector<double> &v, const char *what) {
+        if (v.size() == 1) return std::vector<double>(dim, v[0]);
+        if (v.size() != dim)
+            throw Error(std::string("conformance options: ") + what + " has " + std::to_string(v.size()) +
+                        " values for a system of dimension " + std::to_string(dim) + " (give 1 or " +
+                        std::to_string(dim) + ")");
+        return v;
+    };
+    Box b{expand(o.state_min, "state_min"), expand(o.state_max, "state_max")};
+    for (unsigned i = 0; i < dim; ++i)
+        if (!(b.lo[i] < b.hi[i]) || !std::isfinite(b.lo[i]) || !std::isfinite(b.hi[i]))
+            throw Error("conformance options: state box component " + std::to_string(i) + " [" + num(b.lo[i]) +
+                        ", " + num(b.hi[i]) + "] is empty or not finite");
+    return b;
+}
+
+// A batch of n lanes in rows of ld: times, states (component i of lane k at x[i*ld+k]) and forcing values.
+struct Sample {
+    std::size_t n = 0, ld = 0;
+    unsigned dim = 0;
+    std::vector<double> t, x, f;
+};
+
+// The fixed, nonzero forcing values handed to a system during the checks.
+double forcing_value(std::size_t k) { return 0.05 * static_cast<double>(1 + k % 5) * (k % 2 ? -1.0 : 1.0); }
+
+Sample random_sample(Random &rng, const Box &box, const ConformanceOptions &o, unsigned dim, std::size_t n,
+                     std::size_t ld) {
+    Sample s;
+    s.n = n;
+    s.ld = ld;
+    s.dim = dim;
+    // Padding lanes hold NaN: a plugin must not let them leak into the lanes it was asked for.
+    const double nan = std::numeric_limits<double>::quiet_NaN();
+    s.t.assign(ld, nan);
+    s.f.assign(ld, nan);
+    s.x.assign(static_cast<std::size_t>(dim) * ld, nan);
+    for (std::size_t k = 0; k < n; ++k) {
+        s.t[k] = rng.uniform(o.t_min, o.t_max);
+        s.f[k] = forcing_value(k);
+        for (unsigned i = 0; i < dim; ++i) s.x[i * ld + k] = rng.uniform(box.lo[i], box.hi[i]);
+    }
+    return s;
+}
+
+Sample one_lane(const Sample &s, std::size_t k) {
+    Sample o;
+    o.n = o.ld = 1;
+    o.dim = s.dim;
+    o.t = {s.t[k]};
+    o.f = {s.f[k]};
+    for (unsigned i = 0; i < s.dim; ++i) o.x.push_back(s.x[i * s.ld + k]);
+    return o;
+}
+
+enum class Quantity { rhs, jacobian, divergence };
+
+const char *to_string(Quantity q) {
+    switch (q) {
+    case Quantity::rhs: return "rhs";
+    case Quantity::jacobian: return "jacobian";
+    case Quantity::divergence: return "divergence";
+    }
+    return "?";
+}
+
+std::size_t rows(Quantity q, unsigned dim) {
+    switch (q) {
+    case Quantity::rhs: return dim;
+    case Quantity::jacobian: return static_cast<std::size_t>(dim) * dim;
+    case Quantity::divergence: return 1;
+    }
+    return 0;
+}
+
+struct Output {
+    std::vector<double> values; // row r of lane k at values[r*ld+k]
+    std::vector<std::int32_t> status;
+};
+
+Output evaluate(const System &system, Quantity q, const Sample &s) {
+    Output o;
+    o.values.assign(rows(q, s.dim) * s.ld, output_sentinel);
+    o.status.assign(s.ld, status_sentinel);
+    switch (q) {
+    case Quantity::rhs:
+        system.rhs(s.n, s.ld, s.t.data(), s.x.data(), s.f.data(), o.values.data(), o.status.data());
+        break;
+    case Quantity::jacobian:
+        system.jacobian(s.n, s.ld, s.t.data(), s.x.data(), s.f.data(), o.values.data(), o.status.data());
+        break;
+    case Quantity::divergence:
+        system.divergence(s.n, s.ld, s.t.data(), s.x.data(), s.f.data(), o.values.data(), o.status.data());
+        break;
+    }
+    return o;
+}
+
+std::vector<Quantity> quantities(const System &system) {
+    std::vector<Quantity> qs{Quantity::rhs};
+    if (system.has_jacobian()) qs.push_back(Quantity::jacobian);
+    if (system.has_divergence()) qs.push_back(Quantity::divergence);
+    return qs;
+}
+
+std::string lane_state(const Sample &s, std::size_t k) {
+    std::string out = "t = " + num(s.t[k]) + ", x = (";
+    for (unsigned i = 0; i < s.dim; ++i) out += (i ? ", " : "") + num(s.x[i * s.ld + k]);
+    return out + ")";
+}
+
+ConformanceCheck check_system_batch(const System &system, const Sample &s, double rtol) {
+    const std::string name = "batch_equals_scalar";
+    std::size_t compared = 0;
+    for (Quantity q : quantities(system)) {
+        const Output batch = evaluate(system, q, s);
+        for (std::size_t k = 0; k < s.n; ++k) {
+            const Output single = evaluate(system, q, one_lane(s, k));
+            if (single.status[0] != batch.status[k])
+                return fail(name, std::string(to_string(q)) + " lane " + std::to_string(k) + " status " +
+                                      std::to_string(batch.status[k]) + " in the batch, " +
+                                      std::to_string(single.status[0]) + " alone (" + lane_state(s, k) + ")");
+            for (std::size_t r = 0; r < rows(q, s.dim); ++r) {
+                const double a = batch.values[r * s.ld + k], b = single.values[r];
+                ++compared;
+                if (!close(a, b, rtol))
+                    return fail(name, std::string(to_string(q)) + " row " + std::to_string(r) + " of lane " +
+                                          std::to_string(k) + ": " + num(a) + " in a batch of " +
+                                          std::to_string(s.n) + " (ld " + std::to_string(s.ld) + "), " + num(b) +
+                                          " alone (" + lane_state(s, k) + ")");
+            }
+        }
+    }
+    return pass(name, std::to_string(compared) + " values agree (n = " + std::to_string(s.n) + ", ld = " +
+                          std::to_string(s.ld) + ", relative tolerance " + short_num(rtol) + ")");
+}
+
+// Entries past the n lanes (the ld - n padding of each row, and of lane_status) belong to the caller.
+ConformanceCheck check_system_lanes_untouched(const System &system, const Sample &s) {
+    const std::string name = "lanes_untouched";
+    for (Quantity q : quantities(system)) {
+        const Output o = evaluate(system, q, s);
+        for (std::size_t k = s.n; k < s.ld; ++k) {
+            if (o.status[k] != status_sentinel)
+                return fail(name, std::string(to_string(q)) + " wrote lane_status[" + std::to_string(k) +
+                                      "] past the n = " + std::to_string(s.n) + " lanes");
+            for (std::size_t r = 0; r < rows(q, s.dim); ++r)
+                if (!same_bits(o.values[r * s.ld + k], output_sentinel))
+                    return fail(name, std::string(to_string(q)) + " wrote row " + std::to_string(r) + ", lane " +
+                                          std::to_string(k) + " past the n = " + std::to_string(s.n) +
+                                          " lanes (ld = " + std::to_string(s.ld) + ")");
+        }
+        for (std::size_t k = 0; k < s.n; ++k)
+            if (o.status[k] == status_sentinel)
+                return fail(name, std::string(to_string(q)) + " left lane_status[" + std::to_string(k) + "] unset");
+    }
+    return pass(name, "only the n lanes of each row are written");
+}
+
+ConformanceCheck check_jacobian(const System &system, const Sample &s, const Box &box, const ConformanceOptions &o) {
+    const std::string name = "jacobian_vs_finite_differences";
+    if (!system.has_jacobian()) return skip(name, "skipped: no analytic Jacobian");
+    const unsigned dim = s.dim;
+    const Output jac = evaluate(system, Quantity::jacobian, s);
+    // fd[(i*dim+j)*ld+k] = (v_i(x + h e_j) - v_i(x - h e_j)) / (2h), with the step actually taken.
+    std::vector<double> fd(static_cast<std::size_t>(dim) * dim * s.ld, 0.0);
+    for (unsigned j = 0; j < dim; ++j) {
+        const double h = o.fd_step * (box.hi[j] - box.lo[j]);
+        Sample plus = s, minus = s;
+        for (std::size_t k = 0; k < s.n; ++k) {
+            plus.x[j * s.ld + k] += h;
+            minus.x[j * s.ld + k] -= h;
+        }
+        const Output vp = evaluate(system, Quantity::rhs, plus), vm = evaluate(system, Quantity::rhs, minus);
+        for (std::size_t k = 0; k < s.n; ++k) {
+            const double step = plus.x[j * s.ld + k] - minus.x[j * s.ld + k];
+            for (unsigned i = 0; i < dim; ++i)
+                fd[(i * dim + j) * s.ld + k] = (vp.values[i * s.ld + k] - vm.values[i * s.ld + k]) / step;
+        }
+    }
+    double worst = 0.0;
+    std::string worst_detail;
+    for (std::size_t k = 0; k < s.n; ++k) {
+        double scale = 0.0;
+        for (std::size_t e = 0; e < static_cast<std::size_t>(dim) * dim; ++e)
+            scale = std::max({scale, std::fabs(jac.values[e * s.ld + k]), std::fabs(fd[e * s.ld + k])});
+        for (std::size_t e = 0; e < static_cast<std::size_t>(dim) * dim; ++e) {
+            const double a = jac.values[e * s.ld + k], b = fd[e * s.ld + k];
+            const double diff = std::fabs(a - b);
+            const double rel = diff == 0.0 ? 0.0 : diff / scale;
+            if (std::isnan(rel) || rel > worst) {
+                worst = std::isnan(rel) ? std::numeric_limits<double>::infinity() : rel;
+                worst_detail = "entry (" + std::to_string(e / dim) + ", " + std::to_string(e % dim) + ") of lane " +
+                               std::to_string(k) + ": analytic " + num(a) + ", finite difference " + num(b) + " (" +
+                               lane_state(s, k) + ")";
+            }
+        }
+    }
+    const std::string summary = "largest difference " + short_num(worst) +
+                                " relative to the lane's largest entry (allowed " + short_num(o.jacobian_rtol) +
+                                ", step " + short_num(o.fd_step) + " of the box width)";
+    if (worst > o.jacobian_rtol) return fail(name, summary + "; at " + worst_detail);
+    return pass(name, summary);
+}
+
+ConformanceCheck check_divergence(const System &system, const Sample &s, const ConformanceOptions &o) {
+    const std::string name = "divergence_equals_trace";
+    if (!system.has_divergence()) return skip(name, "skipped: no divergence");
+    if (!system.has_jacobian()) return skip(name, "skipped: a divergence but no Jacobian to compare with");
+    const Output jac = evaluate(system, Quantity::jacobian, s), div = evaluate(system, Quantity::divergence, s);
+    double worst = 0.0;
+    for (std::size_t k = 0; k < s.n; ++k) {
+        double trace = 0.0, size = 0.0;
+        for (unsigned i = 0; i < s.dim; ++i) {
+            const double jii = jac.values[(i * s.dim + i) * s.ld + k];
+            trace += jii;
+            size += std::fabs(jii);
+        }
+        const double d = div.values[k];
+        const double diff = std::fabs(d - trace);
+        if (!(diff <= o.divergence_rtol * size))
+            return fail(name, "lane " + std::to_string(k) + ": divergence " + num(d) + ", trace of the Jacobian " +
+                                  num(trace) + " (allowed " + short_num(o.divergence_rtol) + " x sum |J_ii| = " +
+                                  short_num(o.divergence_rtol * size) + "; " + lane_state(s, k) + ")");
+        if (size > 0.0) worst = std::max(worst, diff / size);
+    }
+    return pass(name, "largest |div - trace| / sum |J_ii| = " + short_num(worst) + " (allowed " +
+                          short_num(o.divergence_rtol) + ")");
+}
+
+ConformanceCheck check_system_determinism(const System &a, const System &b, const Sample &s) {
+    const std::string name = "determinism";
+    for (Quantity q : quantities(a)) {
+        const Output first = evaluate(a, q, s), again = evaluate(a, q, s), other = evaluate(b, q, s);
+        for (std::size_t i = 0; i < first.values.size(); ++i) {
+            if (!same_bits(first.values[i], again.values[i]))
+                return fail(name, std::string(to_string(q)) + " differs between two calls on one instance: " +
+                                      num(first.values[i]) + " then " + num(again.values[i]));
+            if (!same_bits(first.values[i], other.values[i]))
+                return fail(name, std::string(to_string(q)) + " differs between two instances with the same " +
+                                      "parameters: " + num(first.values[i]) + " and " + num(other.values[i]));
+        }
+    }
+    return pass(name, "bit-identical across calls and across two instances");
+}
+
+ConformanceCheck check_forcing_ignored(const System &system, const Sample &s) {
+    const std::string name = "forcing_ignored";
+    if (system.uses_forcing()) return skip(name, "skipped: the system declares that it uses the forcing");
+    Sample unforced = s;
+    for (std::size_t k = 0; k < s.n; ++k) unforced.f[k] = 0.0;
+    for (Quantity q : quantities(system)) {
+        const Output a = evaluate(system, q, s), b = evaluate(system, q, unforced);
+        for (std::size_t i = 0; i < a.values.size(); ++i)
+            if (!same_bits(a.values[i], b.values[i]))
+                return fail(name, std::string(to_string(q)) + " depends on the forcing value although the system " +
+                                      "does not declare GB_SYSTEM_USES_FORCING");
+    }
+    return pass(name, "outputs do not depend on f, as declared");
+}
+
+ConformanceCheck check_system_finite(const System &system, Random &rng, const Box &box, const ConformanceOptions &o) {
+    const std::string name = "finite_on_sample_box";
+    const unsigned dim = static_cast<unsigned>(box.lo.size());
+    // The corners (for dimension <= 16) and the centre of the box, then random states.
+    const std::size_t corners = dim <= 16 ? (std::size_t{1} << dim) : 0;
+    const std::size_t n = corners + 1 + o.samples;
+    Sample s = random_sample(rng, box, o, dim, n, n);
+    for (std::size_t c = 0; c < corners; ++c)
+        for (unsigned i = 0; i < dim; ++i) s.x[i * n + c] = (c >> i) & 1u ? box.hi[i] : box.lo[i];
+    for (unsigned i = 0; i < dim; ++i) s.x[i * n + corners] = 0.5 * (box.lo[i] + box.hi[i]);
+    for (Quantity q : quantities(system)) {
+        const Output out = evaluate(system, q, s);
+        std::size_t bad = 0, first = n;
+        for (std::size_t k = 0; k < n; ++k) {
+            bool ok = out.status[k] == GB_OK;
+            for (std::size_t r = 0; r < rows(q, dim); ++r) ok = ok && std::isfinite(out.values[r * n + k]);
+            if (!ok) {
+                ++bad;
+                first = std::min(first, k);
+            }
+        }
+        if (bad > 0)
+            return fail(name, std::string(to_string(q)) + ": " + std::to_string(bad) + " of " + std::to_string(n) +
+                                  " states give a non-finite value or an invalid-lane status, first at " +
+                                  lane_state(s, first));
+    }
+    std::string box_text;
+    for (unsigned i = 0; i < dim; ++i) box_text += (i ? " x [" : "[") + num(box.lo[i]) + ", " + num(box.hi[i]) + "]";
+    return pass(name, std::to_string(n) + " states in " + box_text + ", t in [" + num(o.t_min) + ", " +
+                          num(o.t_max) + "]: all finite and valid");
+}
+
+void check_system(const PluginHandle &handle, const ParamValues &values, const Box &box, const ConformanceOptions &o,
+                  std::vector<ConformanceCheck> &out) {
+    const System a(handle, values), b(handle, values);
+    Random rng(o.seed);
+    const Sample s = random_sample(rng, box, o, a.dimension(), o.lanes, std::max(o.ld, o.lanes));
+    out.push_back(guarded("batch_equals_scalar", [&] { return check_system_batch(a, s, o.batch_rtol); }));
+    out.push_back(guarded("lanes_untouched", [&] { return check_system_lanes_untouched(a, s); }));
+    out.push_back(guarded("jacobian_vs_finite_differences", [&] { return check_jacobian(a, s, box, o); }));
+    out.push_back(guarded("divergence_equals_trace", [&] { return check_divergence(a, s, o); }));
+    out.push_back(guarded("determinism", [&] { return check_system_determinism(a, b, s); }));
+    out.push_back(guarded("forcing_ignored", [&] { return check_forcing_ignored(a, s); }));
+    out.push_back(guarded("finite_on_sample_box", [&] { return check_system_finite(a, rng, box, o); }));
+}
+
+// ------------------------------------------------------------ forcings
+
+std::vector<double> evaluate(const Forcing &forcing, const std::vector<double> &t, std::size_t n) {
+    std::vector<double> f(t.size(), output_sentinel);
+    forcing.evaluate(n, t.data(), f.data());
+    return f;
+}
+
+void check_forcing(const PluginHandle &handle, const ParamValues &values, const ConformanceOptions &o,
+                   std::vector<ConformanceCheck> &out) {
+    const Forcing a(handle, values), b(handle, values);
+    Random rng(o.seed);
+    const std::size_t n = o.lanes, ld = std::max(o.ld, o.lanes);
+    std::vector<double> t(ld, std::numeric_limits<double>::quiet_NaN());
+    for (std::size_t k = 0; k < n; ++k) t[k] = rng.uniform(o.t_min, o.t_max);
+
+    out.push_back(guarded("batch_equals_scalar", [&] {
+        const std::vector<double> batch = evaluate(a, t, n);
+        for (std::size_t k = 0; k < n; ++k) {
+            const std::vector<double> single = evaluate(a, {t[k]}, 1);
+            if (!close(batch[k], single[0], o.batch_rtol))
+                return fail("batch_equals_scalar", "t = " + num(t[k]) + ": " + num(batch[k]) + " in a batch of " +
+                                                       std::to_string(n) + ", " + num(single[0]) + " alone");
+        }
+        return pass("batch_equals_scalar", std::to_string(n) + " values agree (relative tolerance " +
+                                               short_num(o.batch_rtol) + ")");
+    }));
+    out.push_back(guarded("lanes_untouched", [&] {
+        const std::vector<double> batch = evaluate(a, t, n);
+        for (std::size_t k = n; k < ld; ++k)
+            if (!same_bits(batch[k], output_sentinel))
+                return fail("lanes_untouched", "wrote f[" + std::to_string(k) + "] past the n = " +
+                                                   std::to_string(n) + " times");
+        return pass("lanes_untouched", "only the n requested values are written");
+    }));
+    out.push_back(guarded("determinism", [&] {
+        const std::vector<double> first = evaluate(a, t, n), again = evaluate(a, t, n), other = evaluate(b, t, n);
+        for (std::size_t k = 0; k < n; ++k) {
+            if (!same_bits(first[k], again[k]))
+                return fail("determinism", "t = " + num(t[k]) + ": " + num(first[k]) + " then " + num(again[k]) +
+                                               " from one instance");
+            if (!same_bits(first[k], other[k]))
+                return fail("determinism", "t = " + num(t[k]) + ": " + num(first[k]) + " and " + num(other[k]) +
+                                               " from two instances with the same parameters");
+        }
+        return pass("determinism", "bit-identical across calls and across two instances");
+    }));
+    out.push_back(guarded("finite_on_sample_times", [&] {
+        const std::size_t m = o.samples + 2;
+        std::vector<double> times(m);
+        for (std::size_t k = 0; k < m; ++k)
+            times[k] = k + 1 == m ? o.t_max
+                                  : o.t_min + (o.t_max - o.t_min) * static_cast<double>(k) / static_cast<double>(m - 1);
+        const std::vector<double> f = evaluate(a, times, m);
+        for (std::size_t k = 0; k < m; ++k)
+            if (!std::isfinite(f[k]))
+                return fail("finite_on_sample_times", "f(" + num(times[k]) + ") = " + num(f[k]));
+        return pass("finite_on_sample_times", std::to_string(m) + " times in [" + num(o.t_min) + ", " +
+                                                  num(o.t_max) + "]: all finite");
+    }));
+}
+
+}  // namespace
+
+std::vector<ConformanceCheck> check_plugin(const PluginHandle &handle, const ConformanceOptions &options) {
+    if (!handle.descriptor) throw Error("check_plugin: the plugin handle holds no descriptor");
+    if (options.lanes == 0) throw Error("conformance options: lanes must be at least 1");
+    if (!(options.t_min <= options.t_max))
+        throw Error("conformance options: t_min " + num(options.t_min) + " is after t_max " + num(options.t_max));
+    const PluginInfo &info = handle.info;
+    std::vector<ConformanceCheck> out;
+    out.push_back(check_abi(info));
+    out.push_back(check_schema(info));
+    if (!out[0].passed) return out; // nothing else may be read from a plugin of another ABI
+    const Box box = info.kind == PluginKind::system ? make_box(options, info.dimension) : Box{};
+
+    std::unique_ptr<ParamValues> values;
+    out.push_back(guarded("create", [&] {
+        values = std::make_unique<ParamValues>(validate_params(info, options.params, "/params"));
+        switch (info.kind) {
+        case PluginKind::system: (void)System(handle, *values); break;
+        case PluginKind::forcing: (void)Forcing(handle, *values); break;
+        case PluginKind::extractor: (void)Extractor(handle, *values); break;
+        }
+        return pass("create", "an instance was created from " +
+                                  std::string(options.params.empty() ? "the default parameters"
+                                                                     : "the given parameters"));
+    }));
+    if (!out.back().passed) return out;
+
+    try {
+        switch (info.kind) {
+        case PluginKind::system: check_system(handle, *values, box, options, out); break;
+        case PluginKind::forcing: check_forcing(handle, *values, options, out); break;
+        case PluginKind::extractor: break; // extractors need fields to run on: their own tests exercise them
+        }
+    } catch (const std::exception &e) {
+        out.push_back(fail("instances", std::string("creating the instances under test failed: ") + e.what()));
+    }
+    return out;
+}
+
+bool all_passed(const std::vector<ConformanceCheck> &checks) {
+    return std::all_of(checks.begin(), checks.end(), [](const ConformanceCheck &c) { return c.passed; });
+}
+
+std::string format_checks(const std::vector<ConformanceCheck> &checks) {
+    std::size_t width = 0;
+    for (const auto &c : checks) width = std::max(width, c.name.size());
+    std::string out;
+    for (const auto &c : checks) {
+        out += c.skipped ? "SKIP  " : c.passed ? "PASS  " : "FAIL  ";
+        out += c.name + std::string(width - c.name.size() + 2, ' ') + c.detail + "\n";
+    }
+    return out;
+}
+
+}  // namespace geobarrier

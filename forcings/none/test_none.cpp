@@ -1,0 +1,33 @@
+// Tests of the zero forcing: no parameters, f = 0 at every time, and the shared conformance checks.
+#include <doctest/doctest.h>
+
+#include <geobarrier/conformance.hpp>
+#include <geobarrier/errors.hpp>
+#include <test_support.hpp>
+
+#include <cmath>
+#include <vector>
+
+using namespace geobarrier;
+
+TEST_CASE("none: schema has no parameters") {
+    const PluginHandle &h = test::registry().find(PluginKind::forcing, "none", "/forcing/plugin");
+    CHECK(h.info.kind == PluginKind::forcing);
+    CHECK(h.info.params.empty());
+    CHECK(!h.info.doc.empty());
+    CHECK_THROWS_AS(test::make_forcing("none", {{"amplitude", 1.0}}), ConfigError);
+}
+
+TEST_CASE("none: f(t) = 0 everywhere") {
+    const Forcing f = test::make_forcing("none");
+    const std::vector<double> t = {0.0, -1.0, 3.5, 1e300, -1e300, HUGE_VAL};
+    std::vector<double> out(t.size(), 7.0);
+    f.evaluate(t.size(), t.data(), out.data());
+    for (double v : out) CHECK(v == 0.0);
+}
+
+TEST_CASE("none: passes the conformance checks") {
+    const auto checks = check_plugin(test::registry().find(PluginKind::forcing, "none", "/forcing/plugin"));
+    INFO(format_checks(checks));
+    CHECK(all_passed(checks));
+}

@@ -1,0 +1,69 @@
+// The forced, damped Duffing oscillator of the paper's section 3 (eqs. duffing-ex3, duffing-ex4,
+// duffing_dissipative): x' = y, y' = alpha x - beta x^3 - delta y + f(t), with analytic Jacobian.
+#include <geobarrier/sdk.hpp>
+
+#include <cmath>
+
+namespace {
+
+using geobarrier::sdk::Batch;
+using geobarrier::sdk::Params;
+using geobarrier::sdk::real_param;
+
+struct Duffing {
+    static constexpr const char *name = "duffing";
+    static constexpr const char *version = "1.0.0";
+    static constexpr const char *doc = "Duffing oscillator: x' = y, y' = alpha x - beta x^3 - delta y + f(t)";
+    static constexpr unsigned dimension = 2;
+    static constexpr gb_param_spec params[] = {
+        real_param("alpha", 1.0, -HUGE_VAL, HUGE_VAL, "1/time^2",
+                   "coefficient of x in y' (1: the paper's double-well)"),
+        real_param("beta", 1.0, -HUGE_VAL, HUGE_VAL, "1/(x^2 time^2)", "cubic stiffness: y' contains -beta x^3"),
+        real_param("delta", 0.0, -HUGE_VAL, HUGE_VAL, "1/time", "linear damping: y' contains -delta y (paper: 0.15)"),
+    };
+
+    explicit Duffing(const Params &p) : m_alpha(p.real("alpha")), m_beta(p.real("beta")), m_delta(p.real("delta")) {}
+
+    // Component i of lane k is at [i * ld + k]; the loops run over lanes and vectorise.
+    void rhs(const Batch &b, double *dxdt) const {
+        const double *__restrict x = b.x;
+        const double *__restrict y = b.x + b.ld;
+        const double *__restrict f = b.f;
+        double *__restrict dx = dxdt;
+        double *__restrict dy = dxdt + b.ld;
+        const double alpha = m_alpha, beta = m_beta, delta = m_delta;
+        for (std::size_t k = 0; k < b.n; ++k) {
+            dx[k] = y[k];
+            dy[k] = alpha * x[k] - beta * x[k] * x[k] * x[k] - delta * y[k] + f[k];
+        }
+    }
+
+    // jac[(i*2+j)*ld+k] = d v_i / d x_j = [[0, 1], [alpha - 3 beta x^2, -delta]].
+    void jacobian(const Batch &b, double *jac) const {
+        const double *__restrict x = b.x;
+        double *__restrict j00 = jac;
+        double *__restrict j01 = jac + b.ld;
+        double *__restrict j10 = jac + 2 * b.ld;
+        double *__restrict j11 = jac + 3 * b.ld;
+        const double alpha = m_alpha, beta3 = 3.0 * m_beta, delta = m_delta;
+        for (std::size_t k = 0; k < b.n; ++k) {
+            j00[k] = 0.0;
+            j01[k] = 1.0;
+            j10[k] = alpha - beta3 * x[k] * x[k];
+            j11[k] = -delta;
+        }
+    }
+
+    // Trace of the Jacobian: -delta everywhere (Liouville: area shrinks as exp(-delta t)).
+    void divergence(const Batch &b, double *div) const {
+        double *__restrict d = div;
+        const double minus_delta = -m_delta;
+        for (std::size_t k = 0; k < b.n; ++k) d[k] = minus_delta;
+    }
+
+    double m_alpha, m_beta, m_delta;
+};
+
+}  // namespace
+
+GEOBARRIER_PLUGINS(geobarrier::sdk::system<Duffing>())

@@ -1,0 +1,40 @@
+// The uniform grid of initial conditions G0 and the mask that marks points
+// whose values must not be used.
+#ifndef GEOBARRIER_GRID_HPP
+#define GEOBARRIER_GRID_HPP
+
+#include <cstddef>
+#include <cstdint>
+
+namespace geobarrier {
+
+// nx * ny points over [x_min, x_max] x [y_min, y_max], both ends included.
+// Fields on the grid are row-major with the row index = y: value(i, j) is at
+// i * nx + j, at the point (x(j), y(i)).
+struct Grid {
+    double x_min = 0.0, x_max = 1.0, y_min = 0.0, y_max = 1.0;
+    std::size_t nx = 2, ny = 2;
+
+    std::size_t size() const { return nx * ny; }
+    double dx() const { return (x_max - x_min) / static_cast<double>(nx - 1); }
+    double dy() const { return (y_max - y_min) / static_cast<double>(ny - 1); }
+    double x(std::size_t j) const { return x_min + dx() * static_cast<double>(j); }
+    double y(std::size_t i) const { return y_min + dy() * static_cast<double>(i); }
+};
+
+// Why a grid point is masked; a point's mask is the OR of these bits, 0 = valid.
+// Written to fields.nc as the `mask` variable with CF flag_masks/flag_meanings.
+enum MaskBits : std::uint8_t {
+    mask_left_bounds = 1,     // the trajectory left the experiment's `bounds` box
+    mask_non_finite = 2,      // the trajectory blew up or the plugin returned NaN/Inf
+    mask_step_limit = 4,      // the integrator hit its step limit or step-size floor
+    mask_invalid_state = 8,   // the plugin declared the state outside its domain
+    mask_degenerate = 16,     // lambda1 == lambda2 (to rounding): eigenvectors undefined
+};
+
+// Bits that make every value at a point unusable (all but mask_degenerate).
+constexpr std::uint8_t mask_trajectory_bits = mask_left_bounds | mask_non_finite | mask_step_limit | mask_invalid_state;
+
+}  // namespace geobarrier
+
+#endif  // GEOBARRIER_GRID_HPP

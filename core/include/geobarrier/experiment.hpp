@@ -1,0 +1,96 @@
+// An experiment: the validated contents of an experiment JSON file (the format
+// is documented in docs/experiment-format.md), and the runner that computes
+// exactly the stages its products and extractors need.
+#ifndef GEOBARRIER_EXPERIMENT_HPP
+#define GEOBARRIER_EXPERIMENT_HPP
+
+#include <geobarrier/flow_map.hpp>
+#include <geobarrier/grid.hpp>
+#include <geobarrier/plugin.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace geobarrier {
+
+// A plugin named in the experiment, with its parameters as written.
+struct PluginUse {
+    std::string plugin;
+    nlohmann::json params = nlohmann::json::object();
+    std::string json_path; // e.g. "/extractors/0"
+};
+
+// Field products a user may request, and the fields.nc variables each writes.
+struct ProductInfo {
+    const char *name;
+    std::vector<const char *> variables;
+    const char *doc;
+};
+const std::vector<ProductInfo> &known_products();
+
+struct Experiment {
+    std::filesystem::path file; // where it was read from ("" for in-memory)
+    nlohmann::json source;      // the JSON as written
+    std::string description;
+
+    PluginUse system;
+    PluginUse forcing; // {"plugin": "none"} when absent
+    std::vector<PluginUse> extractors;
+    std::vector<std::filesystem::path> plugin_paths; // resolved against the file's folder
+
+    Grid grid;
+    double t0 = 0.0, t1 = 1.0;
+    std::optional<Bounds> bounds;
+    IntegratorSettings integrator;
+    std::string gradient_method = "auto"; // auto | auxiliary-grid | variational
+    double aux_offset = 1e-3;             // relative to the grid spacing
+    std::vector<std::string> products;
+    std::filesystem::path output_dir;
+    bool plots = true;
+
+    bool wants(const std::string &product) const;
+};
+
+// Parses and checks the structure and values of an experiment (not yet the
+// plugins' parameters: see ResolvedExperiment). Every error is a ConfigError
+// naming the JSON path, the value and the rule; unknown keys get a
+// "did you mean" hint.
+Experiment parse_experiment(const nlohmann::json &json, const std::filesystem::path &file = {});
+Experiment load_experiment(const std::filesystem::path &file);
+
+// The experiment with its plugins found, parameters validated and objects created.
+struct ResolvedExperiment {
+    Experiment experiment;
+    PluginRegistry registry;
+    System system;
+    Forcing forcing;
+    std::vector<Extractor> extractors;
+    GradientMethod gradient = GradientMethod::none;
+    bool need_positions = false;
+    bool need_cauchy_green = false;
+    nlohmann::json resolved; // the experiment with every default filled in, for the manifest
+};
+
+ResolvedExperiment resolve_experiment(const Experiment &experiment);
+
+struct RunOptions {
+    std::optional<std::filesystem::path> output_dir; // overrides output.dir
+    int threads = 0;                                 // 0 = OpenMP's default
+    bool quiet = false;                              // no progress bar, warnings only
+};
+
+struct RunSummary {
+    std::filesystem::path output_dir;
+    std::vector<std::filesystem::path> files; // everything written
+    nlohmann::json manifest;
+};
+
+RunSummary run_experiment(const ResolvedExperiment &experiment, const RunOptions &options);
+
+}  // namespace geobarrier
+
+#endif  // GEOBARRIER_EXPERIMENT_HPP

@@ -1,0 +1,390 @@
+// Reading and validating experiment files: structure and values first (each
+// error names the JSON path, the value and the rule), then the plugins and
+// their parameter schemas, then what the requested products need.
+#include <geobarrier/errors.hpp>
+#include <geobarrier/experiment.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace geobarrier {
+
+const std::vector<ProductInfo> &known_products() {
+    static const std::vector<ProductInfo> products = {
+        {"ftle", {"ftle"}, "finite-time Lyapunov exponent log(lambda2) / (2 |t1 - t0|)"},
+        {"eigenvalues", {"lambda1", "lambda2"}, "Cauchy-Green eigenvalues lambda1 <= lambda2"},
+        {"eigenvectors", {"xi1_x", "xi1_y", "xi2_x", "xi2_y"}, "unit Cauchy-Green eigenvectors, xi2 = Omega xi1"},
+        {"flow_map", {"flow_x", "flow_y"}, "the flow map F(x0) at t1"},
+    };
+    return products;
+}
+
+bool Experiment::wants(const std::string &product) const {
+    return std::find(products.begin(), products.end(), product) != products.end();
+}
+
+namespace {
+
+std::string type_name(const json &v) {
+    if (v.is_null()) return "null";
+    if (v.is_boolean()) return "a boolean";
+    if (v.is_number()) return "a number";
+    if (v.is_string()) return "a string";
+    if (v.is_array()) return "an array";
+    return "an object";
+}
+
+std::string short_dump(const json &v) {
+    std::string s = v.dump();
+    if (s.size() > 60) s = s.substr(0, 57) + "...";
+    return s;
+}
+
+// A JSON object being read: remembers which keys were used so the rest can be
+// reported as unknown, with a hint.
+class ObjectReader {
+  public:
+    ObjectReader(const json &j, std::string path) : m_j(j), m_path(std::move(path)) {
+        if (!j.is_object())
+            throw ConfigError(path_or_root(), short_dump(j) + " is " + type_name(j) + "; expected an object");
+    }
+    std::string path_or_root() const { return m_path.empty() ? "/" : m_path; }
+    std::string child(const std::string &key) const { return m_path + "/" + key; }
+    bool has(const std::string &key) const {
+        m_known.insert(key);
+        return m_j.contains(key) && !m_j.at(key).is_null();
+    }
+    const json &get(const std::string &key) const {
+        m_known.insert(key);
+        if (!m_j.contains(key)) throw ConfigError(path_or_root(), "missing required key \"" + key + "\"");
+        return m_j.at(key);
+    }
+    double number(const std::string &key, std::optional<double> fallback = std::nullopt) const {
+        if (!has(key)) {
+            if (fallback) return *fallback;
+            get(key);
+        }
+        const json &v = m_j.at(key);
+        if (!v.is_number()) throw ConfigError(child(key), short_dump(v) + " is " + type_name(v) + "; expected a number");
+        const double d = v.get<double>();
+        if (!std::isfinite(d)) throw ConfigError(child(key), short_dump(v) + " is not finite");
+        return d;
+    }
+    double positive(const std::string &key, std::optional<double> fallback = std::nullopt) const {
+        const double d = number(key, fallback);
+        if (!(d > 0)) throw ConfigError(child(key), short_dump(m_j.at(key)) + " must be greater than 0");
+        return d;
+    }
+    std::size_t count(const std::string &key, std::size_t fallback, std::size_t min_value) const {
+        if (!has(key)) return fallback;
+        const json &v = m_j.at(key);
+        if (!v.is_number_integer() || v.get<long long>() < static_cast<long long>(min_value))
+            throw ConfigError(child(key), short_dump(v) + " must be an integer >= " + std::to_string(min_value));
+        return v.get<std::size_t>();
+    }
+    std::string string(const std::string &key, std::optional<std::string> fallback,
+                       const std::vector<std::string> &choices = {}) const {
+        if (!has(key)) {
+            if (fallback) return *fallback;
+            get(key);
+        }
+        const json &v = m_j.at(key);
+        if (!v.is_string()) throw ConfigError(child(key), short_dump(v) + " is " + type_name(v) + "; expected a string");
+        const std::string s = v.get<std::string>();
+        if (!choices.empty() && std::find(choices.begin(), choices.end(), s) == choices.end()) {
+            std::string msg = "\"" + s + "\" is not one of:";
+            for (const auto &c : choices) msg += " \"" + c + "\"";
+            const std::string hint = did_you_mean(s, choices);
+            if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
+            throw ConfigError(child(key), msg);
+        }
+        return s;
+    }
+    bool boolean(const std::string &key, bool fallback) const {
+        if (!has(key)) return fallback;
+        const json &v = m_j.at(key);
+        if (!v.is_boolean()) throw ConfigError(child(key), short_dump(v) + " is " + type_name(v) + "; expected true or false");
+        return v.get<bool>();
+    }
+    // [lo, hi] with lo < hi.
+    std::pair<double, double> interval(const std::string &key) const {
+        const json &v = get(key);
+        if (!v.is_array() || v.size() != 2 || !v[0].is_number() || !v[1].is_number())
+            throw ConfigError(child(key), short_dump(v) + " must be an array of two numbers [min, max]");
+        const double lo = v[0].get<double>(), hi = v[1].get<double>();
+        if (!std::isfinite(lo) || !std::isfinite(hi) || !(lo < hi))
+            throw ConfigError(child(key), short_dump(v) + " must satisfy min < max (finite)");
+        return {lo, hi};
+    }
+    // Every key not read is an error, with a hint.
+    void finish() const {
+        std::vector<std::string> known(m_known.begin(), m_known.end());
+        for (const auto &item : m_j.items()) {
+            if (m_known.count(item.key())) continue;
+            std::string msg = "unknown key";
+            const std::string hint = did_you_mean(item.key(), known);
+            if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
+            else {
+                msg += " (allowed here:";
+                for (const auto &k : known) msg += " " + k;
+                msg += ")";
+            }
+            throw ConfigError(child(item.key()), msg);
+        }
+    }
+
+  private:
+    const json &m_j;
+    std::string m_path;
+    mutable std::set<std::string> m_known;
+};
+
+PluginUse read_plugin_use(const json &j, const std::string &path) {
+    ObjectReader r(j, path);
+    PluginUse use;
+    use.plugin = r.string("plugin", std::nullopt);
+    if (use.plugin.empty()) throw ConfigError(r.child("plugin"), "\"\" is empty; expected a plugin name");
+    if (r.has("params")) {
+        use.params = r.get("params");
+        if (!use.params.is_object())
+            throw ConfigError(r.child("params"), short_dump(use.params) + " is " + type_name(use.params) +
+                                                     "; expected an object of parameters");
+    }
+    use.json_path = path;
+    r.finish();
+    return use;
+}
+
+}  // namespace
+
+Experiment parse_experiment(const json &j, const fs::path &file) {
+    Experiment e;
+    e.file = file;
+    e.source = j;
+    ObjectReader root(j, "");
+    const fs::path base = file.empty() ? fs::current_path() : fs::absolute(file).parent_path();
+
+    e.description = root.string("description", std::string());
+    e.system = read_plugin_use(root.get("system"), "/system");
+    if (root.has("forcing")) e.forcing = read_plugin_use(root.get("forcing"), "/forcing");
+    else e.forcing = PluginUse{"none", json::object(), "/forcing"};
+
+    {
+        ObjectReader g(root.get("grid"), "/grid");
+        std::tie(e.grid.x_min, e.grid.x_max) = g.interval("x");
+        std::tie(e.grid.y_min, e.grid.y_max) = g.interval("y");
+        const json &n = g.get("n");
+        if (!n.is_array() || n.size() != 2 || !n[0].is_number_integer() || !n[1].is_number_integer())
+            throw ConfigError("/grid/n", short_dump(n) + " must be an array of two integers [nx, ny]");
+        for (int k = 0; k < 2; ++k)
+            if (n[k].get<long long>() < 2 || n[k].get<long long>() > 100000)
+                throw ConfigError("/grid/n/" + std::to_string(k),
+                                  short_dump(n[k]) + " must be between 2 and 100000 (points, endpoints included)");
+        e.grid.nx = n[0].get<std::size_t>();
+        e.grid.ny = n[1].get<std::size_t>();
+        g.finish();
+    }
+    {
+        ObjectReader t(root.get("time"), "/time");
+        e.t0 = t.number("t0");
+        e.t1 = t.number("t1");
+        if (e.t1 == e.t0) throw ConfigError("/time/t1", "equals t0; the interval must have nonzero length");
+        t.finish();
+    }
+    if (root.has("bounds")) {
+        ObjectReader b(root.get("bounds"), "/bounds");
+        Bounds box{};
+        std::tie(box.x_min, box.x_max) = b.interval("x");
+        std::tie(box.y_min, box.y_max) = b.interval("y");
+        b.finish();
+        e.bounds = box;
+    }
+    if (root.has("integrator")) {
+        ObjectReader r(root.get("integrator"), "/integrator");
+        IntegratorSettings &s = e.integrator;
+        s.method = r.string("method", s.method, {"dopri5", "rkf78", "rk4"});
+        s.rtol = r.positive("rtol", s.rtol);
+        s.atol = r.positive("atol", s.atol);
+        s.step = r.positive("step", s.step);
+        s.batch = r.count("batch", s.batch, 1);
+        s.max_steps = r.count("max_steps", s.max_steps, 1);
+        if (s.method == "rk4" && !r.has("step"))
+            throw ConfigError("/integrator", "method \"rk4\" is fixed-step: give \"step\" (a time step, e.g. 0.01)");
+        r.finish();
+    }
+    if (root.has("cauchy_green")) {
+        ObjectReader r(root.get("cauchy_green"), "/cauchy_green");
+        e.gradient_method = r.string("method", e.gradient_method, {"auto", "auxiliary-grid", "variational"});
+        e.aux_offset = r.positive("offset", e.aux_offset);
+        if (e.aux_offset > 0.5)
+            throw ConfigError("/cauchy_green/offset",
+                              std::to_string(e.aux_offset) + " must be at most 0.5 (a fraction of the grid spacing)");
+        r.finish();
+    }
+    if (root.has("products")) {
+        const json &p = root.get("products");
+        if (!p.is_array()) throw ConfigError("/products", short_dump(p) + " must be an array of product names");
+        std::vector<std::string> names;
+        for (const auto &info : known_products()) names.push_back(info.name);
+        for (std::size_t i = 0; i < p.size(); ++i) {
+            const std::string path = "/products/" + std::to_string(i);
+            if (!p[i].is_string()) throw ConfigError(path, short_dump(p[i]) + " must be a product name (a string)");
+            const std::string name = p[i].get<std::string>();
+            if (std::find(names.begin(), names.end(), name) == names.end()) {
+                std::string msg = "unknown product \"" + name + "\"";
+                const std::string hint = did_you_mean(name, names);
+                if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
+                msg += " (known:";
+                for (const auto &n : names) msg += " " + n;
+                throw ConfigError(path, msg + ")");
+            }
+            if (!e.wants(name)) e.products.push_back(name);
+        }
+    }
+    if (root.has("extractors")) {
+        const json &x = root.get("extractors");
+        if (!x.is_array()) throw ConfigError("/extractors", short_dump(x) + " must be an array of {\"plugin\": ...}");
+        for (std::size_t i = 0; i < x.size(); ++i)
+            e.extractors.push_back(read_plugin_use(x[i], "/extractors/" + std::to_string(i)));
+    }
+    if (root.has("plugin_paths")) {
+        const json &p = root.get("plugin_paths");
+        if (!p.is_array()) throw ConfigError("/plugin_paths", short_dump(p) + " must be an array of folder paths");
+        for (std::size_t i = 0; i < p.size(); ++i) {
+            if (!p[i].is_string())
+                throw ConfigError("/plugin_paths/" + std::to_string(i), short_dump(p[i]) + " must be a folder path");
+            const fs::path folder = p[i].get<std::string>();
+            e.plugin_paths.push_back(folder.is_absolute() ? folder : base / folder);
+        }
+    }
+    {
+        const std::string stem = file.empty() ? std::string("experiment") : file.stem().string();
+        if (root.has("output")) {
+            ObjectReader o(root.get("output"), "/output");
+            e.output_dir = o.string("dir", "out/" + stem);
+            if (e.output_dir.empty()) throw ConfigError("/output/dir", "\"\" is empty; expected a folder path");
+            e.plots = o.boolean("plots", e.plots);
+            o.finish();
+        } else {
+            e.output_dir = "out/" + stem;
+        }
+    }
+    if (e.products.empty() && e.extractors.empty())
+        throw ConfigError("/products", "nothing to compute: request at least one product (e.g. [\"ftle\"]) or an extractor");
+    root.finish();
+    return e;
+}
+
+Experiment load_experiment(const fs::path &file) {
+    std::ifstream in(file);
+    if (!in) throw IoError(file.string() + ": cannot open the experiment file");
+    json j;
+    try {
+        j = json::parse(in, nullptr, true, /*ignore_comments=*/true);
+    } catch (const json::parse_error &e) {
+        // nlohmann's message names the byte offset; give line and column too.
+        std::ifstream again(file);
+        std::string text((std::istreambuf_iterator<char>(again)), std::istreambuf_iterator<char>());
+        std::size_t line = 1, col = 1;
+        for (std::size_t k = 0; k + 1 < e.byte && k < text.size(); ++k) {
+            if (text[k] == '\n') {
+                ++line;
+                col = 1;
+            } else {
+                ++col;
+            }
+        }
+        std::string what = e.what();
+        const auto pos = what.find("parse error");
+        throw ConfigError(file.string() + ":" + std::to_string(line) + ":" + std::to_string(col),
+                          "not valid JSON: " + (pos == std::string::npos ? what : what.substr(pos)));
+    }
+    try {
+        return parse_experiment(j, file);
+    } catch (const ConfigError &e) {
+        throw ConfigError(file.string() + ": " + e.json_path(), std::string(e.what()).substr(e.json_path().size() + 2));
+    }
+}
+
+namespace {
+
+// Field names extractors may ask for, and what produces them.
+bool is_cauchy_green_field(const std::string &name) {
+    for (const auto &p : known_products())
+        if (std::string(p.name) != "flow_map")
+            for (const char *v : p.variables)
+                if (name == v) return true;
+    return false;
+}
+
+}  // namespace
+
+ResolvedExperiment resolve_experiment(const Experiment &experiment) {
+    ResolvedExperiment r{experiment, PluginRegistry(PluginRegistry::default_folders(experiment.plugin_paths)),
+                         {}, {}, {}, GradientMethod::none, false, false, json::object()};
+    const Experiment &e = r.experiment;
+    auto create = [&](PluginKind kind, const PluginUse &use) -> std::pair<const PluginHandle *, ParamValues> {
+        const PluginHandle &h = r.registry.find(kind, use.plugin, use.json_path + "/plugin");
+        return {&h, validate_params(h.info, use.params, use.json_path + "/params")};
+    };
+    json resolved = e.source;
+
+    auto [sys_handle, sys_values] = create(PluginKind::system, e.system);
+    r.system = System(*sys_handle, sys_values);
+    resolved["system"] = {{"plugin", sys_handle->info.name}, {"params", params_to_json(sys_handle->info, sys_values)}};
+
+    auto [f_handle, f_values] = create(PluginKind::forcing, e.forcing);
+    r.forcing = Forcing(*f_handle, f_values);
+    resolved["forcing"] = {{"plugin", f_handle->info.name}, {"params", params_to_json(f_handle->info, f_values)}};
+
+    json extractors = json::array();
+    for (const PluginUse &use : e.extractors) {
+        auto [h, values] = create(PluginKind::extractor, use);
+        for (const auto &field : h->info.required_fields)
+            if (!is_cauchy_green_field(field))
+                throw ConfigError(use.json_path + "/plugin",
+                                  "extractor '" + h->info.name + "' needs field \"" + field +
+                                      "\", which this version of the core cannot compute");
+        r.extractors.emplace_back(*h, values);
+        extractors.push_back({{"plugin", h->info.name}, {"params", params_to_json(h->info, values)}});
+    }
+    resolved["extractors"] = extractors;
+
+    // Model only what is asked: the gradient only for Cauchy–Green products or
+    // extractors, the positions only for the flow_map product.
+    r.need_cauchy_green = e.wants("ftle") || e.wants("eigenvalues") || e.wants("eigenvectors") || !e.extractors.empty();
+    r.need_positions = e.wants("flow_map");
+    if (r.need_cauchy_green) {
+        if (e.gradient_method == "auto")
+            r.gradient = r.system.has_jacobian() ? GradientMethod::variational : GradientMethod::auxiliary_grid;
+        else
+            r.gradient = parse_gradient_method(e.gradient_method);
+        if (r.gradient == GradientMethod::variational && !r.system.has_jacobian())
+            throw ConfigError("/cauchy_green/method", "\"variational\" needs the system's Jacobian, and system '" +
+                                                          sys_handle->info.name +
+                                                          "' provides none; use \"auxiliary-grid\"");
+    }
+    resolved["grid"] = {{"x", {e.grid.x_min, e.grid.x_max}},
+                        {"y", {e.grid.y_min, e.grid.y_max}},
+                        {"n", {e.grid.nx, e.grid.ny}}};
+    resolved["time"] = {{"t0", e.t0}, {"t1", e.t1}};
+    resolved["integrator"] = {{"method", e.integrator.method}, {"rtol", e.integrator.rtol},
+                              {"atol", e.integrator.atol},     {"step", e.integrator.step},
+                              {"batch", e.integrator.batch},   {"max_steps", e.integrator.max_steps}};
+    resolved["cauchy_green"] = {{"method", r.need_cauchy_green ? to_string(r.gradient) : "none"},
+                                {"offset", e.aux_offset}};
+    resolved["products"] = e.products;
+    resolved["output"] = {{"dir", e.output_dir.string()}, {"plots", e.plots}};
+    if (e.bounds)
+        resolved["bounds"] = {{"x", {e.bounds->x_min, e.bounds->x_max}}, {"y", {e.bounds->y_min, e.bounds->y_max}}};
+    r.resolved = resolved;
+    return r;
+}
+
+}  // namespace geobarrier

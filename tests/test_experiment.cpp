@@ -248,6 +248,37 @@ TEST_CASE("a full run writes fields.nc, ftle.png and a manifest with statistics"
     fs::remove_all(dir);
 }
 
+TEST_CASE("an extractor plugin gets its fields, advects with the host and reports barriers") {
+    json j = minimal_experiment();
+    j["extractors"] = {{{"plugin", "probe"}, {"params", {{"closed", true}}}}};
+    j["plugin_paths"] = {test::plugin_dir().string(), test::test_plugin_dir().string()};
+    const ResolvedExperiment r = resolve_experiment(parse_experiment(j));
+    CHECK(r.need_cauchy_green); // the extractor needs ftle
+    const fs::path dir = fresh_dir("extractor");
+    RunOptions options;
+    options.output_dir = dir;
+    options.quiet = true;
+    run_experiment(r, options);
+    const json b = json::parse(std::ifstream(dir / "barriers.json"));
+    REQUIRE(b["barriers"].size() == 1);
+    const json &barrier = b["barriers"][0];
+    CHECK(barrier["kind"] == "hyperbolic");
+    CHECK(barrier["closed"] == true);
+    CHECK(barrier["extractor"] == "probe");
+    REQUIRE(barrier["points"].size() == 2);
+    // The host advected with the experiment's (variational) gradient: conservative, so det DF = 1.
+    CHECK(barrier["det_gradient"].get<double>() == doctest::Approx(1.0).epsilon(1e-6));
+    CHECK(barrier["plots"] == 0.0);
+    // The image is the flow map of the reported point.
+    const double x0 = barrier["points"][0][0], y0 = barrier["points"][0][1];
+    const System duffing = test::make_system("duffing");
+    const Forcing cosine = test::make_forcing("cosine", {{"amplitude", 0.08}});
+    const AdvectResult a = advect_points({&duffing, &cosine}, {x0}, {y0}, 0.0, 2 * M_PI, IntegratorSettings{}, false);
+    CHECK(barrier["points"][1][0].get<double>() == doctest::Approx(a.x[0]).epsilon(1e-7));
+    CHECK(barrier["points"][1][1].get<double>() == doctest::Approx(a.y[0]).epsilon(1e-7));
+    fs::remove_all(dir);
+}
+
 TEST_CASE("FTLE of the paper's first example agrees with an independent rkf78 1e-12 computation") {
     using geobarrier::test::ftle_error_against_reference;
     // The defaults (variational equations, dopri5 at rtol 1e-8, atol 1e-10):

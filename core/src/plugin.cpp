@@ -90,6 +90,12 @@ PluginInfo read_descriptor(const gb_plugin_descriptor &d, const fs::path &file, 
     info.version = text_or_empty(d.version);
     info.doc = text_or_empty(d.doc);
     info.thread_safety = d.thread_safety;
+    if (d.core_version) {
+        info.core_version = d.core_version;
+        if (info.core_version != GEOBARRIER_VERSION)
+            throw "plugin '" + info.name + "' links geobarrier core " + info.core_version + ", this is core " +
+                GEOBARRIER_VERSION + " (C++ interfaces change between versions: rebuild the plugin)";
+    }
     if (!d.create || !d.destroy) throw "plugin '" + info.name + "' has no create/destroy function";
     switch (d.kind) {
     case GB_KIND_SYSTEM:
@@ -351,6 +357,7 @@ nlohmann::json plugin_info_to_json(const PluginInfo &info) {
     j["doc"] = info.doc;
     j["file"] = info.file.string();
     j["abi"] = std::to_string(info.abi_major) + "." + std::to_string(info.abi_minor);
+    if (!info.core_version.empty()) j["core_version"] = info.core_version;
     j["thread_safety"] = info.thread_safety == GB_THREAD_SAFE_CONCURRENT ? "concurrent" : "per-instance";
     auto json_number = [](double v) -> nlohmann::json {
         if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
@@ -468,6 +475,7 @@ Extractor::Extractor(const PluginHandle &handle, const ParamValues &values) : m_
 namespace {
 struct ExtractContext {
     std::string plugin;
+    const ExtractServices *services;
     std::vector<Barrier> barriers;
 };
 void host_log(void *context, std::int32_t level, const char *line) {
@@ -490,11 +498,26 @@ gb_status host_add_barrier(void *context, const char *kind, std::int32_t closed,
     c->barriers.push_back(std::move(b));
     return GB_OK;
 }
+gb_status host_advect(void *context, std::uint64_t n, const double *xy, double t_from, double t_to, double *xy_out,
+                      double *dF_out, std::uint8_t *mask_out, gb_message *msg) {
+    auto *c = static_cast<ExtractContext *>(context);
+    try {
+        if (!c->services->advect) throw Error("this host offers no advection");
+        c->services->advect(n, xy, t_from, t_to, xy_out, dF_out, mask_out);
+        return GB_OK;
+    } catch (const std::exception &e) {
+        if (msg && msg->text && msg->capacity) {
+            std::strncpy(msg->text, e.what(), msg->capacity - 1);
+            msg->text[msg->capacity - 1] = '\0';
+        }
+        return GB_ERROR;
+    }
+}
 }  // namespace
 
-std::vector<Barrier> Extractor::extract(const gb_extract_input &input) const {
-    ExtractContext context{info().name, {}};
-    const gb_host host{&context, &host_log, &host_progress, &host_add_barrier};
+std::vector<Barrier> Extractor::extract(const gb_extract_input &input, const ExtractServices &services) const {
+    ExtractContext context{info().name, &services, {}};
+    const gb_host host{&context, &host_log, &host_progress, &host_add_barrier, &host_advect};
     CallMessage m;
     check_plugin_status(m_table->extract(m_instance.self(), &host, &input, &m.msg), info(), "extract", m.text);
     return std::move(context.barriers);

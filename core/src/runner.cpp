@@ -142,17 +142,56 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     }
     const std::vector<std::uint8_t> &mask = r.need_cauchy_green ? cg.mask : flow.mask;
 
-    // Stage 3: barrier extractors.
+    // Stage 3: barrier extractors. They may advect points with the experiment's
+    // system and integrator (the gradient by the experiment's method).
     json barriers = json::array();
+    ExtractServices services;
+    services.advect = [&](std::size_t n, const double *xy, double t_from, double t_to, double *xy_out, double *dF_out,
+                          std::uint8_t *mask_out) {
+        const Dynamics dynamics{&r.system, &r.forcing};
+        // The auxiliary offset is relative to the grid spacing, as on the grid.
+        const double dx = e.aux_offset * e.grid.dx(), dy = e.aux_offset * e.grid.dy();
+        const bool variational = dF_out && r.system.has_jacobian() && r.gradient != GradientMethod::auxiliary_grid;
+        const std::size_t per_point = (dF_out && !variational) ? 5 : 1;
+        std::vector<double> x0(per_point * n), y0(per_point * n);
+        const double ox[5] = {0, dx, -dx, 0, 0}, oy[5] = {0, 0, 0, dy, -dy};
+        for (std::size_t k = 0; k < n; ++k)
+            for (std::size_t q = 0; q < per_point; ++q) {
+                x0[per_point * k + q] = xy[2 * k] + ox[q];
+                y0[per_point * k + q] = xy[2 * k + 1] + oy[q];
+            }
+        const AdvectResult a = advect_points(dynamics, x0, y0, t_from, t_to, e.integrator, variational, e.bounds);
+        for (std::size_t k = 0; k < n; ++k) {
+            std::uint8_t m = 0;
+            for (std::size_t q = 0; q < per_point; ++q) m |= a.mask[per_point * k + q];
+            mask_out[k] = m;
+            const std::size_t c = per_point * k;
+            xy_out[2 * k] = m ? std::nan("") : a.x[c];
+            xy_out[2 * k + 1] = m ? std::nan("") : a.y[c];
+            if (!dF_out) continue;
+            double *g = dF_out + 4 * k;
+            if (m) {
+                std::fill(g, g + 4, std::nan(""));
+            } else if (variational) {
+                std::copy(a.dF.begin() + 4 * k, a.dF.begin() + 4 * k + 4, g);
+            } else {
+                g[0] = (a.x[c + 1] - a.x[c + 2]) / (2 * dx);
+                g[1] = (a.x[c + 3] - a.x[c + 4]) / (2 * dy);
+                g[2] = (a.y[c + 1] - a.y[c + 2]) / (2 * dx);
+                g[3] = (a.y[c + 3] - a.y[c + 4]) / (2 * dy);
+            }
+        }
+    };
     for (const Extractor &x : r.extractors) {
         StageTimer timer(stages, "extractor " + x.info().name);
         std::vector<gb_field> inputs;
         for (const auto &name : x.required_fields()) inputs.push_back({name.c_str(), fields.at(name)->data()});
+        const std::string out_text = out.string();
         const gb_extract_input input{e.grid.x_min, e.grid.x_max, e.grid.y_min, e.grid.y_max,
                                      e.grid.nx,    e.grid.ny,    e.t0,         e.t1,
                                      mask.data(),  static_cast<std::uint32_t>(inputs.size()),
-                                     inputs.data()};
-        for (const Barrier &b : x.extract(input)) {
+                                     inputs.data(), out_text.c_str(), e.plots ? 1 : 0};
+        for (const Barrier &b : x.extract(input, services)) {
             json points = json::array();
             for (std::size_t k = 0; k + 1 < b.xy.size(); k += 2) points.push_back({b.xy[k], b.xy[k + 1]});
             json item = {{"kind", b.kind}, {"closed", b.closed}, {"extractor", x.info().name}, {"points", points}};

@@ -137,6 +137,8 @@ typedef struct gb_extract_input {
     const uint8_t *mask; /* nx*ny, 0 = valid */
     uint32_t field_count;
     const gb_field *fields;
+    const char *output_dir; /* folder for the extractor's own files (pictures); exists */
+    int32_t plots;          /* nonzero when the experiment asked for pictures */
 } gb_extract_input;
 
 /* Services the core offers an extractor during extract(): the host pattern of
@@ -151,6 +153,12 @@ typedef struct gb_host {
      * numeric metrics. kind: "hyperbolic" | "elliptic" | "parabolic". */
     gb_status (*add_barrier)(void *context, const char *kind, int32_t closed, uint64_t count, const double *xy,
                              uint32_t metric_count, const char *const *metric_names, const double *metric_values);
+    /* Advect n points (x, y interleaved) of the experiment's system from t_from to
+     * t_to with the experiment's integrator. xy_out receives 2n values, mask_out n
+     * MaskBits (0 = valid; masked points hold NaN). dF_out, when not NULL, receives
+     * 4n values F11 F12 F21 F22 of the flow map's gradient at each point. */
+    gb_status (*advect)(void *context, uint64_t n, const double *xy, double t_from, double t_to, double *xy_out,
+                        double *dF_out, uint8_t *mask_out, gb_message *msg);
 } gb_host;
 
 typedef struct gb_extractor_vtable {
@@ -176,6 +184,11 @@ typedef struct gb_plugin_descriptor {
     const gb_system_vtable *system;
     const gb_forcing_vtable *forcing;
     const gb_extractor_vtable *extractor;
+    /* The geobarrier core version a plugin that also links the core's C++ library
+     * (libgeobarrier: tensor lines, curves, pictures) was built against; the loader
+     * refuses any other version, since C++ interfaces carry no ABI promise. NULL for
+     * plugins that use only this header. */
+    const char *core_version;
 } gb_plugin_descriptor;
 
 typedef struct gb_plugin_entry {

@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <deque>
+#include <functional>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -50,6 +51,7 @@ struct PluginInfo {
     std::uint32_t thread_safety = 0;
     std::filesystem::path file;
     std::uint32_t abi_major = 0, abi_minor = 0;
+    std::string core_version; // non-empty when the plugin links the core's C++ library
     // Systems only.
     std::uint32_t dimension = 0;
     bool has_jacobian = false, has_divergence = false, uses_forcing = false;
@@ -168,6 +170,14 @@ struct Barrier {
     std::vector<std::pair<std::string, double>> metrics;
 };
 
+// What the core offers an extractor while it runs (the gb_host services).
+struct ExtractServices {
+    // Advects n points (x, y interleaved) from t_from to t_to; dF_out may be null. Throws on failure.
+    std::function<void(std::size_t n, const double *xy, double t_from, double t_to, double *xy_out, double *dF_out,
+                       std::uint8_t *mask_out)>
+        advect;
+};
+
 // A barrier extractor.
 class Extractor {
   public:
@@ -176,7 +186,7 @@ class Extractor {
     const PluginInfo &info() const { return m_instance.info(); }
     const std::vector<std::string> &required_fields() const { return info().required_fields; }
     // Runs the extractor; log lines go to spdlog, barriers are returned.
-    std::vector<Barrier> extract(const gb_extract_input &input) const;
+    std::vector<Barrier> extract(const gb_extract_input &input, const ExtractServices &services) const;
 
   private:
     PluginInstance m_instance;

@@ -114,7 +114,21 @@ class Host {
                                                 static_cast<std::uint32_t>(names.size()), names.data(), values.data());
         if (s != GB_OK) throw std::runtime_error("the core refused a barrier");
     }
-
+    // Advects points (x, y interleaved) with the experiment's system and integrator; mask 0 = valid.
+    // With `gradient`, dF receives F11 F12 F21 F22 per point.
+    void advect(const std::vector<double> &xy, double t_from, double t_to, std::vector<double> &xy_out,
+                std::vector<std::uint8_t> &mask, std::vector<double> *gradient = nullptr) const {
+        const std::size_t n = xy.size() / 2;
+        xy_out.assign(2 * n, 0.0);
+        mask.assign(n, 0);
+        if (gradient) gradient->assign(4 * n, 0.0);
+        char text[512];
+        text[0] = '\0';
+        gb_message msg{text, sizeof text};
+        if (m_host->advect(m_host->context, n, xy.data(), t_from, t_to, xy_out.data(),
+                           gradient ? gradient->data() : nullptr, mask.data(), &msg) != GB_OK)
+            throw std::runtime_error(std::string("advection failed: ") + text);
+    }
   private:
     const gb_host *m_host;
 };
@@ -258,7 +272,13 @@ template <class T> gb_plugin_descriptor descriptor(gb_plugin_kind kind) {
                                 &destroy<T>,
                                 nullptr,
                                 nullptr,
-                                nullptr};
+                                nullptr,
+#ifdef GEOBARRIER_VERSION
+                                GEOBARRIER_VERSION // this plugin links the core's C++ library
+#else
+                                nullptr
+#endif
+    };
 }
 
 }  // namespace detail

@@ -1,0 +1,292 @@
+// Polyline utilities and curve advection with adaptive point insertion (the check behind the paper's shortcut
+// l(gamma_t1) = int sqrt(lambda1) ds, section 2.2, and the stretching history of eq. `rel_def`).
+#include <geobarrier/curves.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <list>
+#include <stdexcept>
+
+namespace geobarrier {
+
+namespace {
+constexpr double nan_value = std::numeric_limits<double>::quiet_NaN();
+}
+
+double polyline_length(const std::vector<double> &xy, bool closed) {
+    const std::size_t n = xy.size() / 2;
+    double total = 0.0;
+    for (std::size_t k = 1; k < n; ++k) total += std::hypot(xy[2 * k] - xy[2 * k - 2], xy[2 * k + 1] - xy[2 * k - 1]);
+    if (closed && n > 2) total += std::hypot(xy[0] - xy[2 * n - 2], xy[1] - xy[2 * n - 1]);
+    return total;
+}
+
+std::vector<double> cumulative_length(const std::vector<double> &xy, bool closed) {
+    const std::size_t n = xy.size() / 2;
+    std::vector<double> s(n, 0.0);
+    for (std::size_t k = 1; k < n; ++k)
+        s[k] = s[k - 1] + std::hypot(xy[2 * k] - xy[2 * k - 2], xy[2 * k + 1] - xy[2 * k - 1]);
+    if (closed && n > 0) s.push_back(s.back() + std::hypot(xy[0] - xy[2 * n - 2], xy[1] - xy[2 * n - 1]));
+    return s;
+}
+
+std::vector<double> resample_polyline(const std::vector<double> &xy, double spacing, bool closed) {
+    const std::size_t n = xy.size() / 2;
+    if (n < 2 || !(spacing > 0.0)) return xy;
+    std::vector<double> pts = xy;
+    if (closed) {
+        pts.push_back(xy[0]);
+        pts.push_back(xy[1]);
+    }
+    const std::vector<double> s = cumulative_length(pts);
+    const double total = s.back();
+    const std::size_t segments = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(total / spacing)));
+    const std::size_t count = closed ? segments : segments + 1;
+    std::vector<double> out;
+    out.reserve(2 * count);
+    std::size_t k = 0;
+    for (std::size_t m = 0; m < count; ++m) {
+        const double target = total * static_cast<double>(m) / static_cast<double>(segments);
+        while (k + 2 < s.size() && s[k + 1] < target) ++k;
+        const double len = s[k + 1] - s[k];
+        const double t = len > 0.0 ? std::clamp((target - s[k]) / len, 0.0, 1.0) : 0.0;
+        out.push_back(pts[2 * k] + t * (pts[2 * k + 2] - pts[2 * k]));
+        out.push_back(pts[2 * k + 1] + t * (pts[2 * k + 3] - pts[2 * k + 1]));
+    }
+    return out;
+}
+
+double shoelace_area(const std::vector<double> &xy) {
+    const std::size_t n = xy.size() / 2;
+    double twice = 0.0;
+    for (std::size_t k = 0; k < n; ++k) {
+        const std::size_t m = (k + 1) % n;
+        twice += xy[2 * k] * xy[2 * m + 1] - xy[2 * m] * xy[2 * k + 1];
+    }
+    return 0.5 * twice;
+}
+
+double sample_field(const Grid &g, const std::vector<double> &field, const std::vector<std::uint8_t> &mask, double x,
+                    double y, std::uint8_t masked_by) {
+    if (!(x >= g.x_min && x <= g.x_max && y >= g.y_min && y <= g.y_max)) return nan_value;
+    const double fx = (x - g.x_min) / g.dx(), fy = (y - g.y_min) / g.dy();
+    const std::size_t j = std::min(static_cast<std::size_t>(fx), g.nx - 2);
+    const std::size_t i = std::min(static_cast<std::size_t>(fy), g.ny - 2);
+    const double u = fx - static_cast<double>(j), v = fy - static_cast<double>(i);
+    const std::size_t c[4] = {i * g.nx + j, i * g.nx + j + 1, (i + 1) * g.nx + j, (i + 1) * g.nx + j + 1};
+    const double w[4] = {(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v};
+    double sum = 0.0;
+    for (int k = 0; k < 4; ++k) {
+        if (!mask.empty() && (mask[c[k]] & masked_by)) return nan_value;
+        if (!std::isfinite(field[c[k]])) return nan_value;
+        sum += w[k] * field[c[k]];
+    }
+    return sum;
+}
+
+std::vector<double> sample_along(const Grid &grid, const std::vector<double> &field,
+                                 const std::vector<std::uint8_t> &mask, const std::vector<double> &xy,
+                                 std::uint8_t masked_by) {
+    std::vector<double> out(xy.size() / 2);
+    for (std::size_t k = 0; k < out.size(); ++k)
+        out[k] = sample_field(grid, field, mask, xy[2 * k], xy[2 * k + 1], masked_by);
+    return out;
+}
+
+CurveStats curve_statistics(const std::vector<double> &xy, const std::vector<double> &values, bool closed) {
+    const std::size_t n = xy.size() / 2;
+    if (values.size() != n) throw std::invalid_argument("curve_statistics: one value per point is needed");
+    CurveStats st;
+    st.max = -std::numeric_limits<double>::infinity();
+    st.min = std::numeric_limits<double>::infinity();
+    for (double v : values)
+        if (std::isfinite(v)) {
+            ++st.finite_points;
+            st.max = std::max(st.max, v);
+            st.min = std::min(st.min, v);
+        }
+    if (st.finite_points == 0) {
+        st.max = st.min = st.mean = nan_value;
+        return st;
+    }
+    const std::size_t segments = closed && n > 2 ? n : (n ? n - 1 : 0);
+    for (std::size_t k = 0; k < segments; ++k) {
+        const std::size_t m = (k + 1) % n;
+        if (!std::isfinite(values[k]) || !std::isfinite(values[m])) continue;
+        const double ds = std::hypot(xy[2 * m] - xy[2 * k], xy[2 * m + 1] - xy[2 * k + 1]);
+        st.integral += 0.5 * (values[k] + values[m]) * ds;
+        st.covered_length += ds;
+    }
+    st.mean = st.covered_length > 0.0 ? st.integral / st.covered_length : values[0];
+    if (st.covered_length == 0.0)
+        for (double v : values)
+            if (std::isfinite(v)) {
+                st.mean = v;
+                break;
+            }
+    return st;
+}
+
+AdvectPointsFn make_advect_points_fn(const Dynamics &dynamics, double t_from, double t_to,
+                                     const IntegratorSettings &settings, const std::optional<Bounds> &bounds) {
+    return [=](const std::vector<double> &xy_in, std::vector<double> &xy_out, std::vector<std::uint8_t> &mask) {
+        const std::size_t n = xy_in.size() / 2;
+        std::vector<double> x0(n), y0(n);
+        for (std::size_t k = 0; k < n; ++k) {
+            x0[k] = xy_in[2 * k];
+            y0[k] = xy_in[2 * k + 1];
+        }
+        const AdvectResult a = advect_points(dynamics, x0, y0, t_from, t_to, settings, false, bounds);
+        xy_out.resize(2 * n);
+        for (std::size_t k = 0; k < n; ++k) {
+            xy_out[2 * k] = a.x[k];
+            xy_out[2 * k + 1] = a.y[k];
+        }
+        mask = a.mask;
+    };
+}
+
+namespace {
+
+struct Node {
+    double x0, y0, x1, y1;
+    double u; // parameter on the initial polyline (index of the original points, fractional when inserted)
+    bool valid;
+};
+
+double image_size(const std::list<Node> &nodes) {
+    double xmin = std::numeric_limits<double>::infinity(), xmax = -xmin, ymin = xmin, ymax = -xmin;
+    for (const Node &n : nodes)
+        if (n.valid) {
+            xmin = std::min(xmin, n.x1);
+            xmax = std::max(xmax, n.x1);
+            ymin = std::min(ymin, n.y1);
+            ymax = std::max(ymax, n.y1);
+        }
+    return xmax >= xmin ? std::hypot(xmax - xmin, ymax - ymin) : 0.0;
+}
+
+} // namespace
+
+std::vector<AdvectedCurve> advect_curves(const std::vector<std::vector<double>> &curves,
+                                         const std::vector<bool> &closed, const AdvectPointsFn &advect,
+                                         const CurveAdvectionSettings &settings) {
+    const std::size_t count = curves.size();
+    if (closed.size() != count) throw std::invalid_argument("advect_curves: one `closed` flag per curve is needed");
+    std::vector<AdvectedCurve> out(count);
+    if (count == 0) return out;
+    std::vector<std::list<Node>> nodes(count);
+    std::vector<double> min_gap0(count);
+    std::vector<char> active(count, 1), too_long_left(count, 0);
+
+    // All curves' points in one call.
+    std::vector<double> all, img;
+    std::vector<std::uint8_t> mask;
+    for (std::size_t c = 0; c < count; ++c) {
+        if (curves[c].size() < 4) throw std::invalid_argument("advect_curve: a curve needs at least 2 points");
+        out[c].closed = closed[c];
+        min_gap0[c] = settings.min_parameter_fraction * polyline_length(curves[c], closed[c]);
+        all.insert(all.end(), curves[c].begin(), curves[c].end());
+    }
+    advect(all, img, mask);
+    std::size_t at = 0;
+    for (std::size_t c = 0; c < count; ++c)
+        for (std::size_t k = 0; k < curves[c].size() / 2; ++k, ++at) {
+            const bool ok = mask[at] == 0 && std::isfinite(img[2 * at]) && std::isfinite(img[2 * at + 1]);
+            nodes[c].push_back(
+                {curves[c][2 * k], curves[c][2 * k + 1], img[2 * at], img[2 * at + 1], static_cast<double>(k), ok});
+        }
+
+    for (std::size_t round = 0; round < settings.max_rounds; ++round) {
+        // Per curve, the gaps to split: both ends valid, image gap too long, initial spacing still splittable.
+        struct Split {
+            std::size_t curve;
+            std::list<Node>::iterator before; // insert before this (end() = after the last: the closing gap)
+        };
+        std::vector<Split> splits;
+        std::vector<double> fresh;
+        for (std::size_t c = 0; c < count; ++c) {
+            if (!active[c]) continue;
+            std::list<Node> &ns = nodes[c];
+            const double max_gap = settings.max_gap_fraction * image_size(ns);
+            const std::size_t before = splits.size();
+            too_long_left[c] = 0;
+            auto consider = [&](std::list<Node>::iterator a, std::list<Node>::iterator b, bool wrap) {
+                if (!a->valid || !b->valid) return;
+                if (std::hypot(b->x1 - a->x1, b->y1 - a->y1) <= max_gap) return;
+                if (std::hypot(b->x0 - a->x0, b->y0 - a->y0) <= min_gap0[c]) {
+                    too_long_left[c] = 1;
+                    return;
+                }
+                splits.push_back({c, wrap ? ns.end() : b});
+                fresh.push_back(0.5 * (a->x0 + b->x0));
+                fresh.push_back(0.5 * (a->y0 + b->y0));
+            };
+            for (auto it = ns.begin(); std::next(it) != ns.end(); ++it) consider(it, std::next(it), false);
+            if (closed[c] && ns.size() > 2) consider(std::prev(ns.end()), ns.begin(), true);
+            const std::size_t added = splits.size() - before;
+            if (added == 0) {
+                active[c] = 0;
+            } else if (ns.size() + added > settings.max_points) {
+                // Over budget: this curve stops refining where it is.
+                splits.resize(before);
+                fresh.resize(2 * before);
+                too_long_left[c] = 1;
+                active[c] = 0;
+            }
+        }
+        if (splits.empty()) break;
+        advect(fresh, img, mask);
+        for (std::size_t k = 0; k < splits.size(); ++k) {
+            std::list<Node> &ns = nodes[splits[k].curve];
+            const auto b = splits[k].before;
+            const auto a = b == ns.end() ? std::prev(ns.end()) : std::prev(b);
+            const double u_b = b == ns.end() ? static_cast<double>(curves[splits[k].curve].size() / 2) : b->u;
+            const bool ok = mask[k] == 0 && std::isfinite(img[2 * k]) && std::isfinite(img[2 * k + 1]);
+            ns.insert(b, {fresh[2 * k], fresh[2 * k + 1], img[2 * k], img[2 * k + 1], 0.5 * (a->u + u_b), ok});
+            ++out[splits[k].curve].inserted;
+        }
+        if (round + 1 == settings.max_rounds)
+            for (std::size_t c = 0; c < count; ++c)
+                if (active[c]) too_long_left[c] = 1;
+    }
+
+    for (std::size_t c = 0; c < count; ++c) {
+        AdvectedCurve &o = out[c];
+        for (const Node &node : nodes[c]) {
+            if (!node.valid) {
+                ++o.masked;
+                continue;
+            }
+            o.xy0.push_back(node.x0);
+            o.xy0.push_back(node.y0);
+            o.xy1.push_back(node.x1);
+            o.xy1.push_back(node.y1);
+        }
+        o.length0 = polyline_length(o.xy0, o.closed);
+        o.length1 = polyline_length(o.xy1, o.closed);
+        if (o.closed) {
+            o.area0 = shoelace_area(o.xy0);
+            o.area1 = shoelace_area(o.xy1);
+        }
+        o.size1 = image_size(nodes[c]);
+        const std::size_t m = o.xy1.size() / 2;
+        const std::size_t gaps = (o.closed && m > 2) ? m : (m ? m - 1 : 0);
+        for (std::size_t k = 0; k < gaps; ++k) {
+            const std::size_t l = (k + 1) % m;
+            o.max_gap =
+                std::max(o.max_gap, std::hypot(o.xy1[2 * l] - o.xy1[2 * k], o.xy1[2 * l + 1] - o.xy1[2 * k + 1]));
+        }
+        o.converged =
+            o.masked == 0 && !too_long_left[c] && o.max_gap <= settings.max_gap_fraction * o.size1 * (1 + 1e-12);
+    }
+    return out;
+}
+
+AdvectedCurve advect_curve(const std::vector<double> &xy, bool closed, const AdvectPointsFn &advect,
+                           const CurveAdvectionSettings &settings) {
+    return advect_curves({xy}, {closed}, advect, settings).front();
+}
+
+} // namespace geobarrier

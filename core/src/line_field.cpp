@@ -1,0 +1,290 @@
+// Grid derivatives of the Cauchy–Green field (orientation-consistent differences of the eigenvector fields), the
+// geodesic strain deviation (paper eq. `gdev_str`, general form) and the orientation-free LineField.
+#include <geobarrier/line_field.hpp>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace geobarrier {
+
+namespace {
+
+constexpr double nan_value = std::numeric_limits<double>::quiet_NaN();
+
+// Interpolated vectors shorter than this (the four aligned unit corner vectors nearly cancel) mean the cell holds
+// an orientation singularity of the line field: no direction is reported there.
+constexpr double min_interpolated_norm = 0.1;
+
+// d/dx (axis 0) or d/dy (axis 1) of a scalar field at (i, j): centred where both neighbours are usable, one-sided
+// where one is, NaN where none is.
+template <class Usable, class Value>
+double difference(const Grid &g, std::size_t i, std::size_t j, int axis, const Usable &usable, const Value &value) {
+    const std::size_t n = axis == 0 ? g.nx : g.ny;
+    const std::size_t k = axis == 0 ? j : i;
+    const double h = axis == 0 ? g.dx() : g.dy();
+    auto at = [&](std::size_t m) { return axis == 0 ? i * g.nx + m : m * g.nx + j; };
+    const bool has_minus = k > 0 && usable(at(k - 1));
+    const bool has_plus = k + 1 < n && usable(at(k + 1));
+    const std::size_t c = at(k);
+    if (has_minus && has_plus) return (value(at(k + 1), c) - value(at(k - 1), c)) / (2.0 * h);
+    if (has_plus) return (value(at(k + 1), c) - value(c, c)) / h;
+    if (has_minus) return (value(c, c) - value(at(k - 1), c)) / h;
+    return nan_value;
+}
+
+} // namespace
+
+StrainDerivatives strain_derivatives(const CauchyGreenField &cg) {
+    const Grid &g = cg.grid;
+    const std::size_t n = g.size();
+    StrainDerivatives d;
+    d.grid = g;
+    for (auto *v : {&d.dlambda1_dx, &d.dlambda1_dy, &d.dlambda2_dx, &d.dlambda2_dy, &d.kappa1, &d.kappa2})
+        v->assign(n, nan_value);
+    d.valid.assign(n, 0);
+    auto usable = [&](std::size_t p) {
+        return cg.mask[p] == 0 && std::isfinite(cg.lambda1[p]) && std::isfinite(cg.lambda2[p]) &&
+               std::isfinite(cg.xi1_x[p]) && std::isfinite(cg.xi1_y[p]);
+    };
+    // The neighbour's eigenvector, flipped to agree with the centre's, minus nothing: differences of aligned
+    // vectors are the derivative of the locally oriented field (xi is defined only up to sign).
+    auto aligned = [&](const std::vector<double> &ax, const std::vector<double> &ay, std::size_t p, std::size_t c,
+                       int comp) {
+        const double sign = ax[p] * ax[c] + ay[p] * ay[c] < 0.0 ? -1.0 : 1.0;
+        return sign * (comp == 0 ? ax[p] : ay[p]);
+    };
+    for (std::size_t i = 0; i < g.ny; ++i)
+        for (std::size_t j = 0; j < g.nx; ++j) {
+            const std::size_t c = i * g.nx + j;
+            if (!usable(c)) continue;
+            auto lam1 = [&](std::size_t p, std::size_t) { return cg.lambda1[p]; };
+            auto lam2 = [&](std::size_t p, std::size_t) { return cg.lambda2[p]; };
+            const double l1x = difference(g, i, j, 0, usable, lam1), l1y = difference(g, i, j, 1, usable, lam1);
+            const double l2x = difference(g, i, j, 0, usable, lam2), l2y = difference(g, i, j, 1, usable, lam2);
+            // grad xi1 columns: d xi1 / dx and d xi1 / dy (components 0 = x, 1 = y).
+            double dxi1[2][2], dxi2[2][2];
+            for (int axis = 0; axis < 2; ++axis)
+                for (int comp = 0; comp < 2; ++comp) {
+                    dxi1[axis][comp] = difference(g, i, j, axis, usable, [&](std::size_t p, std::size_t cc) {
+                        return aligned(cg.xi1_x, cg.xi1_y, p, cc, comp);
+                    });
+                    dxi2[axis][comp] = difference(g, i, j, axis, usable, [&](std::size_t p, std::size_t cc) {
+                        return aligned(cg.xi2_x, cg.xi2_y, p, cc, comp);
+                    });
+                }
+            const double e1x = cg.xi1_x[c], e1y = cg.xi1_y[c], e2x = cg.xi2_x[c], e2y = cg.xi2_y[c];
+            // (grad xi1) xi1 = d xi1/dx * xi1_x + d xi1/dy * xi1_y: the derivative of xi1 along itself.
+            const double a1x = dxi1[0][0] * e1x + dxi1[1][0] * e1y, a1y = dxi1[0][1] * e1x + dxi1[1][1] * e1y;
+            const double a2x = dxi2[0][0] * e2x + dxi2[1][0] * e2y, a2y = dxi2[0][1] * e2x + dxi2[1][1] * e2y;
+            const double k1 = a1x * e2x + a1y * e2y; // kappa1 = <(grad xi1) xi1, xi2>
+            const double k2 = a2x * e1x + a2y * e1y; // kappa2 = <(grad xi2) xi2, xi1>
+            d.dlambda1_dx[c] = l1x;
+            d.dlambda1_dy[c] = l1y;
+            d.dlambda2_dx[c] = l2x;
+            d.dlambda2_dy[c] = l2y;
+            d.kappa1[c] = k1;
+            d.kappa2[c] = k2;
+            const bool ok = std::isfinite(l1x) && std::isfinite(l1y) && std::isfinite(l2x) && std::isfinite(l2y) &&
+                            std::isfinite(k1) && std::isfinite(k2);
+            d.valid[c] = ok ? 1 : 0;
+            if (!ok)
+                for (auto *v : {&d.dlambda1_dx, &d.dlambda1_dy, &d.dlambda2_dx, &d.dlambda2_dy, &d.kappa1, &d.kappa2})
+                    (*v)[c] = nan_value;
+        }
+    return d;
+}
+
+double strain_deviation(double lambda1, double lambda2, double kappa1, double grad_lambda1_dot_xi2) {
+    return std::abs(lambda1 * kappa1 - 0.5 * grad_lambda1_dot_xi2) / lambda2;
+}
+
+double strain_deviation_area_preserving(double lambda2, double kappa1, double grad_lambda2_dot_xi2) {
+    return std::abs(grad_lambda2_dot_xi2 + 2.0 * lambda2 * kappa1) / (2.0 * lambda2 * lambda2 * lambda2);
+}
+
+std::vector<double> strain_deviation_field(const CauchyGreenField &cg, const StrainDerivatives &d) {
+    std::vector<double> out(cg.grid.size(), nan_value);
+    for (std::size_t p = 0; p < out.size(); ++p) {
+        if (!d.valid[p]) continue;
+        const double g1 = d.dlambda1_dx[p] * cg.xi2_x[p] + d.dlambda1_dy[p] * cg.xi2_y[p];
+        out[p] = strain_deviation(cg.lambda1[p], cg.lambda2[p], d.kappa1[p], g1);
+    }
+    return out;
+}
+
+std::vector<std::uint8_t> singular_mask(const CauchyGreenField &cg, double gap) {
+    std::vector<std::uint8_t> out(cg.grid.size(), 0);
+    for (std::size_t p = 0; p < out.size(); ++p) {
+        const double l1 = cg.lambda1[p], l2 = cg.lambda2[p];
+        // As a ratio, so that a lambda2 that overflowed to +Inf (long horizons) counts as strongly anisotropic.
+        out[p] = (cg.mask[p] != 0 || std::isnan(l1) || std::isnan(l2) || l1 >= (1.0 - gap) * l2) ? 1 : 0;
+    }
+    return out;
+}
+
+Grid grid_of(const gb_extract_input &input) {
+    Grid g;
+    g.x_min = input.x_min;
+    g.x_max = input.x_max;
+    g.y_min = input.y_min;
+    g.y_max = input.y_max;
+    g.nx = static_cast<std::size_t>(input.nx);
+    g.ny = static_cast<std::size_t>(input.ny);
+    return g;
+}
+
+const double *find_field(const gb_extract_input &input, const char *name) {
+    for (std::uint32_t k = 0; k < input.field_count; ++k)
+        if (input.fields[k].name && std::strcmp(input.fields[k].name, name) == 0) return input.fields[k].data;
+    return nullptr;
+}
+
+CauchyGreenField cauchy_green_from_input(const gb_extract_input &input) {
+    CauchyGreenField cg;
+    cg.grid = grid_of(input);
+    const std::size_t n = cg.grid.size();
+    auto need = [&](const char *name) {
+        const double *p = find_field(input, name);
+        if (!p) throw std::invalid_argument(std::string("the core did not hand over the field \"") + name + "\"");
+        return std::vector<double>(p, p + n);
+    };
+    cg.lambda1 = need("lambda1");
+    cg.lambda2 = need("lambda2");
+    cg.xi1_x = need("xi1_x");
+    cg.xi1_y = need("xi1_y");
+    cg.xi2_x.resize(n);
+    cg.xi2_y.resize(n);
+    for (std::size_t p = 0; p < n; ++p) { // xi2 = Omega xi1 (paper, section 2.2)
+        cg.xi2_x[p] = -cg.xi1_y[p];
+        cg.xi2_y[p] = cg.xi1_x[p];
+    }
+    cg.mask.assign(input.mask, input.mask + n);
+    for (std::uint8_t m : cg.mask)
+        if (m & mask_degenerate) ++cg.degenerate_count;
+    if (const double *f = find_field(input, "ftle")) {
+        cg.ftle.assign(f, f + n);
+    } else {
+        const double abs_t = std::abs(input.t1 - input.t0);
+        cg.ftle.resize(n);
+        for (std::size_t p = 0; p < n; ++p) cg.ftle[p] = std::log(cg.lambda2[p]) / (2.0 * abs_t);
+    }
+    return cg;
+}
+
+const char *to_string(LineStatus status) {
+    switch (status) {
+    case LineStatus::ok:
+        return "ok";
+    case LineStatus::outside:
+        return "outside";
+    case LineStatus::masked:
+        return "masked";
+    case LineStatus::singular:
+        return "singular";
+    }
+    return "?";
+}
+
+LineField::LineField(const Grid &grid, std::vector<double> vx, std::vector<double> vy, std::vector<std::uint8_t> masked,
+                     std::vector<std::uint8_t> undefined)
+    : m_grid(grid), m_vx(std::move(vx)), m_vy(std::move(vy)), m_state(grid.size(), 0) {
+    const std::size_t n = grid.size();
+    if (m_vx.size() != n || m_vy.size() != n || (!masked.empty() && masked.size() != n) ||
+        (!undefined.empty() && undefined.size() != n))
+        throw std::invalid_argument("LineField: every array must have nx * ny entries");
+    for (std::size_t p = 0; p < n; ++p) {
+        const double norm = std::hypot(m_vx[p], m_vy[p]);
+        if (!masked.empty() && masked[p]) {
+            m_state[p] = 1;
+        } else if ((!undefined.empty() && undefined[p]) || !std::isfinite(norm) || norm == 0.0) {
+            m_state[p] = 2;
+        } else {
+            m_vx[p] /= norm;
+            m_vy[p] /= norm;
+        }
+    }
+}
+
+LineField LineField::from_cauchy_green(const CauchyGreenField &cg, int which, double gap) {
+    if (which != 1 && which != 2) throw std::invalid_argument("LineField::from_cauchy_green: which must be 1 or 2");
+    std::vector<std::uint8_t> masked(cg.grid.size(), 0);
+    for (std::size_t p = 0; p < masked.size(); ++p) masked[p] = (cg.mask[p] & mask_trajectory_bits) ? 1 : 0;
+    return LineField(cg.grid, which == 1 ? cg.xi1_x : cg.xi2_x, which == 1 ? cg.xi1_y : cg.xi2_y, std::move(masked),
+                     singular_mask(cg, gap));
+}
+
+namespace {
+
+// The cell holding (x, y) and the local coordinates in it; false outside the box.
+bool locate(const Grid &g, double x, double y, std::size_t &i, std::size_t &j, double &u, double &v) {
+    if (!(x >= g.x_min && x <= g.x_max && y >= g.y_min && y <= g.y_max)) return false;
+    const double fx = (x - g.x_min) / g.dx(), fy = (y - g.y_min) / g.dy();
+    j = std::min(static_cast<std::size_t>(fx), g.nx - 2);
+    i = std::min(static_cast<std::size_t>(fy), g.ny - 2);
+    u = fx - static_cast<double>(j);
+    v = fy - static_cast<double>(i);
+    return true;
+}
+
+} // namespace
+
+LineStatus LineField::status_at(double x, double y) const {
+    std::size_t i, j;
+    double u, v;
+    if (!locate(m_grid, x, y, i, j, u, v)) return LineStatus::outside;
+    const std::size_t corners[4] = {i * m_grid.nx + j, i * m_grid.nx + j + 1, (i + 1) * m_grid.nx + j,
+                                    (i + 1) * m_grid.nx + j + 1};
+    LineStatus s = LineStatus::ok;
+    for (std::size_t c : corners) {
+        if (m_state[c] == 1) return LineStatus::masked;
+        if (m_state[c] == 2) s = LineStatus::singular;
+    }
+    return s;
+}
+
+LineStatus LineField::evaluate(double x, double y, double ref_x, double ref_y, double &vx, double &vy) const {
+    std::size_t i, j;
+    double u, v;
+    if (!locate(m_grid, x, y, i, j, u, v)) return LineStatus::outside;
+    const std::size_t corners[4] = {i * m_grid.nx + j, i * m_grid.nx + j + 1, (i + 1) * m_grid.nx + j,
+                                    (i + 1) * m_grid.nx + j + 1};
+    const double weights[4] = {(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v};
+    LineStatus s = LineStatus::ok;
+    for (std::size_t c : corners) {
+        if (m_state[c] == 1) return LineStatus::masked;
+        if (m_state[c] == 2) s = LineStatus::singular;
+    }
+    if (s != LineStatus::ok) return s;
+    // Without a reference, align to the corner with the largest weight.
+    if (!(ref_x * ref_x + ref_y * ref_y > 0.0) || !std::isfinite(ref_x) || !std::isfinite(ref_y)) {
+        std::size_t best = 0;
+        for (std::size_t k = 1; k < 4; ++k)
+            if (weights[k] > weights[best]) best = k;
+        ref_x = m_vx[corners[best]];
+        ref_y = m_vy[corners[best]];
+    }
+    double sx = 0.0, sy = 0.0;
+    for (std::size_t k = 0; k < 4; ++k) {
+        const std::size_t c = corners[k];
+        const double sign = m_vx[c] * ref_x + m_vy[c] * ref_y < 0.0 ? -1.0 : 1.0;
+        sx += weights[k] * sign * m_vx[c];
+        sy += weights[k] * sign * m_vy[c];
+    }
+    const double norm = std::hypot(sx, sy);
+    if (!(norm >= min_interpolated_norm)) return LineStatus::singular;
+    vx = sx / norm;
+    vy = sy / norm;
+    return LineStatus::ok;
+}
+
+bool LineField::point_vector(std::size_t i, std::size_t j, double &vx, double &vy) const {
+    const std::size_t p = i * m_grid.nx + j;
+    vx = m_vx[p];
+    vy = m_vy[p];
+    return m_state[p] == 0;
+}
+
+} // namespace geobarrier

@@ -1,0 +1,507 @@
+// The `hyperbolic` BarrierExtractor: the paper's Algorithm 1 (section 2.2). Strainlines r' = xi1(r) (eq. `strline`)
+// seeded on a lattice, truncated to segments where the geodesic strain deviation (eq. `gdev_str`, general form)
+// stays below max_deviation, ranked by relative stretching q = l(gamma_t1) / l(gamma_t0) (eq. `rel_stretch`); the
+// local minima of q are the barriers: repelling for t1 > t0, attracting for t1 < t0. Links the core's C++ library
+// for line fields, tensor lines, curve advection and pictures.
+#include <geobarrier/cauchy_green.hpp>
+#include <geobarrier/curves.hpp>
+#include <geobarrier/line_field.hpp>
+#include <geobarrier/output.hpp>
+#include <geobarrier/sdk.hpp>
+#include <geobarrier/tensor_lines.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <numeric>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace {
+
+using namespace geobarrier;
+using geobarrier::sdk::bool_param;
+using geobarrier::sdk::integer_param;
+using geobarrier::sdk::real_param;
+using geobarrier::sdk::string_param;
+
+constexpr double nan_value = std::numeric_limits<double>::quiet_NaN();
+
+// A strainline at t0, with what the picture and the selection need. For the opposite-time route, xy_t1 holds the
+// matching points of the stretchline at t1 whose image it is.
+struct Strainline {
+    std::vector<double> xy, xy_t1;
+    std::vector<double> deviation; // d_g^xi1 at each point (NaN outside the usable field)
+};
+
+// A compact strainline segment with d_g^xi1 < max_deviation at every point: a barrier candidate.
+struct Segment {
+    std::size_t line = 0;            // the strainline it came from
+    std::size_t first = 0, last = 0; // its points in that strainline
+    std::vector<double> xy;
+    double length = 0.0;           // l(gamma_t0)
+    double stretched_length = 0.0; // l(gamma_t1): int sqrt(lambda1) ds (direct) or the t1 length (opposite-time)
+    double q = 0.0;
+    double mean_deviation = 0.0, max_deviation = 0.0;
+    double mid_x = 0.0, mid_y = 0.0; // the point at half its arc length
+};
+
+std::string format(double v) {
+    std::ostringstream s;
+    s.precision(4);
+    s << v;
+    return s.str();
+}
+
+// Buckets of points for "which segments pass within r of this point" queries.
+class PointIndex {
+  public:
+    PointIndex(const Grid &box, double r) : m_r(r), m_x0(box.x_min), m_y0(box.y_min) {
+        m_nx = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil((box.x_max - box.x_min) / r)) + 1);
+        m_ny = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil((box.y_max - box.y_min) / r)) + 1);
+        m_buckets.resize(m_nx * m_ny);
+    }
+    void add(double x, double y, std::size_t id) {
+        std::size_t b;
+        if (bucket(x, y, b)) m_buckets[b].push_back({x, y, id});
+    }
+    // Calls visit(id) once per point within r of (x, y) (ids may repeat).
+    template <class Visit> void near(double x, double y, Visit &&visit) const {
+        const long bx = static_cast<long>(std::floor((x - m_x0) / m_r)),
+                   by = static_cast<long>(std::floor((y - m_y0) / m_r));
+        for (long j = by - 1; j <= by + 1; ++j)
+            for (long i = bx - 1; i <= bx + 1; ++i) {
+                if (i < 0 || j < 0 || i >= static_cast<long>(m_nx) || j >= static_cast<long>(m_ny)) continue;
+                for (const Entry &e : m_buckets[static_cast<std::size_t>(j) * m_nx + static_cast<std::size_t>(i)])
+                    if (std::hypot(e.x - x, e.y - y) <= m_r) visit(e.id);
+            }
+    }
+
+  private:
+    struct Entry {
+        double x, y;
+        std::size_t id;
+    };
+    bool bucket(double x, double y, std::size_t &b) const {
+        const double fx = std::floor((x - m_x0) / m_r), fy = std::floor((y - m_y0) / m_r);
+        if (!(fx >= 0 && fy >= 0 && fx < static_cast<double>(m_nx) && fy < static_cast<double>(m_ny))) return false;
+        b = static_cast<std::size_t>(fy) * m_nx + static_cast<std::size_t>(fx);
+        return true;
+    }
+    double m_r, m_x0, m_y0;
+    std::size_t m_nx = 1, m_ny = 1;
+    std::vector<std::vector<Entry>> m_buckets;
+};
+
+struct Hyperbolic {
+    static constexpr const char *name = "hyperbolic";
+    static constexpr const char *version = "1.0.0";
+    static constexpr const char *doc = "hyperbolic barriers (paper Alg. 1): least-stretching strainline segments; "
+                                       "repelling for forward time, attracting for backward time";
+    static constexpr const char *required_fields[] = {"lambda1", "lambda2",          "xi1_x", "xi1_y",
+                                                      "ftle",    "strain_deviation", nullptr};
+    static constexpr gb_param_spec params[] = {
+        real_param("max_deviation", 1e-3, 0.0, HUGE_VAL, "1/state",
+                   "epsilon: strainlines are truncated where d_g^xi1 >= this (paper: 1e-3, 1e-5)"),
+        integer_param("seed_spacing", 8, 1, 1e6, "grid cells between neighbouring seeds of the seed lattice"),
+        real_param("max_length", 0.0, 0.0, HUGE_VAL, "state",
+                   "longest strainline, per direction from its seed; 0 = 4 box diagonals"),
+        real_param("min_length", 0.0, 0.0, HUGE_VAL, "state",
+                   "segments shorter than this are no candidates; 0 = 1/10 of the box diagonal"),
+        real_param("neighbour_distance", 0.0, 0.0, HUGE_VAL, "state",
+                   "neighbours of a segment pass within this of its midpoint; 0 = 1/50 of the box diagonal"),
+        integer_param("max_barriers", 0, 0, 1e9, "report at most this many barriers, least q first; 0 = all"),
+        real_param("singular_gap", default_singular_gap, 0.0, 0.999, "",
+                   "points with lambda2 - lambda1 <= singular_gap lambda2 are singular: strainlines stop there"),
+        string_param("route", "direct", "direct|opposite-time",
+                     "direct: integrate xi1 at t0; opposite-time: advect stretchlines of the opposite-time "
+                     "Cauchy-Green tensor from t1 to t0 (paper, section 2.2, last paragraph)"),
+        bool_param("validate", true, "advect every barrier to t1 with point insertion and report its true length"),
+        real_param("max_gap_fraction", 0.005, 1e-6, 0.5, "",
+                   "curve advection: no gap in an image longer than this fraction of the image's size"),
+    };
+
+    explicit Hyperbolic(const sdk::Params &p)
+        : m_epsilon(p.real("max_deviation")), m_seed_spacing(static_cast<std::size_t>(p.integer("seed_spacing"))),
+          m_max_length(p.real("max_length")), m_min_length(p.real("min_length")),
+          m_neighbour_distance(p.real("neighbour_distance")),
+          m_max_barriers(static_cast<std::size_t>(p.integer("max_barriers"))), m_singular_gap(p.real("singular_gap")),
+          m_route(p.string("route")), m_validate(p.flag("validate")), m_max_gap_fraction(p.real("max_gap_fraction")) {}
+
+    void extract(const sdk::Host &host, const gb_extract_input &in) const;
+
+    double m_epsilon;
+    std::size_t m_seed_spacing;
+    double m_max_length, m_min_length, m_neighbour_distance;
+    std::size_t m_max_barriers;
+    double m_singular_gap;
+    std::string m_route;
+    bool m_validate;
+    double m_max_gap_fraction;
+
+  private:
+    std::vector<Strainline> direct_strainlines(const sdk::Host &host, const CauchyGreenField &cg,
+                                               const std::vector<double> &deviation, double max_length) const;
+    std::vector<Strainline> opposite_time_strainlines(const sdk::Host &host, const gb_extract_input &in,
+                                                      const std::vector<double> &deviation, double max_length) const;
+};
+
+// The seed lattice: every seed_spacing-th grid point, offset by half a spacing from the edges, in the given field's
+// usable cells and (when `deviation` is given) where d_g^xi1 < epsilon, since a seed above it would be cut away.
+std::vector<double> seed_lattice(const Grid &g, std::size_t spacing, const LineField &field,
+                                 const std::vector<double> *deviation, double epsilon) {
+    std::vector<double> seeds;
+    const double h = static_cast<double>(spacing);
+    for (double fi = 0.5 * h; fi <= static_cast<double>(g.ny - 1); fi += h)
+        for (double fj = 0.5 * h; fj <= static_cast<double>(g.nx - 1); fj += h) {
+            const double x = g.x_min + fj * g.dx(), y = g.y_min + fi * g.dy();
+            if (field.status_at(x, y) != LineStatus::ok) continue;
+            if (deviation) {
+                const double d = sample_field(g, *deviation, {}, x, y);
+                if (!(d < epsilon)) continue;
+            }
+            seeds.push_back(x);
+            seeds.push_back(y);
+        }
+    return seeds;
+}
+
+std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, const CauchyGreenField &cg,
+                                                       const std::vector<double> &deviation, double max_length) const {
+    const LineField xi1 = LineField::from_cauchy_green(cg, 1, m_singular_gap);
+    const std::vector<double> seeds = seed_lattice(cg.grid, m_seed_spacing, xi1, &deviation, m_epsilon);
+    const std::size_t n = seeds.size() / 2;
+    host.info("" + std::to_string(n) + " strainline seeds (every " + std::to_string(m_seed_spacing) +
+              " grid cells, where d_g < " + format(m_epsilon) + ")");
+    TensorLineSettings settings;
+    settings.max_length = max_length;
+    settings.detect_closure = true;
+    std::vector<Strainline> lines(n);
+    const std::size_t block = 64;
+    for (std::size_t start = 0; start < n; start += block) {
+        const std::size_t end = std::min(n, start + block);
+#pragma omp parallel for schedule(dynamic)
+        for (std::size_t k = start; k < end; ++k) {
+            const TwoWayLine t = integrate_tensor_line_both_ways(xi1, seeds[2 * k], seeds[2 * k + 1], settings);
+            lines[k].xy = t.xy;
+            lines[k].deviation = sample_along(cg.grid, deviation, {}, t.xy);
+        }
+        if (host.progress(0.6 * static_cast<double>(end) / static_cast<double>(std::max<std::size_t>(n, 1))))
+            throw std::runtime_error("stopped by the user");
+    }
+    return lines;
+}
+
+std::vector<Strainline> Hyperbolic::opposite_time_strainlines(const sdk::Host &host, const gb_extract_input &in,
+                                                              const std::vector<double> &deviation,
+                                                              double max_length) const {
+    // Stretchlines of the opposite-time tensor C_{t1}^{t0} (tangent to its xi2) at t1, advected to t0, are
+    // strainlines of C_{t0}^{t1} (Farazmand & Haller 2012), and more accurate than integrating xi1 at t0 because
+    // xi2 is the attracting, well-conditioned eigenvector. The t1 grid is the t0 grid's box and resolution.
+    const Grid g = grid_of(in);
+    const std::size_t n = g.size();
+    std::vector<double> xy(2 * n);
+    for (std::size_t i = 0; i < g.ny; ++i)
+        for (std::size_t j = 0; j < g.nx; ++j) {
+            xy[2 * (i * g.nx + j)] = g.x(j);
+            xy[2 * (i * g.nx + j) + 1] = g.y(i);
+        }
+    std::vector<double> image, dF;
+    std::vector<std::uint8_t> mask;
+    host.info("opposite-time Cauchy-Green tensor on the grid at t1 = " + format(in.t1));
+    host.advect(xy, in.t1, in.t0, image, mask, &dF);
+    if (host.progress(0.2)) throw std::runtime_error("stopped by the user");
+    CauchyGreenField cg = cauchy_green_field(g, dF, mask, std::abs(in.t0 - in.t1));
+    const LineField xi2 = LineField::from_cauchy_green(cg, 2, m_singular_gap);
+    const std::vector<double> seeds = seed_lattice(g, m_seed_spacing, xi2, nullptr, 0.0);
+    const std::size_t count = seeds.size() / 2;
+    host.info("" + std::to_string(count) + " stretchline seeds at t1");
+    // Stretchlines at t1 are short: their images are stretched by about sqrt(lambda2). Each direction runs until
+    // its estimated image length int sqrt(lambda2) ds reaches max_length (checked after integration by truncating).
+    TensorLineSettings settings;
+    settings.max_length = max_length;
+    std::vector<std::vector<double>> stretchlines(count);
+    std::vector<double> sqrt_l2(n);
+    for (std::size_t p = 0; p < n; ++p) sqrt_l2[p] = std::sqrt(cg.lambda2[p]);
+#pragma omp parallel for schedule(dynamic)
+    for (std::size_t k = 0; k < count; ++k) {
+        const TwoWayLine t = integrate_tensor_line_both_ways(xi2, seeds[2 * k], seeds[2 * k + 1], settings);
+        // Keep the part around the seed whose predicted image length stays within max_length each way.
+        const std::vector<double> stretch = sample_along(g, sqrt_l2, cg.mask, t.xy);
+        std::size_t lo = t.seed_index, hi = t.seed_index;
+        double grown = 0.0;
+        while (hi + 1 < t.size() && grown < max_length) {
+            const double f = std::isfinite(stretch[hi]) && std::isfinite(stretch[hi + 1])
+                                 ? 0.5 * (stretch[hi] + stretch[hi + 1])
+                                 : 0.0;
+            grown += f * (t.s[hi + 1] - t.s[hi]);
+            ++hi;
+        }
+        grown = 0.0;
+        while (lo > 0 && grown < max_length) {
+            const double f = std::isfinite(stretch[lo]) && std::isfinite(stretch[lo - 1])
+                                 ? 0.5 * (stretch[lo] + stretch[lo - 1])
+                                 : 0.0;
+            grown += f * (t.s[lo] - t.s[lo - 1]);
+            --lo;
+        }
+        stretchlines[k].assign(t.xy.begin() + 2 * lo, t.xy.begin() + 2 * (hi + 1));
+    }
+    if (host.progress(0.3)) throw std::runtime_error("stopped by the user");
+    // Advect every stretchline to t0 with point insertion, all curves' new points in one call per round.
+    const AdvectPointsFn advect = [&](const std::vector<double> &pts, std::vector<double> &out,
+                                      std::vector<std::uint8_t> &m) { host.advect(pts, in.t1, in.t0, out, m); };
+    CurveAdvectionSettings cs;
+    cs.max_gap_fraction = m_max_gap_fraction;
+    cs.max_points = 20000;
+    std::vector<Strainline> lines;
+    std::vector<std::vector<double>> usable;
+    for (auto &s : stretchlines)
+        if (s.size() >= 4) usable.push_back(std::move(s));
+    const std::vector<AdvectedCurve> images =
+        advect_curves(usable, std::vector<bool>(usable.size(), false), advect, cs);
+    // An image is split where two consecutive points are more than two grid cells apart: there the insertion ran
+    // out of budget or a masked trajectory was dropped, and the chord between them is no strainline.
+    const double split_gap = 2.0 * std::max(g.dx(), g.dy());
+    for (const AdvectedCurve &a : images) {
+        const std::size_t m = a.xy1.size() / 2;
+        std::size_t first = 0;
+        for (std::size_t k = 1; k <= m; ++k) {
+            if (k < m && std::hypot(a.xy1[2 * k] - a.xy1[2 * k - 2], a.xy1[2 * k + 1] - a.xy1[2 * k - 1]) <= split_gap)
+                continue;
+            if (k - first >= 2) {
+                Strainline l;
+                l.xy.assign(a.xy1.begin() + 2 * first, a.xy1.begin() + 2 * k);
+                l.xy_t1.assign(a.xy0.begin() + 2 * first, a.xy0.begin() + 2 * k);
+                l.deviation = sample_along(g, deviation, {}, l.xy);
+                lines.push_back(std::move(l));
+            }
+            first = k;
+        }
+    }
+    if (host.progress(0.6)) throw std::runtime_error("stopped by the user");
+    return lines;
+}
+
+void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) const {
+    const auto started = std::chrono::steady_clock::now();
+    const CauchyGreenField cg = cauchy_green_from_input(in);
+    const Grid &g = cg.grid;
+    const double *dev_data = find_field(in, "strain_deviation");
+    if (!dev_data) throw std::invalid_argument("the core did not hand over the field \"strain_deviation\"");
+    const std::vector<double> deviation(dev_data, dev_data + g.size());
+    const double diagonal = std::hypot(g.x_max - g.x_min, g.y_max - g.y_min);
+    const double max_length = m_max_length > 0 ? m_max_length : 4.0 * diagonal;
+    const double min_length = m_min_length > 0 ? m_min_length : 0.1 * diagonal;
+    const double radius = m_neighbour_distance > 0 ? m_neighbour_distance : 0.02 * diagonal;
+    const bool backward = in.t1 < in.t0;
+    const bool opposite = m_route == "opposite-time";
+
+    // 1. Strainlines, with d_g^xi1 along them.
+    const std::vector<Strainline> lines = opposite ? opposite_time_strainlines(host, in, deviation, max_length)
+                                                   : direct_strainlines(host, cg, deviation, max_length);
+
+    // 2. Truncation to compact segments with d_g^xi1 < epsilon at every point (Alg. 1, step 2), and relative
+    // stretching q = l(gamma_t1) / l(gamma_t0) (eq. `rel_stretch`); directly l(gamma_t1) = int sqrt(lambda1) ds.
+    std::vector<double> log_lambda1(g.size());
+    for (std::size_t p = 0; p < g.size(); ++p) log_lambda1[p] = std::log(cg.lambda1[p]);
+    std::vector<Segment> candidates;
+    std::size_t short_segments = 0;
+    for (std::size_t l = 0; l < lines.size(); ++l) {
+        const Strainline &line = lines[l];
+        const std::size_t n = line.xy.size() / 2;
+        std::size_t k = 0;
+        while (k < n) {
+            while (k < n && !(line.deviation[k] < m_epsilon)) ++k;
+            const std::size_t first = k;
+            while (k < n && line.deviation[k] < m_epsilon) ++k;
+            if (k - first < 2) continue;
+            Segment s;
+            s.line = l;
+            s.first = first;
+            s.last = k - 1;
+            s.xy.assign(line.xy.begin() + 2 * first, line.xy.begin() + 2 * k);
+            s.length = polyline_length(s.xy);
+            if (s.length < min_length) {
+                ++short_segments;
+                continue;
+            }
+            const std::vector<double> dev(line.deviation.begin() + first, line.deviation.begin() + k);
+            const CurveStats ds = curve_statistics(s.xy, dev);
+            s.mean_deviation = ds.mean;
+            s.max_deviation = ds.max;
+            if (opposite) {
+                s.stretched_length =
+                    polyline_length(std::vector<double>(line.xy_t1.begin() + 2 * first, line.xy_t1.begin() + 2 * k));
+            } else {
+                // Interpolating log(lambda1) is exact for exponential variation across a cell.
+                std::vector<double> root = sample_along(g, log_lambda1, cg.mask, s.xy);
+                for (double &v : root) v = std::exp(0.5 * v);
+                const CurveStats rs = curve_statistics(s.xy, root);
+                if (rs.covered_length < 0.999 * s.length) continue; // sqrt(lambda1) unknown on part of it
+                s.stretched_length = rs.integral;
+            }
+            s.q = s.stretched_length / s.length;
+            const std::vector<double> c = cumulative_length(s.xy);
+            const std::size_t mid =
+                static_cast<std::size_t>(std::lower_bound(c.begin(), c.end(), 0.5 * s.length) - c.begin());
+            s.mid_x = s.xy[2 * std::min(mid, c.size() - 1)];
+            s.mid_y = s.xy[2 * std::min(mid, c.size() - 1) + 1];
+            if (std::isfinite(s.q)) candidates.push_back(std::move(s));
+        }
+    }
+    host.info("" + std::to_string(lines.size()) + " strainlines, " + std::to_string(candidates.size()) +
+              " segments with d_g < " + format(m_epsilon) + " at least " + format(min_length) + " long (" +
+              std::to_string(short_segments) + " shorter ones left out)");
+    if (host.progress(0.7)) throw std::runtime_error("stopped by the user");
+
+    // 3. Local minima of q (Alg. 1, step 3). Neighbours of a segment: the other segments passing within `radius`
+    // of its midpoint (they cross a disc around it, so they run beside it). A segment is a local minimum when no
+    // neighbour has a smaller q. Minima that are neighbours of each other (the same barrier found from several
+    // seeds) are thinned to the least q, visiting them in order of increasing q (ties: the longer first).
+    PointIndex index(g, radius);
+    for (std::size_t c = 0; c < candidates.size(); ++c)
+        for (std::size_t k = 0; k < candidates[c].xy.size() / 2; ++k)
+            index.add(candidates[c].xy[2 * k], candidates[c].xy[2 * k + 1], c);
+    std::vector<std::size_t> minima;
+    for (std::size_t c = 0; c < candidates.size(); ++c) {
+        bool minimal = true;
+        index.near(candidates[c].mid_x, candidates[c].mid_y, [&](std::size_t d) {
+            if (d != c && candidates[d].q < candidates[c].q) minimal = false;
+        });
+        if (minimal) minima.push_back(c);
+    }
+    std::sort(minima.begin(), minima.end(), [&](std::size_t a, std::size_t b) {
+        if (candidates[a].q != candidates[b].q) return candidates[a].q < candidates[b].q;
+        return candidates[a].length > candidates[b].length;
+    });
+    std::vector<std::size_t> barriers;
+    PointIndex kept(g, radius);
+    for (std::size_t c : minima) {
+        bool taken = false;
+        kept.near(candidates[c].mid_x, candidates[c].mid_y, [&](std::size_t) { taken = true; });
+        if (taken) continue;
+        barriers.push_back(c);
+        for (std::size_t k = 0; k < candidates[c].xy.size() / 2; ++k)
+            kept.add(candidates[c].xy[2 * k], candidates[c].xy[2 * k + 1], c);
+        if (m_max_barriers > 0 && barriers.size() >= m_max_barriers) break;
+    }
+    host.info("" + std::to_string(minima.size()) + " local minima of q, " + std::to_string(barriers.size()) +
+              " barriers after thinning (neighbour distance " + format(radius) + ")");
+
+    // 4. Check the shortcut: advect each barrier to t1 with point insertion and compare lengths.
+    std::vector<AdvectedCurve> advected;
+    if (m_validate && !barriers.empty()) {
+        const AdvectPointsFn advect = [&](const std::vector<double> &pts, std::vector<double> &out,
+                                          std::vector<std::uint8_t> &m) { host.advect(pts, in.t0, in.t1, out, m); };
+        CurveAdvectionSettings cs;
+        cs.max_gap_fraction = m_max_gap_fraction;
+        std::vector<std::vector<double>> curves;
+        for (std::size_t c : barriers) curves.push_back(candidates[c].xy);
+        advected = advect_curves(curves, std::vector<bool>(curves.size(), false), advect, cs);
+    }
+    if (host.progress(0.9)) throw std::runtime_error("stopped by the user");
+
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    for (std::size_t b = 0; b < barriers.size(); ++b) {
+        const Segment &s = candidates[barriers[b]];
+        std::vector<std::pair<std::string, double>> metrics = {
+            {"length", s.length},
+            {"relative_stretching", s.q},
+            {"stretched_length", s.stretched_length},
+            {"mean_geodesic_deviation", s.mean_deviation},
+            {"max_geodesic_deviation", s.max_deviation},
+            {backward ? "attracting" : "repelling", 1.0},
+            {"global_minimum", b == 0 ? 1.0 : 0.0},
+            {"rank", static_cast<double>(b + 1)},
+        };
+        if (!advected.empty()) {
+            const AdvectedCurve &a = advected[b];
+            metrics.push_back({"advected_length", a.length1});
+            metrics.push_back({"advected_relative_stretching", a.length1 / a.length0});
+            metrics.push_back({"advected_points", static_cast<double>(a.xy1.size() / 2)});
+            metrics.push_back({"advection_converged", a.converged ? 1.0 : 0.0});
+        }
+        if (b == 0) metrics.push_back({"extraction_seconds", elapsed});
+        host.add_barrier("hyperbolic", false, s.xy, metrics);
+    }
+    if (!barriers.empty()) {
+        const Segment &s = candidates[barriers[0]];
+        std::string line = "global minimum q = " + format(s.q) + ", length " + format(s.length);
+        if (!advected.empty())
+            line += "; advected length " + format(advected[0].length1) + " vs int sqrt(lambda1) ds " +
+                    format(s.stretched_length);
+        host.info(line);
+    } else {
+        host.warn("no barrier found; try a smaller min_length, a larger max_deviation or a denser seed "
+                  "lattice");
+    }
+
+    // 5. Pictures: the FTLE with the barriers, and the paper's figure strainline-ex2 (all strainlines grey, the
+    // least-stretching barrier red, the points of its strainline above max_deviation black).
+    if (!in.plots) return;
+    const std::filesystem::path folder(in.output_dir);
+    const std::string which = backward ? "attracting" : "repelling";
+    FieldPlot fp;
+    fp.title = "FTLE and " + which + " hyperbolic barriers, t = " + format(in.t0) + " to " + format(in.t1);
+    fp.colorbar_label = "FTLE";
+    for (std::size_t b = barriers.size(); b-- > 0;) {
+        PlotCurve c;
+        c.xy = candidates[barriers[b]].xy;
+        c.color = b == 0 ? "red" : "white";
+        c.width = b == 0 ? 3.0 : 1.5;
+        fp.curves.push_back(c);
+    }
+    plot_field_png(folder / "barriers.png", g, cg.ftle, cg.mask, fp);
+
+    XYPlot xp;
+    xp.title = "strainlines (grey), least-stretching barrier (red), d_g > " + format(m_epsilon) + " (black)";
+    xp.x_label = "x";
+    xp.y_label = "y";
+    xp.equal_aspect = true;
+    xp.x_range = std::make_pair(g.x_min, g.x_max);
+    xp.y_range = std::make_pair(g.y_min, g.y_max);
+    const std::size_t stride = std::max<std::size_t>(1, lines.size() / 1500);
+    for (std::size_t l = 0; l < lines.size(); l += stride) {
+        PlotSeries s;
+        s.xy = lines[l].xy;
+        s.color = "#b0b0b0";
+        s.width = 0.5;
+        xp.series.push_back(std::move(s));
+    }
+    if (!barriers.empty()) {
+        const Segment &best = candidates[barriers[0]];
+        const Strainline &parent = lines[best.line];
+        PlotSeries full;
+        full.xy = parent.xy;
+        full.color = "red";
+        full.width = 1.0;
+        xp.series.push_back(full);
+        PlotSeries seg;
+        seg.xy = best.xy;
+        seg.color = "red";
+        seg.width = 3.0;
+        seg.label = "barrier, q = " + format(best.q);
+        xp.series.push_back(seg);
+        PlotSeries above;
+        above.style = PlotSeries::Style::points;
+        above.color = "black";
+        above.marker_px = 3.0;
+        above.label = "d_g > epsilon";
+        for (std::size_t k = 0; k < parent.deviation.size(); ++k)
+            if (!(parent.deviation[k] < m_epsilon) && std::isfinite(parent.xy[2 * k])) {
+                above.xy.push_back(parent.xy[2 * k]);
+                above.xy.push_back(parent.xy[2 * k + 1]);
+            }
+        if (!above.xy.empty()) xp.series.push_back(above);
+    }
+    plot_xy_png(folder / "strainlines.png", xp);
+}
+
+} // namespace
+
+GEOBARRIER_PLUGINS(geobarrier::sdk::extractor<Hyperbolic>())

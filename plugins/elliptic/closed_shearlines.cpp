@@ -1,0 +1,390 @@
+// Candidate elliptic regions from the CG line field's singularities, Poincaré sections across them, the return
+// map of shearlines and its fixed points (paper Alg. 2, steps 2-3, with the regions found automatically).
+#include "closed_shearlines.hpp"
+
+#include <geobarrier/curves.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace geobarrier::elliptic {
+
+namespace {
+
+constexpr double nan_value = std::numeric_limits<double>::quiet_NaN();
+constexpr double pi = 3.14159265358979323846;
+
+double grid_spacing(const Grid &g) { return std::min(g.dx(), g.dy()); }
+
+bool inside(const Grid &g, double x, double y) { return x >= g.x_min && x <= g.x_max && y >= g.y_min && y <= g.y_max; }
+
+} // namespace
+
+double Section::length() const { return std::hypot(x1 - x0, y1 - y0); }
+
+void Section::point(double sigma, double &x, double &y) const {
+    x = x0 + sigma * (x1 - x0);
+    y = y0 + sigma * (y1 - y0);
+}
+
+double otsu_threshold(const std::vector<double> &values) {
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    std::size_t count = 0;
+    for (double v : values)
+        if (std::isfinite(v)) {
+            lo = std::min(lo, v);
+            hi = std::max(hi, v);
+            ++count;
+        }
+    if (count == 0) return nan_value;
+    if (!(hi > lo)) return hi;
+    constexpr int bins = 256;
+    std::vector<double> hist(bins, 0.0);
+    for (double v : values)
+        if (std::isfinite(v)) hist[std::min(bins - 1, static_cast<int>((v - lo) / (hi - lo) * bins))] += 1.0;
+    double total_moment = 0.0;
+    for (int b = 0; b < bins; ++b) total_moment += b * hist[b];
+    double weight_low = 0.0, moment_low = 0.0, best = -1.0;
+    int best_bin = 0;
+    for (int b = 0; b < bins; ++b) {
+        weight_low += hist[b];
+        moment_low += b * hist[b];
+        const double weight_high = static_cast<double>(count) - weight_low;
+        if (weight_low == 0.0 || weight_high == 0.0) continue;
+        const double mean_low = moment_low / weight_low, mean_high = (total_moment - moment_low) / weight_high;
+        const double between = weight_low * weight_high * (mean_low - mean_high) * (mean_low - mean_high);
+        if (between > best) {
+            best = between;
+            best_bin = b;
+        }
+    }
+    return lo + (best_bin + 1) * (hi - lo) / bins;
+}
+
+std::vector<Candidate> find_candidates(const CauchyGreenField &cg, const CandidateSettings &settings,
+                                       CandidateReport *report) {
+    const Grid &g = cg.grid;
+    const double h = grid_spacing(g);
+    CandidateReport local;
+    CandidateReport &r = report ? *report : local;
+    r = CandidateReport{};
+    r.singularities = tensor_singularities(cg);
+    std::vector<TensorSingularity> resolved;
+    for (const auto &s : r.singularities)
+        if (s.anisotropy < settings.max_anisotropy) resolved.push_back(s);
+    r.resolved = resolved.size();
+
+    std::vector<double> ftle_values;
+    ftle_values.reserve(g.size());
+    for (std::size_t p = 0; p < g.size(); ++p)
+        if (!(cg.mask[p] & mask_trajectory_bits) && std::isfinite(cg.ftle[p])) ftle_values.push_back(cg.ftle[p]);
+    r.ftle_threshold = settings.ftle_threshold > 0.0 ? settings.ftle_threshold : otsu_threshold(ftle_values);
+
+    // Centres: index +1 points, and mutually nearest wedge pairs.
+    std::vector<Candidate> centres;
+    const std::size_t n = resolved.size();
+    std::vector<std::size_t> nearest(n, n);
+    for (std::size_t a = 0; a < n; ++a) {
+        double best = std::numeric_limits<double>::infinity();
+        for (std::size_t b = 0; b < n; ++b) {
+            if (a == b) continue;
+            const double d = std::hypot(resolved[a].x - resolved[b].x, resolved[a].y - resolved[b].y);
+            if (d < best) {
+                best = d;
+                nearest[a] = b;
+            }
+        }
+    }
+    for (std::size_t a = 0; a < n; ++a) {
+        if (resolved[a].twice_index == 2) centres.push_back({resolved[a].x, resolved[a].y, "index +1 point", 0.0, {}});
+        const std::size_t b = nearest[a];
+        if (resolved[a].twice_index == 1 && b < n && b > a && nearest[b] == a && resolved[b].twice_index == 1)
+            centres.push_back(
+                {0.5 * (resolved[a].x + resolved[b].x), 0.5 * (resolved[a].y + resolved[b].y), "wedge pair", 0.0, {}});
+    }
+
+    std::vector<Candidate> out;
+    const double threshold = r.ftle_threshold;
+    auto ftle_at = [&](double x, double y) { return sample_field(g, cg.ftle, cg.mask, x, y, mask_trajectory_bits); };
+    for (Candidate c : centres) {
+        const double f0 = ftle_at(c.x, c.y);
+        if (!(f0 < threshold)) {
+            ++r.rejected_high_ftle;
+            continue;
+        }
+        // Two candidates closer than two grid spacings are one.
+        bool duplicate = false;
+        for (const Candidate &o : out) duplicate = duplicate || std::hypot(o.x - c.x, o.y - c.y) < 2.0 * h;
+        if (duplicate) continue;
+        // The island's reach in each direction: march until the FTLE exceeds the threshold or the data ends.
+        double best_reach = 0.0, best_ux = 1.0, best_uy = 0.0;
+        const std::size_t dirs = std::max<std::size_t>(settings.directions, 1);
+        for (std::size_t k = 0; k < dirs; ++k) {
+            const double theta = 2.0 * pi * static_cast<double>(k) / static_cast<double>(dirs);
+            const double ux = std::cos(theta), uy = std::sin(theta);
+            double reach = 0.0;
+            for (double s = 0.5 * h;; s += 0.5 * h) {
+                const double f = ftle_at(c.x + s * ux, c.y + s * uy);
+                if (!(f < threshold)) break;
+                reach = s;
+            }
+            if (reach > best_reach) {
+                best_reach = reach;
+                best_ux = ux;
+                best_uy = uy;
+            }
+        }
+        if (best_reach < 2.0 * h) continue; // no island to speak of
+        c.reach = best_reach;
+        double len = settings.section_margin * best_reach;
+        // Keep the section inside the box.
+        while (len > best_reach && !inside(g, c.x + len * best_ux, c.y + len * best_uy)) len -= 0.5 * h;
+        c.section = {c.x, c.y, c.x + len * best_ux, c.y + len * best_uy};
+        out.push_back(c);
+    }
+    return out;
+}
+
+Shot shoot(const LineField &eta, const Section &section, double sigma, const ReturnMapSettings &settings,
+           bool keep_path) {
+    Shot shot;
+    const Grid &g = eta.grid();
+    const double h = grid_spacing(g);
+    const double len = section.length();
+    const double ux = (section.x1 - section.x0) / len, uy = (section.y1 - section.y0) / len;
+    const double nx = -uy, ny = ux; // left normal: Omega u
+    double px, py;
+    section.point(sigma, px, py);
+    double vx, vy;
+    const LineStatus st = eta.evaluate(px, py, nx, ny, vx, vy);
+    if (st != LineStatus::ok) {
+        shot.stop = st == LineStatus::outside  ? StopReason::domain_edge
+                    : st == LineStatus::masked ? StopReason::masked
+                                               : StopReason::singular;
+        return shot;
+    }
+    if (vx * nx + vy * ny < settings.min_transversality) {
+        shot.stop = StopReason::singular; // tangent to the section: no transverse launch
+        return shot;
+    }
+    const double budget = settings.max_turns * 2.0 * pi * len;
+    const double chunk = std::max(pi * len, 20.0 * h);
+    const double min_return = 2.0 * h;
+    TensorLineSettings ls = settings.line;
+    ls.detect_closure = false;
+    // A chunk takes about chunk / (h/2) steps where the field is resolved; where it turns too fast for the grid
+    // (chaotic layers) the controller shrinks the steps a hundredfold. Such shearlines cannot close within the
+    // field's resolution anyway: give up on them at ten times the resolved step count instead of crawling on.
+    const double step = settings.line.max_step > 0.0 ? settings.line.max_step : 0.5 * h;
+    ls.max_steps =
+        std::min<std::size_t>(settings.line.max_steps, static_cast<std::size_t>(10.0 * std::ceil(chunk / step)) + 100);
+    shot.xy = {px, py};
+    double travelled = 0.0, dir_x = vx, dir_y = vy, cx = px, cy = py;
+    while (true) {
+        ls.max_length = std::min(chunk, budget - travelled);
+        const TensorLine line = integrate_tensor_line(eta, cx, cy, dir_x, dir_y, ls);
+        const std::size_t m = line.size();
+        for (std::size_t k = 1; k < m; ++k) {
+            const double ax = line.xy[2 * k - 2], ay = line.xy[2 * k - 1], bx = line.xy[2 * k], by = line.xy[2 * k + 1];
+            const double a0 = (ax - section.x0) * nx + (ay - section.y0) * ny;
+            const double a1 = (bx - section.x0) * nx + (by - section.y0) * ny;
+            if (travelled + line.s[k - 1] >= min_return && a0 < 0.0 && a1 >= 0.0) {
+                const double t = a0 / (a0 - a1);
+                const double qx = ax + t * (bx - ax), qy = ay + t * (by - ay);
+                const double s = ((qx - section.x0) * ux + (qy - section.y0) * uy) / len;
+                if (s > 0.0 && s <= 1.5) {
+                    shot.xy.push_back(qx);
+                    shot.xy.push_back(qy);
+                    shot.returned = true;
+                    shot.image = s;
+                    if (!keep_path) shot.xy.clear();
+                    return shot;
+                }
+            }
+            shot.xy.push_back(bx);
+            shot.xy.push_back(by);
+        }
+        if (m > 0) travelled += line.s.back();
+        if (line.stop != StopReason::max_length || travelled >= budget - 1e-12 * budget || m < 2) {
+            shot.stop = line.stop;
+            if (!keep_path) shot.xy.clear();
+            return shot;
+        }
+        cx = line.xy[2 * m - 2];
+        cy = line.xy[2 * m - 1];
+        dir_x = cx - line.xy[2 * m - 4];
+        dir_y = cy - line.xy[2 * m - 3];
+    }
+}
+
+ReturnMap closed_shearlines(const LineField &eta, int sign, const Section &section, const ReturnMapSettings &settings) {
+    ReturnMap map;
+    const std::size_t n = std::max<std::size_t>(settings.launch_points, 2);
+    const double len = section.length();
+    const double h = grid_spacing(eta.grid());
+    const double tol = settings.closure_tolerance > 0.0 ? settings.closure_tolerance : 1e-3 * h;
+    map.sigma.resize(n);
+    map.image.assign(n, nan_value);
+    map.stop.assign(n, StopReason::max_length);
+    for (std::size_t k = 0; k < n; ++k) map.sigma[k] = static_cast<double>(k + 1) / static_cast<double>(n);
+    const std::size_t keep_every = settings.keep_lines ? std::max<std::size_t>(n / settings.keep_lines, 1) : 0;
+    std::vector<std::vector<double>> paths(n); // kept for pictures and for shearlines closed within resolution
+
+#pragma omp parallel for schedule(dynamic, 4)
+    for (long long kk = 0; kk < static_cast<long long>(n); ++kk) {
+        const std::size_t k = static_cast<std::size_t>(kk);
+        Shot s = shoot(eta, section, map.sigma[k], settings, true);
+        if (s.returned) map.image[k] = s.image;
+        map.stop[k] = s.stop;
+        const bool picture = keep_every && k % keep_every == keep_every / 2;
+        const bool near = s.returned && settings.resolution_gap > 0.0 &&
+                          std::abs(s.image - map.sigma[k]) * len <= settings.resolution_gap;
+        if (picture || near) paths[k] = std::move(s.xy);
+    }
+    for (std::size_t k = 0; k < n; ++k)
+        if (keep_every && k % keep_every == keep_every / 2 && paths[k].size() >= 4) map.lines.push_back(paths[k]);
+    for (double v : map.image) map.returned += std::isfinite(v) ? 1 : 0;
+
+    // Brackets of the displacement d(sigma) = P(sigma) - sigma between neighbouring launch points.
+    struct Bracket {
+        double a, fa, b, fb;
+    };
+    std::vector<Bracket> brackets;
+    for (std::size_t k = 0; k + 1 < n; ++k) {
+        if (!std::isfinite(map.image[k]) || !std::isfinite(map.image[k + 1])) continue;
+        const double fa = map.image[k] - map.sigma[k], fb = map.image[k + 1] - map.sigma[k + 1];
+        if ((fa < 0.0 && fb > 0.0) || (fa > 0.0 && fb < 0.0) || fa == 0.0)
+            brackets.push_back({map.sigma[k], fa, map.sigma[k + 1], fb});
+    }
+    map.brackets = brackets.size();
+    std::vector<ClosedShearline> found(brackets.size());
+    std::vector<std::uint8_t> ok(brackets.size(), 0);
+
+#pragma omp parallel for schedule(dynamic, 1)
+    for (long long bb = 0; bb < static_cast<long long>(brackets.size()); ++bb) {
+        Bracket br = brackets[static_cast<std::size_t>(bb)];
+        // Secant steps kept inside the bracket (the Illinois variant of regula falsi: a stale end's value is
+        // halved, so convergence stays superlinear even when one end never moves).
+        double root = br.a;
+        std::size_t it = 0;
+        int side = 0;
+        bool converged = std::abs(br.fa) * len <= tol;
+        while (!converged && it < settings.max_secant_iterations) {
+            ++it;
+            const double c = (br.a * br.fb - br.b * br.fa) / (br.fb - br.fa);
+            const Shot s = shoot(eta, section, c, settings, false);
+            if (!s.returned) break;
+            const double fc = s.image - c;
+            root = c;
+            if (std::abs(fc) * len <= tol) {
+                converged = true;
+                break;
+            }
+            if ((fc > 0.0) == (br.fb > 0.0)) {
+                br.b = c;
+                br.fb = fc;
+                if (side == -1) br.fa *= 0.5;
+                side = -1;
+            } else {
+                br.a = c;
+                br.fa = fc;
+                if (side == +1) br.fb *= 0.5;
+                side = +1;
+            }
+            if (std::abs(br.b - br.a) * len < 1e-12 * std::max(len, 1.0)) break;
+        }
+        if (!converged) continue;
+        Shot s = shoot(eta, section, root, settings, true);
+        if (!s.returned || s.xy.size() < 8) continue;
+        ClosedShearline c;
+        c.sign = sign;
+        c.sigma = root;
+        c.closure_error = std::abs(s.image - root) * len;
+        c.secant_iterations = it;
+        s.xy.resize(s.xy.size() - 2); // the return crossing duplicates the launch point to within the tolerance
+        c.xy = std::move(s.xy);
+        found[static_cast<std::size_t>(bb)] = std::move(c);
+        ok[static_cast<std::size_t>(bb)] = 1;
+    }
+    for (std::size_t b = 0; b < found.size(); ++b) {
+        if (ok[b])
+            map.closed.push_back(std::move(found[b]));
+        else
+            ++map.failed_brackets;
+    }
+    // Launched shearlines that close to within the field's resolution (not already a bracket's end).
+    if (settings.resolution_gap > 0.0) {
+        std::vector<std::uint8_t> close(n, 0);
+        for (std::size_t k = 0; k < n; ++k)
+            close[k] =
+                std::isfinite(map.image[k]) && std::abs(map.image[k] - map.sigma[k]) * len <= settings.resolution_gap;
+        std::vector<std::size_t> near;
+        for (std::size_t k = 0; k < n;) {
+            std::size_t end = k;
+            while (end < n && close[end]) ++end;
+            if (end - k >= std::max<std::size_t>(settings.min_run, 1))
+                for (std::size_t q = k; q < end; ++q) near.push_back(q);
+            k = std::max(end, k + 1);
+        }
+        map.within_resolution = near.size();
+        for (std::size_t k : near) {
+            if (paths[k].size() < 8) continue;
+            ClosedShearline c;
+            c.sign = sign;
+            c.sigma = map.sigma[k];
+            c.closure_error = std::abs(map.image[k] - map.sigma[k]) * len;
+            c.fixed_point = false;
+            c.xy = std::move(paths[k]);
+            c.xy.resize(c.xy.size() - 2); // the return crossing: within resolution_gap of the launch point
+            map.closed.push_back(std::move(c));
+        }
+    }
+    std::sort(map.closed.begin(), map.closed.end(),
+              [](const ClosedShearline &a, const ClosedShearline &b) { return a.sigma < b.sigma; });
+    return map;
+}
+
+bool encloses(const std::vector<double> &c, double x, double y) {
+    const std::size_t n = c.size() / 2;
+    bool in = false;
+    for (std::size_t i = 0, j = n - 1; i < n; j = i++) {
+        const double xi = c[2 * i], yi = c[2 * i + 1], xj = c[2 * j], yj = c[2 * j + 1];
+        if ((yi > y) != (yj > y) && x < (xj - xi) * (y - yi) / (yj - yi) + xi) in = !in;
+    }
+    return in;
+}
+
+double distance_to_curve(const std::vector<double> &c, double x, double y) {
+    const std::size_t n = c.size() / 2;
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::size_t j = (i + 1) % n;
+        const double ax = c[2 * i], ay = c[2 * i + 1], bx = c[2 * j], by = c[2 * j + 1];
+        const double ux = bx - ax, uy = by - ay, uu = ux * ux + uy * uy;
+        const double t = uu > 0.0 ? std::clamp(((x - ax) * ux + (y - ay) * uy) / uu, 0.0, 1.0) : 0.0;
+        best = std::min(best, std::hypot(x - ax - t * ux, y - ay - t * uy));
+    }
+    return best;
+}
+
+double curve_distance(const std::vector<double> &a, const std::vector<double> &b, std::size_t stride) {
+    stride = std::max<std::size_t>(stride, 1);
+    double d = 0.0;
+    for (std::size_t k = 0; 2 * k + 1 < a.size(); k += stride)
+        d = std::max(d, distance_to_curve(b, a[2 * k], a[2 * k + 1]));
+    for (std::size_t k = 0; 2 * k + 1 < b.size(); k += stride)
+        d = std::max(d, distance_to_curve(a, b[2 * k], b[2 * k + 1]));
+    return d;
+}
+
+double curve_diameter(const std::vector<double> &c, std::size_t stride) {
+    stride = std::max<std::size_t>(stride, 1);
+    double d = 0.0;
+    for (std::size_t i = 0; 2 * i + 1 < c.size(); i += stride)
+        for (std::size_t j = i + stride; 2 * j + 1 < c.size(); j += stride)
+            d = std::max(d, std::hypot(c[2 * i] - c[2 * j], c[2 * i + 1] - c[2 * j + 1]));
+    return d;
+}
+
+} // namespace geobarrier::elliptic

@@ -1,0 +1,441 @@
+// The `elliptic` extractor: elliptic transport barriers (generalized KAM tori) as closed shearlines whose mean
+// geodesic shear deviation is small (paper Alg. 2), in regions found from the Cauchy–Green field itself; then the
+// theory's checks on each barrier: arclength and enclosed area kept under advection (eq. `rel_def`) and, for
+// periodic forcing, Poincaré iterates staying on the curve.
+#include "closed_shearlines.hpp"
+
+#include <geobarrier/curves.hpp>
+#include <geobarrier/line_field.hpp>
+#include <geobarrier/output.hpp>
+#include <geobarrier/sdk.hpp>
+#include <geobarrier/shear.hpp>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <numeric>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace {
+
+using namespace geobarrier;
+using namespace geobarrier::elliptic;
+using geobarrier::sdk::bool_param;
+using geobarrier::sdk::integer_param;
+using geobarrier::sdk::Params;
+using geobarrier::sdk::real_param;
+using geobarrier::sdk::string_param;
+using nlohmann::json;
+
+// A kept closed shearline covers at least this fraction of its length with finite d_g (the rest sits in cells
+// where the derivatives are undefined); otherwise its mean is not trusted.
+constexpr double min_deviation_coverage = 0.9;
+
+std::vector<Section> parse_sections(const std::string &text) {
+    std::vector<Section> out;
+    std::stringstream all(text);
+    std::string item;
+    while (std::getline(all, item, ';')) {
+        if (item.find_first_not_of(" \t,") == std::string::npos) continue;
+        for (char &c : item)
+            if (c == ',') c = ' ';
+        std::stringstream one(item);
+        Section s;
+        if (!(one >> s.x0 >> s.y0 >> s.x1 >> s.y1) || !(s.length() > 0.0))
+            throw std::invalid_argument("elliptic: sections: \"" + item +
+                                        "\" is not \"x0 y0 x1 y1\" with two distinct points");
+        std::string rest;
+        if (one >> rest) throw std::invalid_argument("elliptic: sections: \"" + item + "\" has more than 4 numbers");
+        out.push_back(s);
+    }
+    return out;
+}
+
+std::string fmt(double v, int digits = 4) {
+    std::ostringstream s;
+    s.precision(digits);
+    s << v;
+    return s.str();
+}
+
+// One closed shearline found, with what is measured on it.
+struct Found {
+    std::size_t candidate = 0;
+    ClosedShearline orbit;
+    double length = 0.0, area = 0.0, mean_deviation = 0.0, max_deviation = 0.0, coverage = 0.0;
+    bool kept = false;
+    std::size_t island = 0;
+    bool outermost = false;
+    double centroid_x = 0.0, centroid_y = 0.0;
+};
+
+struct Elliptic {
+    static constexpr const char *name = "elliptic";
+    static constexpr const char *version = "1.0.0";
+    static constexpr const char *doc =
+        "elliptic barriers: closed shearlines with small geodesic deviation (paper Alg. 2), regions found "
+        "automatically";
+    static constexpr const char *required_fields[] = {"lambda1", "lambda2", "xi1_x", "xi1_y", "ftle", nullptr};
+    static constexpr gb_param_spec params[] = {
+        real_param("max_mean_deviation", 0.7, 0.0, HUGE_VAL, "",
+                   "keep closed shearlines whose mean geodesic shear deviation is below this (paper: 0.7)"),
+        integer_param("launch_points", 500, 4, 1000000, "shearlines launched from each Poincare section (paper: 500)"),
+        string_param("families", "both", "both|plus|minus", "shearline families searched: eta+, eta- or both"),
+        string_param("sections", "", nullptr,
+                     "Poincare sections by hand, \"x0 y0 x1 y1; ...\" from the region's centre outwards; when given, "
+                     "no regions are searched"),
+        real_param(
+            "max_anisotropy", 0.3, 0.0, 1.0, "",
+            "a CG singularity counts only where (l2-l1)/(l2+l1) around it is below this (resolved, not aliased)"),
+        real_param("ftle_threshold", 0.0, 0.0, HUGE_VAL, "1/time",
+                   "FTLE above which an elliptic island ends; 0 = automatic (Otsu split of the FTLE values)"),
+        real_param("section_margin", 1.25, 1.0, 10.0, "", "section length as a multiple of the island's reach"),
+        real_param("max_turns", 1.5, 1.0, 1000.0, "",
+                   "longest shearline followed, in turns around a circle whose radius is the section length"),
+        real_param("singular_gap", 1e-3, 0.0, 1.0, "",
+                   "shearlines stop in cells where lambda2 - lambda1 <= singular_gap * lambda2"),
+        string_param("deviation_form", "general", "general|area-preserving",
+                     "d_g formula: general (any flow) or the paper's eq. dg_shr (lambda1 lambda2 = 1 only)"),
+        string_param("advect", "all", "all|outermost|none",
+                     "barriers advected to t1 to measure their arclength and area change (paper eq. rel_def)"),
+        real_param("poincare_period", 0.0, 0.0, HUGE_VAL, "time",
+                   "forcing period: iterate barrier points with the Poincare map F_t0^(t0+period); 0 = off"),
+        integer_param("poincare_iterates", 20, 1, 100000, "Poincare map iterates of each barrier's points"),
+        integer_param("poincare_points", 200, 8, 100000, "points per barrier iterated by the Poincare map"),
+        integer_param("plot_shearlines", 24, 0, 100000, "launched shearlines drawn per section and family"),
+        real_param("line_rtol", 1e-6, 1e-14, 1e-2, "", "relative tolerance of shearline integration"),
+        real_param("barrier_spacing", 0.05, 0.0, 1.0, "",
+                   "nested barriers of one region and family reported this far apart, as a fraction of the "
+                   "outermost's equivalent radius (0 = all)"),
+        real_param("resolution_gap", 0.1, 0.0, HUGE_VAL, "grid spacings",
+                   "shearlines returning this close to their launch point count as closed (0 = fixed points only)"),
+    };
+
+    explicit Elliptic(const Params &p)
+        : m_max_mean_deviation(p.real("max_mean_deviation")),
+          m_launch_points(static_cast<std::size_t>(p.integer("launch_points"))), m_families(p.string("families")),
+          m_sections(parse_sections(p.string("sections"))), m_max_anisotropy(p.real("max_anisotropy")),
+          m_ftle_threshold(p.real("ftle_threshold")), m_section_margin(p.real("section_margin")),
+          m_max_turns(p.real("max_turns")), m_singular_gap(p.real("singular_gap")),
+          m_area_preserving(p.string("deviation_form") == "area-preserving"), m_advect(p.string("advect")),
+          m_poincare_period(p.real("poincare_period")),
+          m_poincare_iterates(static_cast<std::size_t>(p.integer("poincare_iterates"))),
+          m_poincare_points(static_cast<std::size_t>(p.integer("poincare_points"))),
+          m_plot_shearlines(static_cast<std::size_t>(p.integer("plot_shearlines"))), m_line_rtol(p.real("line_rtol")),
+          m_resolution_gap(p.real("resolution_gap")), m_barrier_spacing(p.real("barrier_spacing")) {}
+
+    void extract(const sdk::Host &host, const gb_extract_input &in) const;
+
+    double m_max_mean_deviation;
+    std::size_t m_launch_points;
+    std::string m_families;
+    std::vector<Section> m_sections;
+    double m_max_anisotropy, m_ftle_threshold, m_section_margin, m_max_turns, m_singular_gap;
+    bool m_area_preserving;
+    std::string m_advect;
+    double m_poincare_period;
+    std::size_t m_poincare_iterates, m_poincare_points, m_plot_shearlines;
+    double m_line_rtol, m_resolution_gap, m_barrier_spacing;
+};
+
+void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const {
+    using clock = std::chrono::steady_clock;
+    const auto t_start = clock::now();
+    auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
+
+    const CauchyGreenField cg = cauchy_green_from_input(in);
+    const Grid &grid = cg.grid;
+    const double h = std::min(grid.dx(), grid.dy());
+    const ShearFields shear =
+        shear_fields(cg, strain_derivatives(cg),
+                     m_area_preserving ? ShearDeviationForm::area_preserving : ShearDeviationForm::general);
+
+    // Step 2 of Alg. 2 without looking: candidate regions and their sections.
+    std::vector<Candidate> candidates;
+    CandidateReport report;
+    if (!m_sections.empty()) {
+        for (const Section &s : m_sections) candidates.push_back({s.x0, s.y0, "section given", s.length(), s});
+        host.info(std::to_string(candidates.size()) + " section(s) given; no regions searched");
+    } else {
+        CandidateSettings cs;
+        cs.max_anisotropy = m_max_anisotropy;
+        cs.ftle_threshold = m_ftle_threshold;
+        cs.section_margin = m_section_margin;
+        candidates = find_candidates(cg, cs, &report);
+        host.info(std::to_string(report.singularities.size()) + " CG singularities, " +
+                  std::to_string(report.resolved) + " resolved (anisotropy < " + fmt(m_max_anisotropy) +
+                  "); FTLE island threshold " + fmt(report.ftle_threshold) + "; " + std::to_string(candidates.size()) +
+                  " candidate region(s)" +
+                  (report.rejected_high_ftle
+                       ? ", " + std::to_string(report.rejected_high_ftle) + " centre(s) outside low-FTLE islands"
+                       : std::string()));
+        if (candidates.empty())
+            host.warn("no candidate elliptic region (no resolved index +1 singularity or wedge pair in a "
+                      "low-FTLE island); give sections by hand with the \"sections\" parameter, or refine the grid");
+    }
+    const double t_candidates = seconds_since(t_start);
+
+    // Step 2-3: return maps, fixed points, closed shearlines.
+    std::vector<int> signs;
+    if (m_families != "minus") signs.push_back(+1);
+    if (m_families != "plus") signs.push_back(-1);
+    ReturnMapSettings rs;
+    rs.launch_points = m_launch_points;
+    rs.max_turns = m_max_turns;
+    rs.keep_lines = in.plots ? m_plot_shearlines : 0;
+    rs.line.rtol = m_line_rtol;
+    rs.line.atol = 1e-5 * h;
+    rs.resolution_gap = m_resolution_gap * h;
+    std::vector<Found> found;
+    std::vector<std::vector<double>> picture_lines;
+    json sections_json = json::array();
+    const std::size_t total_maps = candidates.size() * signs.size();
+    std::size_t maps_done = 0;
+    for (int sign : signs) {
+        const LineField eta = shear_line_field(cg, shear, sign, m_singular_gap);
+        const std::vector<double> &deviation = sign > 0 ? shear.deviation_plus : shear.deviation_minus;
+        for (std::size_t c = 0; c < candidates.size(); ++c) {
+            const Candidate &cand = candidates[c];
+            ReturnMap map = closed_shearlines(eta, sign, cand.section, rs);
+            std::size_t stops[6] = {0, 0, 0, 0, 0, 0};
+            for (std::size_t k = 0; k < map.sigma.size(); ++k)
+                if (!std::isfinite(map.image[k])) ++stops[static_cast<int>(map.stop[k])];
+            std::size_t kept_here = 0;
+            json closed_json = json::array();
+            for (ClosedShearline &orbit : map.closed) {
+                Found f;
+                f.candidate = c;
+                f.length = polyline_length(orbit.xy, true);
+                f.area = std::abs(shoelace_area(orbit.xy));
+                const std::vector<double> values =
+                    sample_along(grid, deviation, cg.mask, orbit.xy, mask_trajectory_bits);
+                const CurveStats st = curve_statistics(orbit.xy, values, true);
+                f.mean_deviation = st.finite_points ? st.mean : std::numeric_limits<double>::quiet_NaN();
+                f.max_deviation = st.max;
+                f.coverage = f.length > 0.0 ? st.covered_length / f.length : 0.0;
+                f.kept = f.coverage >= min_deviation_coverage && f.mean_deviation < m_max_mean_deviation;
+                kept_here += f.kept ? 1 : 0;
+                double cx = 0.0, cy = 0.0;
+                const std::size_t np = orbit.xy.size() / 2;
+                for (std::size_t k = 0; k < np; ++k) {
+                    cx += orbit.xy[2 * k];
+                    cy += orbit.xy[2 * k + 1];
+                }
+                f.centroid_x = cx / static_cast<double>(np);
+                f.centroid_y = cy / static_cast<double>(np);
+                closed_json.push_back({{"sigma", orbit.sigma},
+                                       {"fixed_point", orbit.fixed_point},
+                                       {"closure_error", orbit.closure_error},
+                                       {"length", f.length},
+                                       {"enclosed_area", f.area},
+                                       {"mean_geodesic_deviation",
+                                        std::isfinite(f.mean_deviation) ? json(f.mean_deviation) : json(nullptr)},
+                                       {"kept", f.kept}});
+                f.orbit = std::move(orbit);
+                found.push_back(std::move(f));
+            }
+            host.info("region " + std::to_string(c) + " (" + cand.origin + " at " + fmt(cand.x) + ", " + fmt(cand.y) +
+                      "), eta" + (sign > 0 ? "+" : "-") + ": " + std::to_string(map.returned) + "/" +
+                      std::to_string(map.sigma.size()) + " shearlines returned (not: " + std::to_string(stops[0]) +
+                      " edge, " + std::to_string(stops[1]) + " masked, " + std::to_string(stops[2]) + " singular, " +
+                      std::to_string(stops[3] + stops[5]) + " too long); " + std::to_string(map.closed.size()) +
+                      " closed, " + std::to_string(kept_here) + " with <d_g> < " + fmt(m_max_mean_deviation) +
+                      (map.failed_brackets ? "; " + std::to_string(map.failed_brackets) + " secant failure(s)" : ""));
+            json samples = json::array();
+            for (std::size_t k = 0; k < map.sigma.size(); ++k)
+                samples.push_back({map.sigma[k], std::isfinite(map.image[k]) ? json(map.image[k]) : json(nullptr)});
+            sections_json.push_back(
+                {{"region", c},
+                 {"family", sign > 0 ? "+" : "-"},
+                 {"origin", cand.origin},
+                 {"centre", {cand.x, cand.y}},
+                 {"section", {{cand.section.x0, cand.section.y0}, {cand.section.x1, cand.section.y1}}},
+                 {"returned", map.returned},
+                 {"brackets", map.brackets},
+                 {"failed_brackets", map.failed_brackets},
+                 {"closed", map.closed.size()},
+                 {"kept", kept_here},
+                 {"closed_shearlines", closed_json},
+                 {"return_map", samples}});
+            for (auto &line : map.lines) picture_lines.push_back(std::move(line));
+            ++maps_done;
+            if (host.progress(0.7 * static_cast<double>(maps_done) /
+                              static_cast<double>(std::max<std::size_t>(total_maps, 1))))
+                throw std::runtime_error("elliptic: stopped on request");
+        }
+    }
+    const double t_search = seconds_since(t_start) - t_candidates;
+
+    // Step 4: selection. Closed shearlines of one region and family are nested; walking outwards-in, one is
+    // reported when its equivalent radius sqrt(area / pi) lies barrier_spacing * (the outermost's) inside the last
+    // one reported, so the outermost is always among them.
+    std::vector<std::size_t> thinned;
+    for (std::size_t c = 0; c < candidates.size(); ++c)
+        for (int sign : signs) {
+            std::vector<std::size_t> group;
+            for (std::size_t i = 0; i < found.size(); ++i)
+                if (found[i].kept && found[i].candidate == c && found[i].orbit.sign == sign) group.push_back(i);
+            std::sort(group.begin(), group.end(),
+                      [&](std::size_t a, std::size_t b) { return found[a].area > found[b].area; });
+            double last = 0.0, step = 0.0;
+            for (std::size_t k = 0; k < group.size(); ++k) {
+                const double r = std::sqrt(found[group[k]].area / 3.14159265358979323846);
+                if (k == 0) step = m_barrier_spacing * r;
+                if (k == 0 || last - r >= step) {
+                    thinned.push_back(group[k]);
+                    last = r;
+                }
+            }
+        }
+    // Near-identical curves (same family, within half a grid spacing everywhere, e.g. from two regions of one
+    // island) are one.
+    std::vector<std::size_t> kept;
+    for (std::size_t i : thinned) {
+        bool duplicate = false;
+        for (std::size_t j : kept) {
+            const Found &a = found[i], &b = found[j];
+            if (a.orbit.sign != b.orbit.sign || std::abs(a.area - b.area) > 0.05 * std::max(a.area, b.area) ||
+                std::hypot(a.centroid_x - b.centroid_x, a.centroid_y - b.centroid_y) > h)
+                continue;
+            if (curve_distance(a.orbit.xy, b.orbit.xy, 8) < 0.5 * h) {
+                duplicate = true;
+                break;
+            }
+        }
+        if (!duplicate) kept.push_back(i);
+    }
+    // Islands: a region whose centre lies inside a barrier of another region belongs to the same island.
+    std::vector<std::size_t> parent(candidates.size());
+    std::iota(parent.begin(), parent.end(), 0);
+    auto root = [&](std::size_t a) {
+        while (parent[a] != a) a = parent[a] = parent[parent[a]];
+        return a;
+    };
+    for (std::size_t i : kept)
+        for (std::size_t c = 0; c < candidates.size(); ++c)
+            if (root(c) != root(found[i].candidate) && encloses(found[i].orbit.xy, candidates[c].x, candidates[c].y))
+                parent[root(c)] = root(found[i].candidate);
+    std::vector<std::size_t> island_of(candidates.size());
+    {
+        std::vector<std::size_t> label(candidates.size(), SIZE_MAX);
+        std::size_t next = 0;
+        // Number islands in the order their first kept barrier appears.
+        for (std::size_t i : kept) {
+            const std::size_t r = root(found[i].candidate);
+            if (label[r] == SIZE_MAX) label[r] = next++;
+        }
+        for (std::size_t c = 0; c < candidates.size(); ++c) island_of[c] = label[root(c)];
+    }
+    for (std::size_t i : kept) found[i].island = island_of[found[i].candidate];
+    for (std::size_t i : kept) {
+        bool largest = true;
+        for (std::size_t j : kept)
+            if (j != i && found[j].island == found[i].island &&
+                (found[j].area > found[i].area || (found[j].area == found[i].area && j < i)))
+                largest = false;
+        found[i].outermost = largest;
+    }
+    // Report islands in order, inner barriers first, outermost last.
+    std::sort(kept.begin(), kept.end(), [&](std::size_t a, std::size_t b) {
+        if (found[a].island != found[b].island) return found[a].island < found[b].island;
+        return found[a].area < found[b].area;
+    });
+
+    // The theory's checks: advected length and area (eq. rel_def) and Poincaré iterates.
+    const AdvectPointsFn advect_to_t1 = [&](const std::vector<double> &xy, std::vector<double> &out,
+                                            std::vector<std::uint8_t> &mask) {
+        host.advect(xy, in.t0, in.t1, out, mask);
+    };
+    std::size_t checked = 0;
+    for (std::size_t i : kept) {
+        Found &f = found[i];
+        std::vector<std::pair<std::string, double>> metrics = {
+            {"length", f.length},
+            {"enclosed_area", f.area},
+            {"mean_geodesic_deviation", f.mean_deviation},
+            {"max_geodesic_deviation", f.max_deviation},
+            {"island", static_cast<double>(f.island)},
+            {"closure_error", f.orbit.closure_error},
+            {"section_sigma", f.orbit.sigma},
+        };
+        const bool advect = m_advect == "all" || (m_advect == "outermost" && f.outermost);
+        if (advect) {
+            const AdvectedCurve a = advect_curve(f.orbit.xy, true, advect_to_t1);
+            metrics.emplace_back("relative_length_change", (a.length1 - a.length0) / a.length0);
+            metrics.emplace_back("relative_area_change", (std::abs(a.area1) - std::abs(a.area0)) / std::abs(a.area0));
+            metrics.emplace_back("advected_points", static_cast<double>(a.xy1.size() / 2));
+            if (!a.converged)
+                host.warn("barrier " + std::to_string(i) + ": the advected curve is not fully resolved (" +
+                          std::to_string(a.masked) + " masked points, largest gap " + fmt(a.max_gap) + ")");
+        }
+        if (m_poincare_period > 0.0) {
+            // Points of the barrier iterated by P = F_t0^(t0 + period); the drift of a point is its largest distance
+            // from the barrier over the iterates, relative to the barrier's diameter.
+            const std::vector<double> pts = resample_polyline(f.orbit.xy, f.length / m_poincare_points, true);
+            const double diameter = curve_diameter(pts);
+            std::vector<double> cur = pts, next;
+            std::vector<std::uint8_t> mask;
+            std::vector<double> drift(pts.size() / 2, 0.0);
+            for (std::size_t it = 0; it < m_poincare_iterates; ++it) {
+                host.advect(cur, in.t0, in.t0 + m_poincare_period, next, mask);
+                cur.swap(next);
+                for (std::size_t k = 0; k < drift.size(); ++k)
+                    drift[k] = mask[k] ? std::numeric_limits<double>::infinity()
+                                       : std::max(drift[k], distance_to_curve(f.orbit.xy, cur[2 * k], cur[2 * k + 1]));
+            }
+            std::vector<double> sorted = drift;
+            std::sort(sorted.begin(), sorted.end());
+            const double median = sorted[sorted.size() / 2], worst = sorted.back();
+            metrics.emplace_back("poincare_drift_median", median / diameter);
+            if (std::isfinite(worst)) metrics.emplace_back("poincare_drift_max", worst / diameter);
+            metrics.emplace_back("diameter", diameter);
+        }
+        host.add_barrier("elliptic", true, f.orbit.xy, metrics);
+        host.set_barrier_attributes({{"family", f.orbit.sign > 0 ? "\"+\"" : "\"-\""},
+                                     {"outermost", f.outermost ? "true" : "false"},
+                                     {"fixed_point", f.orbit.fixed_point ? "true" : "false"}});
+        ++checked;
+        if (host.progress(0.7 + 0.3 * static_cast<double>(checked) / static_cast<double>(kept.size())))
+            throw std::runtime_error("elliptic: stopped on request");
+    }
+    std::size_t islands = 0;
+    for (std::size_t i : kept) islands = std::max(islands, found[i].island + 1);
+    host.info(std::to_string(kept.size()) + " elliptic barrier(s) in " + std::to_string(islands) + " island(s) from " +
+              std::to_string(found.size()) + " closed shearline(s); regions " + fmt(t_candidates, 3) +
+              " s, shearlines " + fmt(t_search, 3) + " s, checks " +
+              fmt(seconds_since(t_start) - t_candidates - t_search, 3) + " s");
+
+    const std::filesystem::path out_dir =
+        in.output_dir ? std::filesystem::path(in.output_dir) : std::filesystem::path();
+    if (!out_dir.empty()) {
+        json doc = {{"regions", sections_json}, {"ftle_threshold", report.ftle_threshold}};
+        json sing = json::array();
+        for (const auto &s : report.singularities)
+            if (s.anisotropy < m_max_anisotropy) sing.push_back({s.x, s.y, 0.5 * s.twice_index, s.anisotropy});
+        doc["resolved_singularities"] = sing;
+        write_text_file(out_dir / "elliptic-sections.json", doc.dump(1) + "\n");
+    }
+    if (in.plots && !out_dir.empty()) {
+        // The paper's figure "shearlines-ex1": shearlines in black, closed ones in red, over the FTLE.
+        FieldPlot plot;
+        plot.title = "Shearlines; closed with <d_g> < " + fmt(m_max_mean_deviation) + " red (outermost thick)";
+        plot.colorbar_label = "FTLE";
+        for (auto &line : picture_lines) plot.curves.push_back({line, "black", 0.6, false});
+        for (const Candidate &c : candidates)
+            plot.curves.push_back({{c.section.x0, c.section.y0, c.section.x1, c.section.y1}, "white", 0.8, false});
+        for (std::size_t i : kept)
+            plot.curves.push_back({found[i].orbit.xy, "red", found[i].outermost ? 2.6 : 1.2, true});
+        plot_field_png(out_dir / "elliptic-shearlines.png", grid, cg.ftle, cg.mask, plot);
+    }
+}
+
+} // namespace
+
+GEOBARRIER_PLUGINS(geobarrier::sdk::extractor<Elliptic>())

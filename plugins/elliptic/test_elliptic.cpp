@@ -1,0 +1,304 @@
+// Tests of the elliptic extractor: the return-map search on an exact circular shear field (closed shearlines must
+// be its circles), and whole runs through the plugin: the circular shear flow, the unforced Duffing oscillator
+// (closed shearlines must be level sets of H = y^2/2 - x^2/2 + x^4/4) and the paper's forced case 1.
+#include "closed_shearlines.hpp"
+
+#include <geobarrier/experiment.hpp>
+#include <geobarrier/shear.hpp>
+
+#include <test_support.hpp>
+
+#include <doctest/doctest.h>
+#include <nlohmann/json.hpp>
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+
+using namespace geobarrier;
+using namespace geobarrier::elliptic;
+using nlohmann::json;
+namespace fs = std::filesystem;
+
+namespace {
+
+// The Cauchy–Green field of the steady circular shear flow w(r) = omega + shear r^2 after time T from its exact flow
+// map DF = R(w T) (I + g e_theta e_r^T), g = r w'(r) T = 2 shear r^2 T.
+CauchyGreenField circular_shear_cg(const Grid &grid, double omega, double shear, double T) {
+    std::vector<double> dF(4 * grid.size());
+    for (std::size_t i = 0; i < grid.ny; ++i)
+        for (std::size_t j = 0; j < grid.nx; ++j) {
+            const double x = grid.x(j), y = grid.y(i), r = std::hypot(x, y);
+            const double c = r > 0 ? x / r : 1.0, s = r > 0 ? y / r : 0.0;
+            const double g = 2.0 * shear * r * r * T, a = (omega + shear * r * r) * T;
+            const double s11 = 1.0 - g * s * c, s12 = -g * s * s, s21 = g * c * c, s22 = 1.0 + g * c * s;
+            const double ca = std::cos(a), sa = std::sin(a);
+            double *f = &dF[4 * (i * grid.nx + j)];
+            f[0] = ca * s11 - sa * s21;
+            f[1] = ca * s12 - sa * s22;
+            f[2] = sa * s11 + ca * s21;
+            f[3] = sa * s12 + ca * s22;
+        }
+    return cauchy_green_field(grid, dF, std::vector<std::uint8_t>(grid.size(), 0), T);
+}
+
+struct RadiusStats {
+    double mean = 0.0, spread = 0.0; // spread: max |r - mean|
+};
+RadiusStats radius_stats(const std::vector<double> &xy, double cx = 0.0, double cy = 0.0) {
+    RadiusStats s;
+    const std::size_t n = xy.size() / 2;
+    for (std::size_t k = 0; k < n; ++k) s.mean += std::hypot(xy[2 * k] - cx, xy[2 * k + 1] - cy);
+    s.mean /= static_cast<double>(n);
+    for (std::size_t k = 0; k < n; ++k)
+        s.spread = std::max(s.spread, std::abs(std::hypot(xy[2 * k] - cx, xy[2 * k + 1] - cy) - s.mean));
+    return s;
+}
+
+fs::path fresh_dir(const std::string &name) {
+    const fs::path dir =
+        fs::temp_directory_path() / ("geobarrier-test-elliptic-" + name + "-" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    return dir;
+}
+
+// Runs an experiment with the built and test-only plugins; returns barriers.json.
+json run(json experiment, const std::string &name) {
+    experiment["plugin_paths"] = {test::plugin_dir().string(), test::test_plugin_dir().string()};
+    const ResolvedExperiment r = resolve_experiment(parse_experiment(experiment));
+    const fs::path dir = fresh_dir(name);
+    RunOptions options;
+    options.output_dir = dir;
+    options.quiet = true;
+    run_experiment(r, options);
+    json b = json::parse(std::ifstream(dir / "barriers.json"));
+    CHECK(fs::exists(dir / "elliptic-sections.json"));
+    fs::remove_all(dir);
+    return b;
+}
+
+std::vector<double> points_of(const json &barrier) {
+    std::vector<double> xy;
+    for (const auto &p : barrier["points"]) {
+        xy.push_back(p[0].get<double>());
+        xy.push_back(p[1].get<double>());
+    }
+    return xy;
+}
+
+// Every barrier has the documented fields, finite numbers, and each island exactly one outermost barrier.
+void check_barrier_fields(const json &barriers) {
+    std::map<int, int> outermost;
+    for (const json &b : barriers) {
+        CHECK(b["kind"] == "elliptic");
+        CHECK(b["closed"] == true);
+        CHECK(b["extractor"] == "elliptic");
+        REQUIRE(b["family"].is_string());
+        CHECK((b["family"] == "+" || b["family"] == "-"));
+        REQUIRE(b["outermost"].is_boolean());
+        for (const char *key : {"length", "enclosed_area", "mean_geodesic_deviation", "island"}) {
+            REQUIRE(b.contains(key));
+            CHECK(b[key].is_number());
+        }
+        for (const auto &[key, value] : b.items()) { // no NaN anywhere (JSON would hold null)
+            CAPTURE(key);
+            CHECK(!value.is_null());
+            if (value.is_number()) CHECK(std::isfinite(value.get<double>()));
+        }
+        for (const auto &p : b["points"]) {
+            CHECK(p[0].is_number());
+            CHECK(p[1].is_number());
+        }
+        if (b["outermost"].get<bool>())
+            ++outermost[b["island"].get<int>()];
+        else
+            outermost.emplace(b["island"].get<int>(), 0);
+    }
+    for (const auto &[island, count] : outermost) {
+        CAPTURE(island);
+        CHECK(count == 1);
+    }
+}
+
+} // namespace
+
+TEST_CASE("exact circular shear field: the region is found and its closed shearlines are circles") {
+    Grid g;
+    g.x_min = g.y_min = -1.0;
+    g.x_max = g.y_max = 1.0;
+    g.nx = g.ny = 161; // h = 0.0125; the centre is grid point (80, 80), degenerate (C = I)
+    const double h = g.dx();
+    const CauchyGreenField cg = circular_shear_cg(g, 1.0, 0.5, 8.0);
+    CandidateReport report;
+    const std::vector<Candidate> candidates = find_candidates(cg, CandidateSettings{}, &report);
+    REQUIRE(candidates.size() == 1);
+    CHECK(std::hypot(candidates[0].x, candidates[0].y) <= 1.5 * h);
+    const Section section = candidates[0].section;
+    MESSAGE("circular shear: " << report.singularities.size() << " singularities, centre (" << candidates[0].x << ", "
+                               << candidates[0].y << "), section length " << section.length());
+
+    const ShearFields shear = shear_fields(cg);
+    ReturnMapSettings rs;
+    rs.launch_points = 200;
+    rs.resolution_gap = 0.1 * h;
+    std::size_t circles = 0;
+    for (int sign : {+1, -1}) {
+        CAPTURE(sign);
+        const ReturnMap map = closed_shearlines(shear_line_field(cg, shear, sign), sign, section, rs);
+        for (const ClosedShearline &c : map.closed) {
+            // Bilinear interpolation turns the field by at most h^2 / (8 r^2) (second derivatives of e_theta are
+            // 1/r^2), so over one turn the radius drifts by at most 2 pi r h^2 / (8 r^2); the curve closes to within
+            // the resolution gap.
+            const RadiusStats r = radius_stats(c.xy, candidates[0].x, candidates[0].y);
+            CAPTURE(r.mean);
+            CHECK(r.spread <= rs.resolution_gap + M_PI * h * h / (4.0 * r.mean));
+            ++circles;
+        }
+        MESSAGE("family " << sign << ": " << map.returned << " of " << map.sigma.size() << " returned, "
+                          << map.closed.size() << " closed, " << map.brackets << " sign changes");
+    }
+    // One family is e_theta (the circles); the other spirals (dtheta/dr = -shear r T) and never closes.
+    CHECK(circles > 50);
+}
+
+TEST_CASE("circular shear flow through the plugin: every barrier is a circle, keeps its length and area") {
+    // Steady flow: circles turn rigidly, so each closed shearline's advected image has its length and area exactly.
+    json e = {
+        {"system", {{"plugin", "circular-shear"}, {"params", {{"omega", 1.0}, {"shear", 0.5}}}}},
+        {"grid", {{"x", {-1.0, 1.0}}, {"y", {-1.0, 1.0}}, {"n", {121, 121}}}},
+        {"time", {{"t0", 0.0}, {"t1", 8.0}}},
+        {"integrator", {{"rtol", 1e-10}, {"atol", 1e-12}}},
+        {"extractors", {{{"plugin", "elliptic"}, {"params", {{"max_mean_deviation", 1e9}, {"launch_points", 200}}}}}},
+        {"output", {{"plots", false}}}};
+    const json b = run(e, "circle")["barriers"];
+    REQUIRE(b.size() >= 5);
+    check_barrier_fields(b);
+    const double h = 2.0 / 120;
+    double worst_spread = 0.0, worst_area = 0.0, worst_length = 0.0, worst_area_change = 0.0;
+    for (const json &barrier : b) {
+        CHECK(barrier["family"] == b[0]["family"]); // one family holds the circles
+        CHECK(barrier["island"] == 0);
+        const std::vector<double> xy = points_of(barrier);
+        const RadiusStats r = radius_stats(xy);
+        worst_spread = std::max(worst_spread, r.spread);
+        // A polygon inscribed in a circle of radius r with edges of angle theta <= theta_max has an area short of
+        // pi r^2 by at most theta_max^2 / 6 relative; the radius spread adds 2 spread / r.
+        double longest = 0.0;
+        for (std::size_t k = 0; 2 * k + 1 < xy.size(); ++k) {
+            const std::size_t q = (2 * k + 2) % xy.size();
+            longest = std::max(longest, std::hypot(xy[q] - xy[2 * k], xy[q + 1] - xy[2 * k + 1]));
+        }
+        const double theta = longest / r.mean;
+        const double area_error = std::abs(barrier["enclosed_area"].get<double>() / (M_PI * r.mean * r.mean) - 1.0);
+        CHECK(area_error <= theta * theta / 6.0 + 2.0 * r.spread / r.mean + 1e-9);
+        worst_area = std::max(worst_area, area_error);
+        worst_length = std::max(worst_length, std::abs(barrier["relative_length_change"].get<double>()));
+        worst_area_change = std::max(worst_area_change, std::abs(barrier["relative_area_change"].get<double>()));
+        CHECK(r.spread <= 0.1 * h + M_PI * h * h / (4.0 * r.mean)); // as for the exact field above
+    }
+    // Rigid rotation of each circle: the advected polygon has the same side lengths up to the integrator's error.
+    CHECK(worst_length < 1e-6);
+    CHECK(worst_area_change < 1e-6);
+    MESSAGE("circular shear: " << b.size() << " barriers, worst radius spread " << worst_spread << " (h = " << h
+                               << "), worst |area / (pi r^2) - 1| " << worst_area << ", worst |dl(t1)| " << worst_length
+                               << ", worst |dA(t1)/A| " << worst_area_change);
+}
+
+namespace {
+
+// H of the undamped, unforced Duffing oscillator: its level sets are the closed orbits.
+double duffing_h(double x, double y) { return 0.5 * y * y - 0.5 * x * x + 0.25 * x * x * x * x; }
+
+// Largest spread max H - min H along any barrier, and the largest spread relative to the barrier's mean H.
+std::pair<double, double> worst_h_spread(const json &barriers) {
+    double spread = 0.0, relative = 0.0;
+    for (const json &b : barriers) {
+        const std::vector<double> xy = points_of(b);
+        double lo = HUGE_VAL, hi = -HUGE_VAL, mean = 0.0;
+        for (std::size_t k = 0; 2 * k + 1 < xy.size(); ++k) {
+            const double H = duffing_h(xy[2 * k], xy[2 * k + 1]);
+            lo = std::min(lo, H);
+            hi = std::max(hi, H);
+            mean += H;
+        }
+        mean /= static_cast<double>(xy.size() / 2);
+        spread = std::max(spread, hi - lo);
+        relative = std::max(relative, (hi - lo) / std::abs(mean));
+    }
+    return {spread, relative};
+}
+
+} // namespace
+
+TEST_CASE("unforced Duffing: closed shearlines around (1, 0) approach level sets of H as T grows") {
+    // The flow is integrable: its orbits, the level sets of H, are the invariant curves. Closed shearlines are
+    // curves of pointwise unchanged length, which orbits are only as T -> infinity (the twist shear, growing like T,
+    // must dominate the anisotropy of the linearised rotation): the spread of H along them must shrink with T.
+    auto run_T = [&](double T) {
+        json e = {{"system", {{"plugin", "duffing"}, {"params", {{"alpha", 1}, {"beta", 1}, {"delta", 0}}}}},
+                  {"grid", {{"x", {0.2, 1.8}}, {"y", {-0.75, 0.75}}, {"n", {161, 151}}}},
+                  {"time", {{"t0", 0.0}, {"t1", T}}},
+                  {"integrator", {{"rtol", 1e-9}, {"atol", 1e-11}}},
+                  {"extractors", {{{"plugin", "elliptic"}, {"params", {{"launch_points", 300}}}}}},
+                  {"output", {{"plots", false}}}};
+        const json b = run(e, "unforced")["barriers"];
+        REQUIRE(!b.empty());
+        check_barrier_fields(b);
+        for (const json &barrier : b) {
+            CHECK(barrier["island"] == 0);
+            // Conservative: the enclosed area is kept (to the curve advection's resolution).
+            CHECK(std::abs(barrier["relative_area_change"].get<double>()) < 1e-4);
+            // Each barrier encloses the centre (1, 0).
+            CHECK(encloses(points_of(barrier), 1.0, 0.0));
+        }
+        return b;
+    };
+    const json short_T = run_T(8 * M_PI), long_T = run_T(24 * M_PI);
+    const auto [spread_short, relative_short] = worst_h_spread(short_T);
+    const auto [spread_long, relative_long] = worst_h_spread(long_T);
+    MESSAGE("unforced Duffing, H spread along barriers (island depth 0.25): T = 8 pi: "
+            << short_T.size() << " barriers, worst max H - min H " << spread_short << " (relative to mean H "
+            << relative_short << "); T = 24 pi: " << long_T.size() << " barriers, worst " << spread_long
+            << " (relative " << relative_long << ")");
+    // Shrinking like 1/T (a factor 3 from 8 pi to 24 pi; asserted: 2), to within 5% of the island's depth in H.
+    CHECK(spread_long < 0.5 * spread_short);
+    CHECK(spread_long < 0.05 * 0.25);
+}
+
+TEST_CASE("forced Duffing (paper case 1, T = 8 pi): barriers around both centres, found with no region given") {
+    json e = {
+        {"system", {{"plugin", "duffing"}, {"params", {{"alpha", 1}, {"beta", 1}, {"delta", 0}}}}},
+        {"forcing", {{"plugin", "cosine"}, {"params", {{"amplitude", 0.08}, {"omega", 1}, {"phase", 0}}}}},
+        {"grid", {{"x", {-1.9, 1.9}}, {"y", {-1.1, 1.1}}, {"n", {381, 221}}}},
+        {"time", {{"t0", 0.0}, {"t1", 8 * M_PI}}},
+        {"integrator", {{"rtol", 1e-8}, {"atol", 1e-10}}},
+        {"extractors", {{{"plugin", "elliptic"}, {"params", {{"launch_points", 300}, {"poincare_period", 2 * M_PI}}}}}},
+        {"output", {{"plots", false}}}};
+    const json b = run(e, "forced")["barriers"];
+    check_barrier_fields(b);
+    bool left = false, right = false;
+    for (const json &barrier : b) {
+        const std::vector<double> xy = points_of(barrier);
+        const bool around_left = encloses(xy, -0.92, 0.0), around_right = encloses(xy, 1.08, 0.0);
+        CHECK(around_left != around_right); // each barrier surrounds exactly one of the two centres
+        left = left || around_left;
+        right = right || around_right;
+        CHECK(barrier["mean_geodesic_deviation"].get<double>() < 0.7);
+        // Conservative flow: the enclosed area is kept; the arclength too, by the theory (paper: within 1.5%).
+        CHECK(std::abs(barrier["relative_area_change"].get<double>()) < 1e-4);
+        if (barrier["outermost"].get<bool>()) {
+            CHECK(std::abs(barrier["relative_length_change"].get<double>()) < 0.015);
+            MESSAGE("outermost barrier around ("
+                    << std::string(around_left ? "-0.92" : "1.08") << ", 0): length " << barrier["length"] << ", <d_g> "
+                    << barrier["mean_geodesic_deviation"] << ", dl(t1) " << barrier["relative_length_change"]
+                    << ", dA(t1)/A " << barrier["relative_area_change"] << ", Poincare drift (20 iterates, "
+                    << "median / diameter) " << barrier["poincare_drift_median"]);
+        }
+    }
+    CHECK(left);
+    CHECK(right);
+}

@@ -1,0 +1,425 @@
+// The bad-input battery: the geobarrier program is run on malformed, contradictory, hostile and impossible input,
+// and each case must end with a non-zero exit code (2 for bad input, 1 for a failed computation), exactly one line
+// on stderr that names the problem and where it is, nothing on stdout (--quiet), nothing in the output folder, and
+// no signal, core dump or stack trace. The cases are listed in docs/robustness.md.
+#include <doctest/doctest.h>
+#include <nlohmann/json.hpp>
+#include <test_support.hpp>
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+const fs::path bad_plugin_dir = geobarrier::test::test_plugin_dir() / "bad-input";
+
+fs::path scratch() {
+    static const fs::path dir = [] {
+        const fs::path d = fs::temp_directory_path() / ("geobarrier-bad-input-" + std::to_string(::getpid()));
+        fs::remove_all(d);
+        fs::create_directories(d);
+        return d;
+    }();
+    return dir;
+}
+
+std::string read_file(const fs::path &file) {
+    std::ifstream in(file, std::ios::binary);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+// A small, valid experiment that runs in well under a second; each case spoils one thing.
+json base_experiment() {
+    return json::parse(R"({
+      "system":  {"plugin": "duffing", "params": {"alpha": 1, "beta": 1, "delta": 0}},
+      "forcing": {"plugin": "cosine", "params": {"amplitude": 0.08}},
+      "grid":    {"x": [-1.5, 1.5], "y": [-1, 1], "n": [11, 9]},
+      "time":    {"t0": 0, "t1": 2},
+      "products": ["ftle"]
+    })");
+}
+
+struct Case {
+    std::string name;
+    std::function<std::string()> text; // the experiment file's contents
+    int exit_code;                     // 1 or 2
+    std::vector<std::string> message;  // each must appear in the one error line
+    // Shell words run before the program in the same shell (e.g. "ulimit -f 2;"), and the output folder.
+    std::string prefix = "";
+    std::string out_dir = ""; // relative to the case's folder; default "out"
+};
+
+Case json_case(std::string name, std::function<void(json &)> spoil, int code, std::vector<std::string> message) {
+    return Case{std::move(name),
+                [spoil] {
+                    json j = base_experiment();
+                    spoil(j);
+                    return j.dump(2);
+                },
+                code, std::move(message)};
+}
+
+Case text_case(std::string name, std::string text, int code, std::vector<std::string> message) {
+    return Case{std::move(name), [text] { return text; }, code, std::move(message)};
+}
+
+struct Outcome {
+    bool exited = false;
+    int code = -1;
+    int signal = 0;
+    std::string out, err;
+};
+
+// Runs `geobarrier run exp.json --out OUT --quiet` in `dir` through sh, which execs the program so that the wait
+// status is the program's own.
+Outcome run_case(const fs::path &dir, const std::string &prefix, const std::string &out_dir) {
+    const std::string command = "cd '" + dir.string() + "' && exec >stdout.txt 2>stderr.txt && " + prefix + " exec '" +
+                                geobarrier::test::geobarrier_program().string() + "' run exp.json --out '" + out_dir +
+                                "' --quiet --threads 2";
+    const int raw = std::system(command.c_str());
+    Outcome o;
+    o.exited = WIFEXITED(raw);
+    o.code = o.exited ? WEXITSTATUS(raw) : -1;
+    o.signal = WIFSIGNALED(raw) ? WTERMSIG(raw) : 0;
+    o.out = read_file(dir / "stdout.txt");
+    o.err = read_file(dir / "stderr.txt");
+    return o;
+}
+
+bool nothing_in(const fs::path &folder) { return !fs::exists(folder) || fs::is_empty(folder); }
+
+bool has_core_file(const fs::path &dir) {
+    for (const auto &e : fs::directory_iterator(dir)) {
+        const std::string n = e.path().filename().string();
+        if (n == "core" || n.rfind("core.", 0) == 0) return true;
+    }
+    return false;
+}
+
+// The checks every case must pass.
+void check_outcome(const Case &c, const fs::path &dir, const Outcome &o, const fs::path &out) {
+    CAPTURE(c.name);
+    CAPTURE(o.err);
+    CHECK_MESSAGE(o.exited, "killed by signal " << o.signal);
+    CHECK(o.code == c.exit_code);
+    CHECK(o.out.empty());
+    CHECK(std::count(o.err.begin(), o.err.end(), '\n') == 1);
+    CHECK(o.err.rfind("geobarrier: error: ", 0) == 0);
+    for (const auto &part : c.message) CHECK_MESSAGE(o.err.find(part) != std::string::npos, "missing: " << part);
+    for (const char *noise : {"terminate called", "Aborted", "Segmentation", "what():", "core dumped"})
+        CHECK(o.err.find(noise) == std::string::npos);
+    CHECK_MESSAGE(nothing_in(out), "the output folder " << out << " is not empty");
+    CHECK_FALSE(has_core_file(dir));
+}
+
+std::vector<Case> battery() {
+    const std::string nan_lib = (bad_plugin_dir / "geobarrier-bad-input.so").string();
+    const std::string throwing_entry = (bad_plugin_dir / "geobarrier-entry-throws.so").string();
+    const std::string wrong_abi = (geobarrier::test::test_plugin_dir() / "geobarrier-wrong-abi.so").string();
+    const std::string not_a_library = (geobarrier::test::test_plugin_dir() / "not-a-plugin.so").string();
+    std::vector<Case> cases;
+    auto add = [&](Case c) { cases.push_back(std::move(c)); };
+
+    // ---- the file itself
+    add(text_case("malformed JSON (a missing comma)", "{\n  \"system\": {\"plugin\": \"duffing\"}\n  \"grid\": {}\n}\n",
+                  2, {"exp.json:3:", "not valid JSON"}));
+    add(text_case("truncated JSON", "{\"system\": {\"plugin\": \"duff", 2, {"exp.json:1:", "not valid JSON"}));
+    add(text_case("an empty file", "", 2, {"exp.json:1:1", "not valid JSON"}));
+    add(text_case("binary garbage",
+                  std::string("\x7f"
+                              "ELF\x02\x01\x01\0\0\xff\xfe",
+                              12),
+                  2, {"exp.json:1:", "not valid JSON"}));
+    add(text_case("a NaN literal", R"({"time": {"t0": NaN}})", 2, {"exp.json:1:", "not valid JSON"}));
+    add(text_case("an array, not an object", "[1, 2, 3]", 2, {"exp.json: /:", "expected an object"}));
+    add(text_case("100000 nested arrays", std::string(100000, '[') + std::string(100000, ']'), 2,
+                  {"exp.json", "nested deeper than 64 levels"}));
+    {
+        Case c = text_case("the experiment file is missing", "{}", 1, {"exp.json", "cannot open"});
+        c.prefix = "rm exp.json;";
+        add(c);
+    }
+    {
+        Case c = text_case("the experiment file is a folder", "{}", 1, {"exp.json", "is a folder"});
+        c.prefix = "rm exp.json && mkdir exp.json;";
+        add(c);
+    }
+    // ---- structure and types
+    add(json_case("missing system", [](json &j) { j.erase("system"); }, 2, {"missing required key \"system\""}));
+    add(json_case("missing grid", [](json &j) { j.erase("grid"); }, 2, {"missing required key \"grid\""}));
+    add(json_case("missing time/t1", [](json &j) { j["time"].erase("t1"); }, 2, {"/time", "\"t1\""}));
+    add(json_case("wrong type: grid/n holds a string",
+                  [](json &j) {
+                      j["grid"]["n"] = {11, "nine"};
+                  },
+                  2, {"/grid/n", "two integers"}));
+    add(json_case("wrong type: t0 is a string", [](json &j) { j["time"]["t0"] = "zero"; }, 2,
+                  {"/time/t0", "expected a number"}));
+    add(json_case("wrong type: products is a string", [](json &j) { j["products"] = "ftle"; }, 2, {"/products"}));
+    add(json_case("wrong type: plugin parameter", [](json &j) { j["system"]["params"]["alpha"] = "one"; }, 2,
+                  {"/system/params/alpha"}));
+    add(json_case("unknown top-level key, with a hint", [](json &j) { j["integrater"] = json::object(); }, 2,
+                  {"/integrater", "did you mean \"integrator\""}));
+    add(json_case("unknown integrator key, with a hint",
+                  [](json &j) {
+                      j["integrator"] = {{"rtoll", 1e-6}};
+                  },
+                  2, {"/integrator/rtoll", "did you mean \"rtol\""}));
+    add(json_case("unknown plugin parameter, with a hint", [](json &j) { j["system"]["params"]["alpah"] = 1; }, 2,
+                  {"/system/params", "alpah", "alpha"}));
+    add(json_case("unknown product, with a hint", [](json &j) { j["products"] = {"ftel"}; }, 2,
+                  {"/products/0", "did you mean \"ftle\""}));
+    add(json_case("nothing to compute", [](json &j) { j["products"] = json::array(); }, 2, {"/products"}));
+    // ---- values
+    add(json_case("parameter outside the schema's range",
+                  [](json &j) {
+                      j["system"] = {{"plugin", "pendulum"}, {"params", {{"omega0", -1.0}}}};
+                  },
+                  2, {"/system/params/omega0", "-1"}));
+    // JSON has no NaN or Infinity; a number beyond the double range is the way to write one.
+    const std::string base_text = base_experiment().dump(2);
+    auto replaced = [&](const std::string &from, const std::string &to) {
+        std::string t = base_text;
+        t.replace(t.find(from), from.size(), to);
+        return t;
+    };
+    add(text_case("infinite number (t1 = 1e999)", replaced("\"t1\": 2", "\"t1\": 1e999"), 2,
+                  {"exp.json:", "1e999", "beyond the range of a double"}));
+    add(text_case("infinite plugin parameter (alpha = -1e999)", replaced("\"alpha\": 1", "\"alpha\": -1e999"), 2,
+                  {"exp.json:", "-1e999", "beyond the range of a double"}));
+    add(text_case("infinite grid bound (x = [-1.5, 1e400])", replaced("1.5\n", "1e400\n"), 2, {"exp.json:", "1e400"}));
+    add(json_case("t0 = t1", [](json &j) { j["time"]["t1"] = 0; }, 2, {"/time/t1", "nonzero length"}));
+    add(json_case("empty box: x[0] > x[1]",
+                  [](json &j) {
+                      j["grid"]["x"] = {1.5, -1.5};
+                  },
+                  2, {"/grid/x", "min < max"}));
+    add(json_case("empty box: y[0] = y[1]", [](json &j) { j["grid"]["y"] = {1, 1}; }, 2, {"/grid/y", "min < max"}));
+    add(json_case("grid of 2 points in x",
+                  [](json &j) {
+                      j["grid"]["n"] = {2, 9};
+                  },
+                  2, {"/grid/n/0", "between 3 and 100000"}));
+    add(json_case("negative grid size", [](json &j) { j["grid"]["n"] = {11, -9}; }, 2, {"/grid/n/1"}));
+    add(json_case("fractional grid size", [](json &j) { j["grid"]["n"] = {10.5, 9}; }, 2, {"/grid/n"}));
+    add(json_case("grid larger than the machine's memory",
+                  [](json &j) {
+                      j["grid"]["n"] = {100000, 100000};
+                  },
+                  2, {"/grid/n", "100000 x 100000", "needs about", "available"}));
+    add(json_case("rtol = 0", [](json &j) { j["integrator"] = {{"rtol", 0}}; }, 2, {"/integrator/rtol"}));
+    add(json_case("rtol = 1", [](json &j) { j["integrator"] = {{"rtol", 1}}; }, 2, {"/integrator/rtol", "below 1"}));
+    add(json_case("negative rtol", [](json &j) { j["integrator"] = {{"rtol", -1e-6}}; }, 2, {"/integrator/rtol"}));
+    add(json_case("atol = 0", [](json &j) { j["integrator"] = {{"atol", 0}}; }, 2, {"/integrator/atol"}));
+    add(json_case("negative step", [](json &j) { j["integrator"] = {{"step", -0.1}}; }, 2, {"/integrator/step"}));
+    add(json_case("max_steps = 0",
+                  [](json &j) {
+                      j["integrator"] = {{"max_steps", 0}};
+                  },
+                  2, {"/integrator/max_steps"}));
+    add(json_case("batch = 0", [](json &j) { j["integrator"] = {{"batch", 0}}; }, 2, {"/integrator/batch"}));
+    add(json_case("rk4 without a step",
+                  [](json &j) {
+                      j["integrator"] = {{"method", "rk4"}};
+                  },
+                  2, {"/integrator", "step"}));
+    add(json_case("unknown integrator method, with a hint",
+                  [](json &j) {
+                      j["integrator"] = {{"method", "rosenbrok4"}};
+                  },
+                  2, {"/integrator/method", "did you mean \"rosenbrock4\""}));
+    add(json_case("auxiliary offset above 0.5",
+                  [](json &j) {
+                      j["cauchy_green"] = {{"offset", 0.7}};
+                  },
+                  2, {"/cauchy_green/offset"}));
+    add(json_case("empty output folder name", [](json &j) { j["output"] = {{"dir", ""}}; }, 2, {"/output/dir"}));
+    add(json_case("plugin_paths holds a number", [](json &j) { j["plugin_paths"] = {3}; }, 2, {"/plugin_paths/0"}));
+    // ---- plugins
+    add(json_case("unknown plugin, listing the known ones", [](json &j) { j["system"]["plugin"] = "dufing"; }, 2,
+                  {"/system/plugin", "dufing", "duffing"}));
+    add(json_case("a plugin of another ABI major version",
+                  [wrong_abi](json &j) {
+                      j["forcing"] = {{"plugin", wrong_abi}};
+                  },
+                  2, {"/forcing/plugin", "geobarrier-wrong-abi.so", "ABI 2.", "ABI 1."}));
+    add(json_case("a file that is not a shared library",
+                  [not_a_library](json &j) {
+                      j["system"] = {{"plugin", not_a_library}};
+                  },
+                  2, {"/system/plugin", "not-a-plugin.so", "not a loadable shared library"}));
+    add(json_case("a plugin whose entry function throws",
+                  [throwing_entry](json &j) {
+                      j["system"] = {{"plugin", throwing_entry}};
+                  },
+                  2, {"/system/plugin", "geobarrier-entry-throws.so", "deliberate failure in the plugin entry"}));
+    add(json_case("a plugin whose factory throws",
+                  [nan_lib](json &j) {
+                      j["system"] = {{"plugin", "throwing-factory"}};
+                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
+                  },
+                  1, {"throwing-factory", "deliberate failure in the factory"}));
+    add(json_case("a plugin whose right-hand side throws",
+                  [nan_lib](json &j) {
+                      j["system"] = {{"plugin", "throwing-system"}};
+                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
+                  },
+                  1, {"throwing-system", "deliberate failure in rhs"}));
+    add(json_case("a system that returns NaN everywhere",
+                  [nan_lib](json &j) {
+                      j["system"] = {{"plugin", "nan-system"}};
+                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
+                      j["cauchy_green"] = {{"method", "auxiliary-grid"}};
+                  },
+                  1, {"every one of the 99 grid points was masked", "non-finite"}));
+    add(json_case("a forcing that returns NaN everywhere",
+                  [nan_lib](json &j) {
+                      j["system"] = {{"plugin", "forced-oscillator"}};
+                      j["forcing"] = {{"plugin", "nan-forcing"}};
+                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
+                  },
+                  1, {"every one of the 99 grid points was masked", "non-finite"}));
+    add(json_case("rosenbrock4 for a system without a Jacobian",
+                  [nan_lib](json &j) {
+                      j["system"] = {{"plugin", "forced-oscillator"}};
+                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
+                      j["integrator"] = {{"method", "rosenbrock4"}};
+                  },
+                  2, {"/integrator/method", "rosenbrock4", "Jacobian"}));
+    add(json_case("variational gradient for a system without a Jacobian",
+                  [nan_lib](json &j) {
+                      j["system"] = {{"plugin", "forced-oscillator"}};
+                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
+                      j["cauchy_green"] = {{"method", "variational"}};
+                  },
+                  2, {"/cauchy_green/method", "Jacobian"}));
+    // ---- computations that cannot give an answer
+    add(json_case("bounds that exclude the whole grid",
+                  [](json &j) {
+                      j["bounds"] = {{"x", {5, 6}}, {"y", {5, 6}}};
+                  },
+                  1, {"every one of the 99 grid points was masked", "left the bounds"}));
+    add(json_case("every trajectory blows up (beta < 0, huge forcing)",
+                  [](json &j) {
+                      j["system"]["params"] = {{"alpha", 1}, {"beta", -1}, {"delta", 0}};
+                      j["forcing"]["params"] = {{"amplitude", 1e6}};
+                      j["time"]["t1"] = 20;
+                  },
+                  1, {"every one of the 99 grid points was masked", "blew up"}));
+    add(json_case("a stiff system for an explicit stepper (step limit)",
+                  [](json &j) {
+                      j["system"]["params"] = {{"alpha", 1}, {"beta", 1}, {"delta", 1000}};
+                      j["grid"]["n"] = {3, 3};
+                      j["time"]["t1"] = 4000;
+                      j["integrator"] = {{"method", "dopri5"}, {"batch", 9}};
+                  },
+                  1, {"every one of the 9 grid points was masked", "dopri5 reached its step limit", "rosenbrock4"}));
+    // ---- where the output goes
+    {
+        Case c =
+            json_case("an output folder below a regular file", [](json &) {}, 1, {"cannot create the output folder"});
+        c.prefix = "touch blocker;";
+        c.out_dir = "blocker/out";
+        add(c);
+    }
+    {
+        Case c = json_case("an output folder on a read-only file system (/proc)", [](json &) {}, 1,
+                           {"/proc/geobarrier-out", "output folder"});
+        c.out_dir = "/proc/geobarrier-out";
+        add(c);
+    }
+    {
+        // A full disk, simulated with a file-size limit (RLIMIT_FSIZE, 2 x 512 bytes in sh): writes past it fail
+        // with EFBIG once the program ignores SIGXFSZ, as it does.
+        Case c = json_case("a full disk (file-size limit of 1 KiB)",
+                           [](json &j) {
+                               j["grid"]["n"] = {101, 81};
+                           },
+                           1, {"fields.nc", "files are limited to 1.0 KiB (ulimit -f)"});
+        c.prefix = "ulimit -f 2;";
+        add(c);
+    }
+    return cases;
+}
+
+} // namespace
+
+TEST_CASE("bad-input battery: exit code, one line naming the problem and where, nothing written") {
+    const std::vector<Case> cases = battery();
+    std::size_t index = 0;
+    for (const Case &c : cases) {
+        const fs::path dir = scratch() / ("case-" + std::to_string(index++));
+        fs::create_directories(dir);
+        std::ofstream(dir / "exp.json", std::ios::binary) << c.text();
+        const std::string out_dir = c.out_dir.empty() ? "out" : c.out_dir;
+        const Outcome o = run_case(dir, c.prefix, out_dir);
+        const fs::path out = fs::path(out_dir).is_absolute() ? fs::path(out_dir) : dir / out_dir;
+        check_outcome(c, dir, o, out);
+    }
+    MESSAGE(cases.size() << " bad inputs tried through the program");
+    CHECK(cases.size() >= 50);
+}
+
+TEST_CASE("bad-input battery: a really full disk (a 64 KiB tmpfs in a user namespace), where unshare allows it") {
+    if (std::system("unshare -r -m true >/dev/null 2>&1") != 0) {
+        MESSAGE("skipped: unshare -r -m (an unprivileged user and mount namespace) is not available here");
+        return;
+    }
+    const fs::path dir = scratch() / "tmpfs";
+    fs::create_directories(dir / "out");
+    json j = base_experiment();
+    j["grid"]["n"] = {301, 201}; // fields.nc alone is larger than 64 KiB
+    std::ofstream(dir / "exp.json") << j.dump(2);
+    // The mount lives in the namespace, so the listing of the folder is taken there, before it goes away.
+    const std::string command =
+        "cd '" + dir.string() + "' && unshare -r -m sh -c 'mount -t tmpfs -o size=64k tmpfs out && " +
+        geobarrier::test::geobarrier_program().string() +
+        " run exp.json --out out --quiet >stdout.txt 2>stderr.txt; echo $? >status.txt; ls -A out >listing.txt'";
+    REQUIRE(std::system(command.c_str()) == 0);
+    const std::string status = read_file(dir / "status.txt"), err = read_file(dir / "stderr.txt");
+    CAPTURE(err);
+    CHECK(status == "1\n");
+    CHECK(std::count(err.begin(), err.end(), '\n') == 1);
+    CHECK(err.find("fields.nc") != std::string::npos);
+    CHECK(err.find("its file system has") != std::string::npos); // HDF5 says only "HDF error": the hint says why
+    CHECK(read_file(dir / "listing.txt").empty());
+    CHECK(read_file(dir / "stdout.txt").empty());
+}
+
+TEST_CASE("an interrupted earlier run and a failed later run leave a finished run untouched") {
+    // A finished run, then a run into the same folder that fails while computing: the first run's files (and its
+    // manifest) stay as they were, and nothing of the failed run appears.
+    const fs::path dir = scratch() / "keep";
+    fs::create_directories(dir);
+    std::ofstream(dir / "exp.json") << base_experiment().dump(2);
+    REQUIRE(run_case(dir, "", "out").code == 0);
+    const std::string manifest = read_file(dir / "out" / "manifest.json"),
+                      fields = read_file(dir / "out" / "fields.nc");
+    REQUIRE_FALSE(manifest.empty());
+    json j = base_experiment();
+    j["bounds"] = {{"x", {5, 6}}, {"y", {5, 6}}};
+    std::ofstream(dir / "exp.json") << j.dump(2);
+    const Outcome o = run_case(dir, "", "out");
+    CHECK(o.code == 1);
+    CHECK(read_file(dir / "out" / "manifest.json") == manifest);
+    CHECK(read_file(dir / "out" / "fields.nc") == fields);
+    std::size_t entries = 0;
+    for (const auto &e : fs::directory_iterator(dir / "out")) {
+        CHECK_MESSAGE(e.path().filename().string()[0] != '.', e.path()); // no staging folder left behind
+        ++entries;
+    }
+    CHECK(entries == 3); // fields.nc, ftle.png, manifest.json
+    fs::remove_all(scratch());
+}

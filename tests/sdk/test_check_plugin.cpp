@@ -1,0 +1,99 @@
+// `geobarrier check-plugin` end to end: the table for good plugins (files and names), per-plugin parameters, the
+// declared domain, a failing plugin, an unloadable file, and bad options; exit codes 0, 1 and 2.
+#include <doctest/doctest.h>
+#include <test_support.hpp>
+
+#include <sys/wait.h>
+
+#include <array>
+#include <cstdio>
+#include <string>
+
+namespace {
+
+struct Result {
+    int status;
+    std::string output;
+};
+
+Result run(const std::string &args) {
+    const std::string command =
+        "env -u GEOBARRIER_PLUGIN_PATH " + geobarrier::test::geobarrier_program().string() + " " + args + " 2>&1";
+    FILE *pipe = ::popen(command.c_str(), "r");
+    REQUIRE(pipe != nullptr);
+    std::string output;
+    std::array<char, 4096> buffer;
+    while (std::fgets(buffer.data(), buffer.size(), pipe)) output += buffer.data();
+    const int raw = ::pclose(pipe);
+    return {WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, output};
+}
+
+bool contains(const std::string &text, const std::string &part) { return text.find(part) != std::string::npos; }
+
+std::string plugin_file(const std::string &name) {
+    return (geobarrier::test::plugin_dir() / ("geobarrier-" + name + ".so")).string();
+}
+
+}  // namespace
+
+TEST_CASE("check-plugin: a good system, by file and by name") {
+    const Result by_file = run("check-plugin " + plugin_file("double-gyre"));
+    INFO(by_file.output);
+    CHECK(by_file.status == 0);
+    CHECK(contains(by_file.output, "double-gyre 1.0.0 (system, "));
+    for (const char *check : {"abi_version", "schema", "create", "batch_equals_scalar", "lanes_untouched",
+                              "jacobian_vs_finite_differences", "divergence_equals_trace", "determinism",
+                              "forcing_ignored", "finite_on_sample_box"})
+        CHECK(contains(by_file.output, std::string("PASS  ") + check));
+    CHECK(contains(by_file.output, "in [0, 2] x [0, 1]")); // its declared domain
+    CHECK(contains(by_file.output, "PASS  system  double-gyre  10/10 passed, 0 skipped"));
+    const Result by_name = run("check-plugin double-gyre --state-min -1 --state-max 1");
+    CHECK(by_name.status == 0);
+    CHECK(contains(by_name.output, "in [-1, 1] x [-1, 1]"));
+}
+
+TEST_CASE("check-plugin: parameters, for one plugin or per plugin") {
+    CHECK(run("check-plugin pendulum --params '{\"omega0\": 3, \"damping\": 0.5}'").status == 0);
+    const std::string csv = (geobarrier::test::source_dir() / "experiments" / "data" / "forcing.csv").string();
+    const Result data =
+        run("check-plugin data sum --params '{\"data\": {\"file\": \"" + csv + "\"}}' --t-min 0 --t-max 60");
+    INFO(data.output);
+    CHECK(data.status == 0);
+    CHECK(contains(data.output, "PASS  forcing  data  7/7 passed"));
+    CHECK(contains(data.output, "PASS  composite_terms"));
+    // The data forcing without its file fails at creation, naming the parameter.
+    const Result bare = run("check-plugin data");
+    CHECK(bare.status == 1);
+    CHECK(contains(bare.output, "FAIL  create"));
+    CHECK(contains(bare.output, "parameter \"file\" is required"));
+}
+
+TEST_CASE("check-plugin: failures and bad input") {
+    const Result faulty = run(std::string("check-plugin ") + GEOBARRIER_FAULTY_PLUGIN);
+    CHECK(faulty.status == 1);
+    CHECK(contains(faulty.output, "FAIL  "));
+    const Result text = run("check-plugin " + (geobarrier::test::test_plugin_dir() / "not-a-plugin.so").string());
+    CHECK(text.status == 1);
+    CHECK(contains(text.output, "FAIL  load"));
+    CHECK(contains(text.output, "not a loadable shared library"));
+    const Result unknown = run("check-plugin pendulm");
+    CHECK(unknown.status == 2);
+    CHECK(contains(unknown.output, "did you mean 'pendulum'?"));
+    CHECK(run("check-plugin pendulum --params '{oops'").status == 2);
+    CHECK(run("check-plugin pendulum --state-min -1 -1 -1").status == 2); // 3 bounds for dimension 2
+    CHECK(run("check-plugin --params '{\"nosuch\": {}}' pendulum").status == 2);
+    CHECK(run("check-plugin").status == 2);
+}
+
+TEST_CASE("check-plugin --all: every plugin built into lib/geobarrier/plugins passes") {
+    // The data forcing needs a series; its sample record spans t in [0, 60], so every plugin is sampled there.
+    const std::string csv = (geobarrier::test::source_dir() / "experiments" / "data" / "forcing.csv").string();
+    const Result all =
+        run("check-plugin --all --params '{\"data\": {\"file\": \"" + csv + "\"}}' --t-min 0 --t-max 60");
+    INFO(all.output);
+    CHECK(all.status == 0);
+    for (const char *name : {"duffing", "pendulum", "van-der-pol", "double-gyre", "linear-saddle", "shear-vortex",
+                             "none", "cosine", "chaotic-map", "quasi-periodic", "data", "ramp", "sum"})
+        CHECK(contains(all.output, std::string("  ") + name + "  "));
+    CHECK_FALSE(contains(all.output, "FAIL"));
+}

@@ -1,5 +1,6 @@
 // The Cauchy–Green tensor C = DF^T DF (paper eq. `cg`) and its eigen-decomposition, computed without cancellation
-// or overflow (DESIGN.md §4), pointwise and over a grid.
+// or overflow (DESIGN.md §4), pointwise and over a grid, also for DF beyond the double range (renormalised
+// variational equations: DF = 2^e G) and with det DF from Liouville's formula.
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/errors.hpp>
 
@@ -23,36 +24,59 @@ double det2(double a, double b, double c, double d) {
 }  // namespace
 
 CauchyGreenPoint cauchy_green_at(double f11, double f12, double f21, double f22, double abs_duration) {
+    return cauchy_green_at(f11, f12, f21, f22, abs_duration, 0, std::numeric_limits<double>::quiet_NaN());
+}
+
+CauchyGreenPoint cauchy_green_at(double f11, double f12, double f21, double f22, double abs_duration, int exponent,
+                                 double log_abs_det) {
     constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+    constexpr double ln2 = 0.69314718055994530942;
     CauchyGreenPoint p;
-    const double s = std::max({std::abs(f11), std::abs(f12), std::abs(f21), std::abs(f22)});
-    if (!std::isfinite(s) || !(s > 0.0)) {
+    const double big = std::max({std::abs(f11), std::abs(f12), std::abs(f21), std::abs(f22)});
+    if (!std::isfinite(big) || !(big > 0.0)) {
         // Not a deformation gradient (NaN, Inf or zero): nothing trustworthy to report.
         p.lambda1 = p.lambda2 = p.ftle = nan;
         p.xi1_x = p.xi1_y = p.xi2_x = p.xi2_y = nan;
         p.degenerate = true;
         return p;
     }
-    // Work with G = DF / s (entries in [-1, 1]) so that squaring cannot overflow or underflow; C = s^2 G^T G.
-    const double g11 = f11 / s, g12 = f12 / s, g21 = f21 / s, g22 = f22 / s;
+    // Work with G = DF / 2^k, 2^k the power of 2 at or below the largest entry. The scaling is exact, so G holds DF's
+    // entries unrounded (dividing by the largest entry itself would round them, and det G, a cancellation when
+    // lambda1 << lambda2, would then lose every digit), and max |g| lies in [1, 2): squares neither overflow nor
+    // underflow. With the caller's exponent, DF = 2^E G and C = 4^E G^T G.
+    const int k = std::ilogb(big);
+    const int e = exponent + k;
+    const double g11 = std::ldexp(f11, -k), g12 = std::ldexp(f12, -k), g21 = std::ldexp(f21, -k),
+                 g22 = std::ldexp(f22, -k);
     const double c11 = g11 * g11 + g21 * g21;
     const double c12 = g11 * g12 + g21 * g22;
     const double c22 = g12 * g12 + g22 * g22;
     const double half_diff = 0.5 * (c11 - c22);
     const double r = std::hypot(half_diff, c12);
-    // Dominant root: a sum of non-negative terms, no cancellation. mu2 >= 1/2 because some |g| = 1.
+    // Dominant root: a sum of non-negative terms, no cancellation. mu2 >= 1/2 because some |g| >= 1.
     const double mu2 = 0.5 * (c11 + c22) + r;
     const double det_g = det2(g11, g12, g21, g22);
 
-    // Small root from det C = det(DF)^2 = lambda1 lambda2 instead of tr/2 - r, which would lose everything when
-    // lambda1/lambda2 < 1e-16: lambda1 = (det(DF)/s)^2 / mu2.
-    const double sd = s * det_g;
-    p.lambda2 = (s * s) * mu2; // may overflow to +Inf for |DF| > ~1e154; the FTLE below stays finite
-    p.lambda1 = std::min(sd * sd / mu2, p.lambda2); // rounding must not reorder a (near) double root
-    const double log_lambda2 = 2.0 * std::log(s) + std::log(mu2);
+    p.lambda2 = std::ldexp(mu2, 2 * e); // exact scaling; +Inf beyond the double range, where the FTLE stays finite
+    const double log_lambda2 = 2.0 * e * ln2 + std::log(mu2);
+    if (std::isfinite(log_abs_det)) {
+        // Liouville's det DF (variational equations): exact for area-preserving flows, and free of the cancellation
+        // that loses det G once lambda2 exceeds ~1/eps.
+        p.lambda1 = std::exp(2.0 * log_abs_det - log_lambda2);
+    } else if (det_g == 0.0) {
+        p.lambda1 = 0.0;
+    } else {
+        // Small root from det C = det(DF)^2 = lambda1 lambda2 instead of tr/2 - r, which would lose everything when
+        // lambda1/lambda2 < 1e-16: lambda1 = 4^E det(G)^2 / mu2, with det G's own power of 2 taken out so that
+        // squaring cannot underflow. Roundings: det2 (~1.5 ulp, doubled by the square), mu2 and two products.
+        const int kd = std::ilogb(det_g);
+        const double m = std::ldexp(std::abs(det_g), -kd);
+        p.lambda1 = std::ldexp(m * m / mu2, 2 * (kd + e));
+    }
+    p.lambda1 = std::min(p.lambda1, p.lambda2); // rounding must not reorder a (near) double root
     p.ftle = abs_duration > 0.0 ? log_lambda2 / (2.0 * abs_duration) : 0.0;
 
-    // lambda2 - lambda1 = s^2 (mu2 - mu1) = 2 s^2 r, without the subtraction.
+    // lambda2 - lambda1 = 4^E (mu2 - mu1) = 4^E 2 r, without the subtraction.
     if (2.0 * r <= degenerate_gap * mu2) {
         p.degenerate = true;
         p.xi1_x = 1.0;
@@ -92,11 +116,21 @@ CauchyGreenPoint cauchy_green_at(double f11, double f12, double f21, double f22,
 
 CauchyGreenField cauchy_green_field(const Grid &grid, const std::vector<double> &dF,
                                     const std::vector<std::uint8_t> &mask, double abs_duration) {
+    return cauchy_green_field(grid, dF, mask, abs_duration, {}, {});
+}
+
+CauchyGreenField cauchy_green_field(const Grid &grid, const std::vector<double> &dF,
+                                    const std::vector<std::uint8_t> &mask, double abs_duration,
+                                    const std::vector<std::int32_t> &dF_exponent, const std::vector<double> &log_det) {
     const std::size_t count = grid.size();
     if (dF.size() != 4 * count || mask.size() != count)
         throw Error("cauchy_green_field: grid of " + std::to_string(count) + " points but " +
                     std::to_string(dF.size()) + " gradient values and " + std::to_string(mask.size()) +
                     " mask values");
+    if ((!dF_exponent.empty() && dF_exponent.size() != count) || (!log_det.empty() && log_det.size() != count))
+        throw Error("cauchy_green_field: grid of " + std::to_string(count) + " points but " +
+                    std::to_string(dF_exponent.size()) + " DF exponents and " + std::to_string(log_det.size()) +
+                    " log-determinants");
     constexpr double nan = std::numeric_limits<double>::quiet_NaN();
     CauchyGreenField field;
     field.grid = grid;
@@ -111,7 +145,9 @@ CauchyGreenField cauchy_green_field(const Grid &grid, const std::vector<double> 
         const std::size_t p = static_cast<std::size_t>(i);
         if (mask[p] & mask_trajectory_bits) continue;
         const double *f = dF.data() + 4 * p;
-        const CauchyGreenPoint c = cauchy_green_at(f[0], f[1], f[2], f[3], abs_duration);
+        const CauchyGreenPoint c =
+            cauchy_green_at(f[0], f[1], f[2], f[3], abs_duration, dF_exponent.empty() ? 0 : dF_exponent[p],
+                            log_det.empty() ? std::numeric_limits<double>::quiet_NaN() : log_det[p]);
         if (!std::isfinite(c.ftle)) {
             // An unmasked but unusable gradient (NaN/Inf from upstream): flag it rather than pass NaN on.
             field.mask[p] |= mask_non_finite;

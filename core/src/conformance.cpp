@@ -139,7 +139,12 @@ struct Box {
     std::vector<double> lo, hi;
 };
 
-Box make_box(const ConformanceOptions &o, unsigned dim) {
+Box make_box(const ConformanceOptions &given, const PluginInfo &info) {
+    const unsigned dim = info.dimension;
+    // No box given: the system's documented domain, or [-2, 2] in every component.
+    ConformanceOptions o = given;
+    if (o.state_min.empty()) o.state_min = info.domain_min.empty() ? std::vector<double>{-2.0} : info.domain_min;
+    if (o.state_max.empty()) o.state_max = info.domain_max.empty() ? std::vector<double>{2.0} : info.domain_max;
     auto expand = [dim](const std::vector<double> &v, const char *what) {
         if (v.size() == 1) return std::vector<double>(dim, v[0]);
         if (v.size() != dim)
@@ -449,9 +454,28 @@ void check_system(const PluginHandle &handle, const ParamValues &values, const B
 
 // ------------------------------------------------------------ forcings
 
+// A composite forcing is checked through its combine() on smooth, distinct synthetic terms (two when it takes
+// two): the core, not the plugin, evaluates real terms, so these checks need no other plugin.
+std::size_t synthetic_term_count(const PluginInfo &info) {
+    return std::min<std::size_t>(info.max_terms, std::max<std::size_t>(info.min_terms, 2));
+}
+double synthetic_term(std::size_t j, double t) {
+    const double jj = static_cast<double>(j);
+    return (1.0 + 0.5 * jj) * std::sin(0.7 * (jj + 1.0) * t + 0.3 * jj);
+}
+
 std::vector<double> evaluate(const Forcing &forcing, const std::vector<double> &t, std::size_t n) {
     std::vector<double> f(t.size(), output_sentinel);
-    forcing.evaluate(n, t.data(), f.data());
+    if (forcing.info().composite()) {
+        // Rows of ld = n + 3 with NaN padding: a plugin must read term j of time k at j * ld + k only.
+        const std::size_t count = synthetic_term_count(forcing.info()), ld = n + 3;
+        std::vector<double> terms(count * ld, std::numeric_limits<double>::quiet_NaN());
+        for (std::size_t j = 0; j < count; ++j)
+            for (std::size_t k = 0; k < n; ++k) terms[j * ld + k] = synthetic_term(j, t[k]);
+        forcing.combine(n, t.data(), count, ld, terms.data(), f.data());
+    } else {
+        forcing.evaluate(n, t.data(), f.data());
+    }
     return f;
 }
 
@@ -462,6 +486,29 @@ void check_forcing(const PluginHandle &handle, const ParamValues &values, const 
     const std::size_t n = o.lanes, ld = std::max(o.ld, o.lanes);
     std::vector<double> t(ld, std::numeric_limits<double>::quiet_NaN());
     for (std::size_t k = 0; k < n; ++k) t[k] = rng.uniform(o.t_min, o.t_max);
+    if (a.info().composite())
+        out.push_back(guarded("composite_terms", [&] {
+            // Each term must matter somewhere: shifting term j by 1 at every time changes some value.
+            const std::size_t count = synthetic_term_count(a.info()), row = n + 3;
+            std::vector<double> terms(count * row, 0.0), base(ld, output_sentinel), shifted(ld, output_sentinel);
+            for (std::size_t j = 0; j < count; ++j)
+                for (std::size_t k = 0; k < n; ++k) terms[j * row + k] = synthetic_term(j, t[k]);
+            a.combine(n, t.data(), count, row, terms.data(), base.data());
+            for (std::size_t j = 0; j < count; ++j) {
+                std::vector<double> moved = terms;
+                for (std::size_t k = 0; k < n; ++k) moved[j * row + k] += 1.0;
+                a.combine(n, t.data(), count, row, moved.data(), shifted.data());
+                bool changed = false;
+                for (std::size_t k = 0; k < n; ++k) changed = changed || !same_bits(base[k], shifted[k]);
+                if (!changed)
+                    return fail("composite_terms", "the value does not depend on term " + std::to_string(j) +
+                                                       " at any of " + std::to_string(n) + " times");
+            }
+            return pass("composite_terms", "checked through combine() on " + std::to_string(count) +
+                                               " synthetic term(s), each of which matters (declares " +
+                                               std::to_string(a.info().min_terms) + " to " +
+                                               std::to_string(a.info().max_terms) + ")");
+        }));
 
     out.push_back(guarded("batch_equals_scalar", [&] {
         const std::vector<double> batch = evaluate(a, t, n);
@@ -521,7 +568,7 @@ std::vector<ConformanceCheck> check_plugin(const PluginHandle &handle, const Con
     out.push_back(check_abi(info));
     out.push_back(check_schema(info));
     if (!out[0].passed) return out; // nothing else may be read from a plugin of another ABI
-    const Box box = info.kind == PluginKind::system ? make_box(options, info.dimension) : Box{};
+    const Box box = info.kind == PluginKind::system ? make_box(options, info) : Box{};
 
     std::unique_ptr<ParamValues> values;
     out.push_back(guarded("create", [&] {

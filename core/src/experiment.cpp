@@ -3,10 +3,12 @@
 // their parameter schemas, then what the requested products need.
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
+#include <geobarrier/resources.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <set>
 #include <sstream>
 
@@ -21,6 +23,12 @@ const std::vector<ProductInfo> &known_products() {
         {"eigenvalues", {"lambda1", "lambda2"}, "Cauchy-Green eigenvalues lambda1 <= lambda2"},
         {"eigenvectors", {"xi1_x", "xi1_y", "xi2_x", "xi2_y"}, "unit Cauchy-Green eigenvectors, xi2 = Omega xi1"},
         {"flow_map", {"flow_x", "flow_y"}, "the flow map F(x0) at t1"},
+        {"strain_deviation", {"strain_deviation"},
+         "geodesic strain deviation d_g^xi1 of strainlines (paper eq. gdev_str, general form for damped systems)"},
+        {"shear_deviation_plus", {"shear_deviation_plus"},
+         "geodesic shear deviation d_g^eta+ of eta+ shearlines (paper eq. dg_shr, general form for damped systems)"},
+        {"shear_deviation_minus", {"shear_deviation_minus"},
+         "geodesic shear deviation d_g^eta- of eta- shearlines (paper eq. dg_shr, general form for damped systems)"},
     };
     return products;
 }
@@ -145,7 +153,12 @@ class ObjectReader {
     mutable std::set<std::string> m_known;
 };
 
-PluginUse read_plugin_use(const json &j, const std::string &path) {
+// Composite forcings may nest (a ramp of a sum, say), this deep at most.
+constexpr int max_forcing_depth = 8;
+
+// `forcing_depth` >= 0 reads a forcing, which may name the terms of a composite forcing in "terms": [...] or, for
+// one term, "base": {...}; whether the plugin is composite is checked once it is found (resolve_experiment).
+PluginUse read_plugin_use(const json &j, const std::string &path, int forcing_depth = -1) {
     ObjectReader r(j, path);
     PluginUse use;
     use.plugin = r.string("plugin", std::nullopt);
@@ -155,6 +168,27 @@ PluginUse read_plugin_use(const json &j, const std::string &path) {
         if (!use.params.is_object())
             throw ConfigError(r.child("params"), short_dump(use.params) + " is " + type_name(use.params) +
                                                      "; expected an object of parameters");
+    }
+    if (forcing_depth >= 0) {
+        const bool has_base = r.has("base"), has_terms = r.has("terms");
+        if (has_base && has_terms)
+            throw ConfigError(r.child("base"), "give either \"base\" (one forcing) or \"terms\" (a list), not both");
+        if ((has_base || has_terms) && forcing_depth + 1 >= max_forcing_depth)
+            throw ConfigError(r.child(has_base ? "base" : "terms"),
+                              "composite forcings nested more than " + std::to_string(max_forcing_depth) + " deep");
+        if (has_base) {
+            use.terms_key = "base";
+            use.terms.push_back(read_plugin_use(r.get("base"), r.child("base"), forcing_depth + 1));
+        } else if (has_terms) {
+            const json &t = r.get("terms");
+            if (!t.is_array() || t.empty())
+                throw ConfigError(r.child("terms"), short_dump(t) + " must be a non-empty array of forcings " +
+                                                        "[{\"plugin\": ...}, ...]");
+            use.terms_key = "terms";
+            for (std::size_t i = 0; i < t.size(); ++i)
+                use.terms.push_back(
+                    read_plugin_use(t[i], r.child("terms") + "/" + std::to_string(i), forcing_depth + 1));
+        }
     }
     use.json_path = path;
     r.finish();
@@ -172,8 +206,8 @@ Experiment parse_experiment(const json &j, const fs::path &file) {
 
     e.description = root.string("description", std::string());
     e.system = read_plugin_use(root.get("system"), "/system");
-    if (root.has("forcing")) e.forcing = read_plugin_use(root.get("forcing"), "/forcing");
-    else e.forcing = PluginUse{"none", json::object(), "/forcing"};
+    if (root.has("forcing")) e.forcing = read_plugin_use(root.get("forcing"), "/forcing", 0);
+    else e.forcing = PluginUse{"none", json::object(), "/forcing", {}, ""};
 
     {
         ObjectReader g(root.get("grid"), "/grid");
@@ -182,10 +216,12 @@ Experiment parse_experiment(const json &j, const fs::path &file) {
         const json &n = g.get("n");
         if (!n.is_array() || n.size() != 2 || !n[0].is_number_integer() || !n[1].is_number_integer())
             throw ConfigError("/grid/n", short_dump(n) + " must be an array of two integers [nx, ny]");
+        // At least 3 points per direction: the centred differences of the fields (gradient of lambda2, curvatures
+        // of the line fields) need a neighbour on each side.
         for (int k = 0; k < 2; ++k)
-            if (n[k].get<long long>() < 2 || n[k].get<long long>() > 100000)
+            if (n[k].get<long long>() < 3 || n[k].get<long long>() > 100000)
                 throw ConfigError("/grid/n/" + std::to_string(k),
-                                  short_dump(n[k]) + " must be between 2 and 100000 (points, endpoints included)");
+                                  short_dump(n[k]) + " must be between 3 and 100000 (points, endpoints included)");
         e.grid.nx = n[0].get<std::size_t>();
         e.grid.ny = n[1].get<std::size_t>();
         g.finish();
@@ -208,8 +244,17 @@ Experiment parse_experiment(const json &j, const fs::path &file) {
     if (root.has("integrator")) {
         ObjectReader r(root.get("integrator"), "/integrator");
         IntegratorSettings &s = e.integrator;
-        s.method = r.string("method", s.method, {"dopri5", "rkf78", "rk4"});
+        s.method = r.string("method", s.method, {"dopri5", "rkf78", "rk4", "rosenbrock4"});
         s.rtol = r.positive("rtol", s.rtol);
+        if (s.rtol >= 1.0)
+            throw ConfigError("/integrator/rtol",
+                              short_dump(r.get("rtol")) + " must be below 1 (a relative tolerance)");
+        if (s.rtol < min_rtol) {
+            // Double precision cannot honour it: each step's rounding error alone is ~1e-16 |x|.
+            e.warnings.push_back("/integrator/rtol: " + short_dump(r.get("rtol")) + " is below what double precision "
+                                 "can honour; clamped to 1e-14");
+            s.rtol = min_rtol;
+        }
         s.atol = r.positive("atol", s.atol);
         s.step = r.positive("step", s.step);
         s.batch = r.count("batch", s.batch, 1);
@@ -253,6 +298,15 @@ Experiment parse_experiment(const json &j, const fs::path &file) {
         for (std::size_t i = 0; i < x.size(); ++i)
             e.extractors.push_back(read_plugin_use(x[i], "/extractors/" + std::to_string(i)));
     }
+    if (root.has("validation")) {
+        e.validation = parse_validation(root.get("validation"), "/validation");
+        // Products built on the found barriers need an extractor to find them.
+        const bool barrier_seeds = e.validation.poincare && e.validation.poincare->barrier_points > 0;
+        if ((e.validation.advect_barriers || barrier_seeds) && e.extractors.empty())
+            throw ConfigError(barrier_seeds ? "/validation/poincare/barrier_points" : "/validation/advect_barriers",
+                              "works on the barriers the extractors find, and there is no extractor: add one to "
+                              "\"extractors\" (e.g. {\"plugin\": \"elliptic\"})");
+    }
     if (root.has("plugin_paths")) {
         const json &p = root.get("plugin_paths");
         if (!p.is_array()) throw ConfigError("/plugin_paths", short_dump(p) + " must be an array of folder paths");
@@ -275,36 +329,66 @@ Experiment parse_experiment(const json &j, const fs::path &file) {
             e.output_dir = "out/" + stem;
         }
     }
-    if (e.products.empty() && e.extractors.empty())
-        throw ConfigError("/products", "nothing to compute: request at least one product (e.g. [\"ftle\"]) or an extractor");
+    if (e.products.empty() && e.extractors.empty() && e.validation.empty())
+        throw ConfigError("/products", "nothing to compute: request at least one product (e.g. [\"ftle\"]), an "
+                                       "extractor or a validation product");
     root.finish();
     return e;
 }
 
-Experiment load_experiment(const fs::path &file) {
-    std::ifstream in(file);
-    if (!in) throw IoError(file.string() + ": cannot open the experiment file");
+namespace {
+
+// Deeper JSON would meet recursive code further on (dumps in messages, comparisons); no experiment needs more than a
+// few levels, so the parser refuses more (100000 nested brackets crashed the program by stack overflow).
+constexpr int max_json_depth = 64;
+struct TooDeep {};
+
+// "line:col" of byte `offset` (0-based) in `text`.
+std::string line_column(const std::string &text, std::size_t offset) {
+    std::size_t line = 1, col = 1;
+    for (std::size_t k = 0; k < offset && k < text.size(); ++k) {
+        if (text[k] == '\n') {
+            ++line;
+            col = 1;
+        } else {
+            ++col;
+        }
+    }
+    return std::to_string(line) + ":" + std::to_string(col);
+}
+
+}  // namespace
+
+Experiment parse_experiment_text(const std::string &text, const fs::path &file) {
+    const std::string where = file.empty() ? std::string("<experiment>") : file.string();
+    const json::parser_callback_t depth_guard = [](int depth, json::parse_event_t, json &) {
+        if (depth > max_json_depth) throw TooDeep{};
+        return true;
+    };
     json j;
     try {
-        j = json::parse(in, nullptr, true, /*ignore_comments=*/true);
+        j = json::parse(text, depth_guard, true, /*ignore_comments=*/true);
     } catch (const json::parse_error &e) {
         // nlohmann's message names the byte offset; give line and column too.
-        std::ifstream again(file);
-        std::string text((std::istreambuf_iterator<char>(again)), std::istreambuf_iterator<char>());
-        std::size_t line = 1, col = 1;
-        for (std::size_t k = 0; k + 1 < e.byte && k < text.size(); ++k) {
-            if (text[k] == '\n') {
-                ++line;
-                col = 1;
-            } else {
-                ++col;
-            }
-        }
         std::string what = e.what();
         const auto pos = what.find("parse error");
-        throw ConfigError(file.string() + ":" + std::to_string(line) + ":" + std::to_string(col),
+        throw ConfigError(where + ":" + line_column(text, e.byte > 0 ? e.byte - 1 : 0),
                           "not valid JSON: " + (pos == std::string::npos ? what : what.substr(pos)));
+    } catch (const json::out_of_range &e) {
+        // 406: a number beyond the double range ("number overflow parsing '1e999'"): point at its first occurrence.
+        const std::string what = e.what();
+        const auto open = what.find('\''), close = what.rfind('\'');
+        const std::string token =
+            open != std::string::npos && close > open ? what.substr(open + 1, close - open - 1) : std::string();
+        const std::size_t at = token.empty() ? std::string::npos : text.find(token);
+        throw ConfigError(where + (at == std::string::npos ? std::string() : ":" + line_column(text, at)),
+                          "not valid JSON: the number " + (token.empty() ? std::string("given") : token) +
+                              " is beyond the range of a double");
+    } catch (const TooDeep &) {
+        throw ConfigError(where, "JSON nested deeper than " + std::to_string(max_json_depth) +
+                                     " levels; an experiment needs a few");
     }
+    if (file.empty()) return parse_experiment(j, file);
     try {
         return parse_experiment(j, file);
     } catch (const ConfigError &e) {
@@ -312,7 +396,31 @@ Experiment load_experiment(const fs::path &file) {
     }
 }
 
+Experiment load_experiment(const fs::path &file) {
+    std::error_code ec;
+    if (fs::is_directory(file, ec)) throw IoError(file.string() + ": is a folder, not an experiment file");
+    std::ifstream in(file, std::ios::binary);
+    if (!in) throw IoError(file.string() + ": cannot open the experiment file");
+    const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    if (in.bad()) throw IoError(file.string() + ": cannot read the experiment file");
+    return parse_experiment_text(text, file);
+}
+
 namespace {
+
+// String parameters with the unit "path" name files relative to the experiment's folder: make them absolute
+// before the plugin sees them, so an experiment runs the same from any working directory.
+json resolve_path_params(const PluginInfo &info, const json &params, const fs::path &base) {
+    json out = params;
+    if (!out.is_object()) return out;
+    for (const ParamSpec &p : info.params) {
+        if (p.type != ParamType::string || p.unit != "path" || !out.contains(p.name) || !out[p.name].is_string())
+            continue;
+        const fs::path value = out[p.name].get<std::string>();
+        if (!value.empty() && value.is_relative()) out[p.name] = (base / value).lexically_normal().string();
+    }
+    return out;
+}
 
 // Field names extractors may ask for, and what produces them.
 bool is_cauchy_green_field(const std::string &name) {
@@ -329,9 +437,10 @@ ResolvedExperiment resolve_experiment(const Experiment &experiment) {
     ResolvedExperiment r{experiment, PluginRegistry(PluginRegistry::default_folders(experiment.plugin_paths)),
                          {}, {}, {}, GradientMethod::none, false, false, json::object()};
     const Experiment &e = r.experiment;
+    const fs::path base = e.file.empty() ? fs::current_path() : fs::absolute(e.file).parent_path();
     auto create = [&](PluginKind kind, const PluginUse &use) -> std::pair<const PluginHandle *, ParamValues> {
         const PluginHandle &h = r.registry.find(kind, use.plugin, use.json_path + "/plugin");
-        return {&h, validate_params(h.info, use.params, use.json_path + "/params")};
+        return {&h, validate_params(h.info, resolve_path_params(h.info, use.params, base), use.json_path + "/params")};
     };
     json resolved = e.source;
 
@@ -339,9 +448,48 @@ ResolvedExperiment resolve_experiment(const Experiment &experiment) {
     r.system = System(*sys_handle, sys_values);
     resolved["system"] = {{"plugin", sys_handle->info.name}, {"params", params_to_json(sys_handle->info, sys_values)}};
 
-    auto [f_handle, f_values] = create(PluginKind::forcing, e.forcing);
-    r.forcing = Forcing(*f_handle, f_values);
-    resolved["forcing"] = {{"plugin", f_handle->info.name}, {"params", params_to_json(f_handle->info, f_values)}};
+    // A composite forcing's terms are created first and handed to it (plugin.hpp, Forcing): the core evaluates
+    // them, plugins never call each other. `echo` receives the resolved tree for the manifest.
+    std::function<Forcing(const PluginUse &, json &)> make_forcing = [&](const PluginUse &use, json &echo) {
+        auto [h, values] = create(PluginKind::forcing, use);
+        const PluginInfo &info = h->info;
+        echo = {{"plugin", info.name}, {"params", params_to_json(info, values)}};
+        if (!info.composite()) {
+            if (use.terms.empty()) return Forcing(*h, values);
+            std::string composites;
+            for (const PluginHandle &other : r.registry.plugins())
+                if (other.info.kind == PluginKind::forcing && other.info.composite())
+                    composites += (composites.empty() ? "" : ", ") + other.info.name;
+            throw ConfigError(use.json_path + "/" + use.terms_key,
+                              "forcing '" + info.name + "' is not a composite forcing and takes no \"" + use.terms_key +
+                                  "\" (composite forcings here: " + (composites.empty() ? "none" : composites) + ")");
+        }
+        const std::string range = info.min_terms == info.max_terms
+                                      ? std::to_string(info.min_terms)
+                                      : std::to_string(info.min_terms) + " to " + std::to_string(info.max_terms);
+        if (use.terms.size() < info.min_terms)
+            throw ConfigError(use.json_path, "forcing '" + info.name + "' combines " + range + " other forcing(s), " +
+                                                 "found " + std::to_string(use.terms.size()) + ": give " +
+                                                 (info.max_terms == 1 ? "\"base\": {\"plugin\": ...}"
+                                                                      : "\"terms\": [{\"plugin\": ...}, ...]"));
+        if (use.terms.size() > info.max_terms)
+            throw ConfigError(use.terms[info.max_terms].json_path,
+                              "forcing '" + info.name + "' combines " + range + " other forcing(s), found " +
+                                  std::to_string(use.terms.size()));
+        std::vector<Forcing> terms;
+        json echo_terms = json::array();
+        for (const PluginUse &term : use.terms) {
+            json term_echo;
+            terms.push_back(make_forcing(term, term_echo));
+            echo_terms.push_back(term_echo);
+        }
+        if (use.terms_key == "base") echo["base"] = echo_terms[0];
+        else echo["terms"] = echo_terms;
+        return Forcing(*h, values, std::move(terms));
+    };
+    json forcing_echo;
+    r.forcing = make_forcing(e.forcing, forcing_echo);
+    resolved["forcing"] = forcing_echo;
 
     json extractors = json::array();
     for (const PluginUse &use : e.extractors) {
@@ -358,7 +506,9 @@ ResolvedExperiment resolve_experiment(const Experiment &experiment) {
 
     // Model only what is asked: the gradient only for Cauchy–Green products or
     // extractors, the positions only for the flow_map product.
-    r.need_cauchy_green = e.wants("ftle") || e.wants("eigenvalues") || e.wants("eigenvectors") || !e.extractors.empty();
+    r.need_cauchy_green = e.wants("ftle") || e.wants("eigenvalues") || e.wants("eigenvectors") ||
+                          e.wants("strain_deviation") || e.wants("shear_deviation_plus") ||
+                          e.wants("shear_deviation_minus") || !e.extractors.empty();
     r.need_positions = e.wants("flow_map");
     if (r.need_cauchy_green) {
         if (e.gradient_method == "auto")
@@ -370,6 +520,16 @@ ResolvedExperiment resolve_experiment(const Experiment &experiment) {
                                                           sys_handle->info.name +
                                                           "' provides none; use \"auxiliary-grid\"");
     }
+    if (e.integrator.method == "rosenbrock4" && !r.system.has_jacobian())
+        throw ConfigError("/integrator/method", "\"rosenbrock4\" needs the system's Jacobian, and system '" +
+                                                    sys_handle->info.name + "' provides none; use \"dopri5\"");
+    // Refuse up front a grid the machine cannot hold (the estimate errs on the high side).
+    const bool derived_fields = std::any_of(e.products.begin(), e.products.end(), [](const std::string &p) {
+        return p != "ftle" && p != "eigenvalues" && p != "eigenvectors" && p != "flow_map";
+    });
+    check_memory(estimate_run_memory(e.grid, r.need_cauchy_green, r.gradient, r.need_positions,
+                                     !e.extractors.empty() || derived_fields),
+                 available_memory(), e.grid);
     resolved["grid"] = {{"x", {e.grid.x_min, e.grid.x_max}},
                         {"y", {e.grid.y_min, e.grid.y_max}},
                         {"n", {e.grid.nx, e.grid.ny}}};
@@ -383,6 +543,7 @@ ResolvedExperiment resolve_experiment(const Experiment &experiment) {
     resolved["output"] = {{"dir", e.output_dir.string()}, {"plots", e.plots}};
     if (e.bounds)
         resolved["bounds"] = {{"x", {e.bounds->x_min, e.bounds->x_max}}, {"y", {e.bounds->y_min, e.bounds->y_max}}};
+    if (!e.validation.empty()) resolved["validation"] = validation_to_json(e.validation, e.t0, e.t1);
     r.resolved = resolved;
     return r;
 }

@@ -1,5 +1,6 @@
 // Loading plugin libraries (Boost.DLL), checking what they declare, validating
 // parameters against their schemas, and the wrappers that call across the ABI.
+#include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/plugin.hpp>
 
@@ -108,10 +109,32 @@ PluginInfo read_descriptor(const gb_plugin_descriptor &d, const fs::path &file, 
         if (info.dimension != 2)
             throw "system '" + info.name + "' has dimension " + std::to_string(info.dimension) +
                 " (this version handles planar systems, dimension 2)";
+        // ABI 1.1 appended the domain; an older plugin's table ends before it.
+        if (entry.abi_minor >= 1 && (d.system->domain_min || d.system->domain_max)) {
+            if (!d.system->domain_min || !d.system->domain_max)
+                throw "system '" + info.name + "' declares only one side of its domain";
+            for (std::uint32_t i = 0; i < info.dimension; ++i) {
+                const double lo = d.system->domain_min[i], hi = d.system->domain_max[i];
+                if (!(lo < hi) || !std::isfinite(lo) || !std::isfinite(hi))
+                    throw "system '" + info.name + "' declares an empty or infinite domain in component " +
+                        std::to_string(i);
+                info.domain_min.push_back(lo);
+                info.domain_max.push_back(hi);
+            }
+        }
         break;
     case GB_KIND_FORCING:
         info.kind = PluginKind::forcing;
         if (!d.forcing || !d.forcing->evaluate) throw "forcing '" + info.name + "' has no evaluate function";
+        // ABI 1.1 appended the composite-forcing fields; an older plugin's table ends before them.
+        if (entry.abi_minor >= 1 && d.forcing->max_terms > 0) {
+            if (!d.forcing->combine) throw "composite forcing '" + info.name + "' has no combine function";
+            if (d.forcing->min_terms < 1 || d.forcing->min_terms > d.forcing->max_terms)
+                throw "composite forcing '" + info.name + "' declares " + std::to_string(d.forcing->min_terms) +
+                    " to " + std::to_string(d.forcing->max_terms) + " terms (need 1 <= min <= max)";
+            info.min_terms = d.forcing->min_terms;
+            info.max_terms = d.forcing->max_terms;
+        }
         break;
     case GB_KIND_EXTRACTOR:
         info.kind = PluginKind::extractor;
@@ -176,7 +199,16 @@ std::vector<PluginHandle> load_plugin_library(const fs::path &file) {
     if (!lib.has(GB_PLUGIN_ENTRY_SYMBOL))
         throw PluginError(where + "not a geobarrier plugin (no '" GB_PLUGIN_ENTRY_SYMBOL "' entry symbol)");
     const auto entry_fn = lib.get<const gb_plugin_entry *()>(GB_PLUGIN_ENTRY_SYMBOL);
-    const gb_plugin_entry *entry = entry_fn();
+    // The entry is C, but a broken C++ plugin can still throw out of it: that is a refusal naming the file, not a
+    // crash or an anonymous message (nor an escape from a registry scan).
+    const gb_plugin_entry *entry = nullptr;
+    try {
+        entry = entry_fn();
+    } catch (const std::exception &e) {
+        throw PluginError(where + "the entry function threw: " + e.what());
+    } catch (...) {
+        throw PluginError(where + "the entry function threw an exception of unknown type");
+    }
     if (!entry) throw PluginError(where + "the entry function returned no entry");
     if (entry->abi_major != GB_ABI_VERSION_MAJOR)
         throw PluginError(where + "built for plugin ABI " + std::to_string(entry->abi_major) + "." +
@@ -389,7 +421,10 @@ nlohmann::json plugin_info_to_json(const PluginInfo &info) {
         j["jacobian"] = info.has_jacobian;
         j["divergence"] = info.has_divergence;
         j["uses_forcing"] = info.uses_forcing;
+        if (!info.domain_min.empty()) j["domain"] = {{"min", info.domain_min}, {"max", info.domain_max}};
     }
+    if (info.kind == PluginKind::forcing && info.composite())
+        j["terms"] = {{"min", info.min_terms}, {"max", info.max_terms}};
     if (info.kind == PluginKind::extractor) j["required_fields"] = info.required_fields;
     return j;
 }
@@ -461,9 +496,66 @@ Forcing::Forcing(const PluginHandle &handle, const ParamValues &values) : m_inst
     m_table = handle.descriptor->forcing;
 }
 
+struct Forcing::Composite {
+    std::vector<Forcing> terms;
+    PluginInfo info; // the plugin's, with the weakest thread safety of the tree
+};
+
+Forcing::Forcing(const PluginHandle &handle, const ParamValues &values, std::vector<Forcing> terms)
+    : Forcing(handle, values) {
+    const PluginInfo &own = handle.info;
+    const std::string who = own.file.string() + ": forcing '" + own.name + "'";
+    if (!own.composite()) throw PluginError(who + " is not a composite forcing; it takes no terms");
+    if (terms.size() < own.min_terms || terms.size() > own.max_terms)
+        throw PluginError(who + " takes " + std::to_string(own.min_terms) + " to " + std::to_string(own.max_terms) +
+                          " terms, not " + std::to_string(terms.size()));
+    auto composite = std::make_shared<Composite>();
+    composite->info = own;
+    for (const Forcing &term : terms)
+        if (term.info().thread_safety != GB_THREAD_SAFE_CONCURRENT)
+            composite->info.thread_safety = GB_THREAD_SAFE_PER_INSTANCE;
+    composite->terms = std::move(terms);
+    m_composite = std::move(composite);
+}
+
+const PluginInfo &Forcing::info() const { return m_composite ? m_composite->info : m_instance.info(); }
+
+const std::vector<Forcing> &Forcing::terms() const {
+    static const std::vector<Forcing> none;
+    return m_composite ? m_composite->terms : none;
+}
+
 void Forcing::evaluate(std::size_t n, const double *t, double *f) const {
+    if (m_composite) {
+        // The flow-map engine asks for one time per stage: the terms' values fit on the stack.
+        const std::vector<Forcing> &terms = m_composite->terms;
+        constexpr std::size_t small = 64;
+        double stack_values[small];
+        std::vector<double> heap_values;
+        double *values = stack_values;
+        if (terms.size() * n > small) {
+            heap_values.resize(terms.size() * n);
+            values = heap_values.data();
+        }
+        for (std::size_t j = 0; j < terms.size(); ++j) terms[j].evaluate(n, t, values + j * n);
+        combine(n, t, terms.size(), n, values, f);
+        return;
+    }
+    if (info().composite())
+        throw PluginError(info().file.string() + ": composite forcing '" + info().name +
+                          "' was created without its terms");
     CallMessage m;
     check_plugin_status(m_table->evaluate(m_instance.self(), n, t, f, &m.msg), info(), "evaluate", m.text);
+}
+
+void Forcing::combine(std::size_t n, const double *t, std::size_t term_count, std::size_t ld, const double *terms,
+                      double *f) const {
+    if (!info().composite())
+        throw PluginError(info().file.string() + ": forcing '" + info().name + "' is not a composite forcing");
+    CallMessage m;
+    check_plugin_status(m_table->combine(m_instance.self(), n, t, static_cast<std::uint32_t>(term_count), ld, terms,
+                                         f, &m.msg),
+                        info(), "combine", m.text);
 }
 
 Extractor::Extractor(const PluginHandle &handle, const ParamValues &values) : m_instance(handle, values) {
@@ -484,7 +576,8 @@ void host_log(void *context, std::int32_t level, const char *line) {
     else if (level == 1) spdlog::info("{}: {}", c->plugin, line ? line : "");
     else spdlog::debug("{}: {}", c->plugin, line ? line : "");
 }
-std::int32_t host_progress(void *, double) { return 0; }
+// Nonzero asks the extractor to stop: the user interrupted the run (SIGINT/SIGTERM, cancel.hpp).
+std::int32_t host_progress(void *, double) { return cancel_requested() != 0; }
 gb_status host_add_barrier(void *context, const char *kind, std::int32_t closed, std::uint64_t count,
                            const double *xy, std::uint32_t metric_count, const char *const *names,
                            const double *values) {
@@ -513,11 +606,27 @@ gb_status host_advect(void *context, std::uint64_t n, const double *xy, double t
         return GB_ERROR;
     }
 }
+gb_status host_set_barrier_attributes(void *context, std::uint32_t count, const char *const *names,
+                                      const char *const *json_values) {
+    auto *c = static_cast<ExtractContext *>(context);
+    if (c->barriers.empty() || (count > 0 && (!names || !json_values))) return GB_ERROR;
+    std::vector<std::pair<std::string, std::string>> parsed;
+    for (std::uint32_t i = 0; i < count; ++i) {
+        if (!names[i] || !json_values[i]) return GB_ERROR;
+        const auto value = nlohmann::json::parse(json_values[i], nullptr, false);
+        if (value.is_discarded() || value.is_object() || value.is_array()) return GB_ERROR;
+        parsed.emplace_back(names[i], value.dump());
+    }
+    auto &attributes = c->barriers.back().attributes;
+    attributes.insert(attributes.end(), parsed.begin(), parsed.end());
+    return GB_OK;
+}
 }  // namespace
 
 std::vector<Barrier> Extractor::extract(const gb_extract_input &input, const ExtractServices &services) const {
     ExtractContext context{info().name, &services, {}};
-    const gb_host host{&context, &host_log, &host_progress, &host_add_barrier, &host_advect};
+    const gb_host host{&context, &host_log, &host_progress, &host_add_barrier, &host_advect,
+                       &host_set_barrier_attributes};
     CallMessage m;
     check_plugin_status(m_table->extract(m_instance.self(), &host, &input, &m.msg), info(), "extract", m.text);
     return std::move(context.barriers);

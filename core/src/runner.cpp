@@ -3,17 +3,27 @@
 // barriers.json and, last, manifest.json into the output folder.
 #include "progress.hpp"
 
+#include <geobarrier/cancel.hpp>
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
+#include <geobarrier/line_field.hpp>
 #include <geobarrier/output.hpp>
+#include <geobarrier/resources.hpp>
+#include <geobarrier/shear.hpp>
 
 #include <omp.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstring>
+#include <functional>
 #include <map>
+
+#include <unistd.h>
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -61,12 +71,85 @@ FieldDoc field_doc(const std::string &name) {
         {"xi2_y", {"y component of the Cauchy-Green eigenvector xi2 = Omega xi1", "1"}},
         {"flow_x", {"x component of the flow map F(x0) at t1", "state"}},
         {"flow_y", {"y component of the flow map F(x0) at t1", "state"}},
+        {"strain_deviation", {"geodesic strain deviation d_g^xi1 (eq. gdev_str, general form)", "1/state"}},
+        {"shear_deviation_plus", {"geodesic shear deviation d_g^eta+ (eq. dg_shr, general form)", "1/state"}},
+        {"shear_deviation_minus", {"geodesic shear deviation d_g^eta- (eq. dg_shr, general form)", "1/state"}},
     };
     const auto it = docs.find(name);
     return it == docs.end() ? FieldDoc{"", "1"} : it->second;
 }
 
 }  // namespace
+
+// The output folder of a run. Everything is written into a hidden staging folder inside it and moved into place
+// only when the whole run has succeeded, manifest.json last (each file was already written atomically, so a file
+// under a final name is always whole). A failed or interrupted run leaves the output folder as it found it: no new
+// file, an earlier finished run untouched, and the folders this run created removed again.
+class OutputStaging {
+  public:
+    explicit OutputStaging(fs::path out) : m_out(std::move(out)) {
+        std::error_code ec;
+        for (fs::path p = fs::absolute(m_out, ec); !p.empty() && !fs::exists(p, ec); p = p.parent_path()) {
+            m_created.push_back(p);
+            if (p == p.parent_path()) break;
+        }
+        fs::create_directories(m_out, ec);
+        if (ec || !fs::is_directory(m_out))
+            throw IoError(m_out.string() + ": cannot create the output folder (" + ec.message() + ")");
+        // Fail now, not after the computation, when nothing can be written there (read-only file system, permissions).
+        if (::access(m_out.c_str(), W_OK | X_OK) != 0)
+            throw IoError(m_out.string() + ": cannot write into the output folder (" + std::strerror(errno) + ")");
+        m_stage = m_out / (".geobarrier-partial-" + std::to_string(static_cast<long>(::getpid())));
+        fs::remove_all(m_stage, ec);
+        if (!fs::create_directory(m_stage, ec))
+            throw IoError(m_stage.string() + ": cannot create the staging folder (" + ec.message() + ")");
+    }
+    ~OutputStaging() {
+        if (m_published) return;
+        std::error_code ec;
+        fs::remove_all(m_stage, ec);
+        for (const fs::path &p : m_created) // innermost first
+            if (!fs::is_directory(p, ec) || !fs::is_empty(p, ec) || !fs::remove(p, ec)) break;
+    }
+    OutputStaging(const OutputStaging &) = delete;
+    OutputStaging &operator=(const OutputStaging &) = delete;
+
+    const fs::path &dir() const { return m_stage; }
+    // A message about a staged file, naming it where it was to go.
+    std::string final_names(std::string text) const {
+        const std::string from = m_stage.string(), to = m_out.string();
+        for (std::size_t at = text.find(from); at != std::string::npos; at = text.find(from, at + to.size()))
+            text.replace(at, from.size(), to);
+        return text;
+    }
+
+    // Moves every staged entry into the output folder, `last` (the manifest) last, after removing an earlier run's
+    // manifest so that the folder never pairs an old manifest with new files. Returns the final paths of `files`.
+    std::vector<fs::path> publish(const std::vector<fs::path> &files, const fs::path &last) {
+        std::error_code ec;
+        fs::remove(m_out / last.filename(), ec);
+        std::vector<fs::path> entries;
+        for (const auto &entry : fs::directory_iterator(m_stage)) entries.push_back(entry.path());
+        std::stable_partition(entries.begin(), entries.end(),
+                              [&](const fs::path &p) { return p.filename() != last.filename(); });
+        for (const fs::path &from : entries) {
+            const fs::path to = m_out / from.filename();
+            if (fs::is_directory(from) && fs::is_directory(to)) fs::remove_all(to);
+            fs::rename(from, to, ec);
+            if (ec) throw IoError(to.string() + ": cannot move the finished file into place (" + ec.message() + ")");
+        }
+        fs::remove(m_stage, ec);
+        m_published = true;
+        std::vector<fs::path> out;
+        for (const fs::path &f : files) out.push_back(m_out / f.filename());
+        return out;
+    }
+
+  private:
+    fs::path m_out, m_stage;
+    std::vector<fs::path> m_created;
+    bool m_published = false;
+};
 
 RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options) {
     const Experiment &e = r.experiment;
@@ -75,13 +158,8 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
 
     RunSummary summary;
     summary.output_dir = options.output_dir ? *options.output_dir : e.output_dir;
-    const fs::path out = summary.output_dir;
-    {
-        std::error_code ec;
-        fs::create_directories(out, ec);
-        if (ec || !fs::is_directory(out))
-            throw IoError(out.string() + ": cannot create the output folder (" + ec.message() + ")");
-    }
+    OutputStaging staging(summary.output_dir);
+    const fs::path out = staging.dir(); // every file goes here first; published at the end
 
     json manifest;
     manifest["tool"] = {{"name", "geobarrier"},
@@ -91,17 +169,29 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     manifest["experiment"] = e.source;
     manifest["resolved"] = r.resolved;
     json plugins = json::array({plugin_summary(r.system.info()), plugin_summary(r.forcing.info())});
+    // A composite forcing's terms are plugins too (depth first, in the order listed).
+    std::function<void(const Forcing &)> add_terms = [&](const Forcing &f) {
+        for (const Forcing &term : f.terms()) {
+            plugins.push_back(plugin_summary(term.info()));
+            add_terms(term);
+        }
+    };
+    add_terms(r.forcing);
     for (const Extractor &x : r.extractors) plugins.push_back(plugin_summary(x.info()));
     manifest["plugins"] = plugins;
     manifest["threads"] = options.threads > 0 ? options.threads : omp_get_max_threads();
     json stages = json::array();
     json warnings = json::array();
     for (const auto &w : r.registry.warnings()) warnings.push_back(w);
+    for (const auto &w : e.warnings) { // e.g. a clamped tolerance
+        spdlog::warn("{}", w);
+        warnings.push_back(w);
+    }
 
     // Stage 1: the flow map, with the gradient only when something needs it.
     const GradientMethod gradient = r.need_cauchy_green ? r.gradient : GradientMethod::none;
     GridFlowMap flow;
-    {
+    if (r.need_cauchy_green || r.need_positions) { // validation products alone need no grid
         StageTimer timer(stages, "flow map");
         detail::ProgressBar bar("flow map", !options.quiet);
         const Dynamics dynamics{&r.system, &r.forcing};
@@ -112,14 +202,15 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     }
     manifest["integrator_stats"] = flow.stats.to_json();
     manifest["gradient_method"] = to_string(gradient);
+    manifest["long_horizon"] = long_horizon_method(gradient);
     const std::uint64_t masked = flow.stats.masked;
     if (masked == e.grid.size())
         throw NumericalError("every one of the " + std::to_string(masked) +
                              " grid points was masked (left the bounds, blew up or hit the step limit): " +
                              flow.stats.to_json().dump() + "; check the grid, the time interval and the system");
     if (masked > 0) {
-        const std::string w = std::to_string(masked) + " of " + std::to_string(e.grid.size()) +
-                              " trajectories masked (see integrator_stats and the mask variable in fields.nc)";
+        const std::string w = describe_masking(flow.stats, e.integrator, r.system.has_jacobian()) +
+                              " (see integrator_stats and the mask variable in fields.nc)";
         spdlog::warn("{}", w);
         warnings.push_back(w);
     }
@@ -129,12 +220,35 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     std::map<std::string, const std::vector<double> *> fields;
     if (r.need_cauchy_green) {
         StageTimer timer(stages, "cauchy-green");
-        cg = cauchy_green_field(e.grid, flow.dF, flow.mask, std::abs(e.t1 - e.t0));
+        cg = cauchy_green_field(e.grid, flow.dF, flow.mask, std::abs(e.t1 - e.t0), flow.dF_exponent, flow.log_det);
         fields = {{"ftle", &cg.ftle},   {"lambda1", &cg.lambda1}, {"lambda2", &cg.lambda2}, {"xi1_x", &cg.xi1_x},
                   {"xi1_y", &cg.xi1_y}, {"xi2_x", &cg.xi2_x},     {"xi2_y", &cg.xi2_y}};
         manifest["degenerate_points"] = cg.degenerate_count;
         flow.dF.clear();
         flow.dF.shrink_to_fit();
+    }
+    // The geodesic strain deviation (paper eq. `gdev_str`, general form) only when asked for or an extractor
+    // needs it: it costs grid derivatives of lambda1, lambda2 and xi1.
+    std::vector<double> strain_deviation;
+    bool want_deviation = e.wants("strain_deviation");
+    for (const Extractor &x : r.extractors)
+        for (const auto &name : x.required_fields()) want_deviation = want_deviation || name == "strain_deviation";
+    if (r.need_cauchy_green && want_deviation) {
+        StageTimer timer(stages, "strain deviation");
+        strain_deviation = strain_deviation_field(cg);
+        fields["strain_deviation"] = &strain_deviation;
+    }
+    // The geodesic shear deviations (paper eq. `dg_shr`, general form) only when asked for or an extractor needs
+    // them (the elliptic extractor computes its own from the eigen-fields).
+    ShearFields shear;
+    bool want_shear = e.wants("shear_deviation_plus") || e.wants("shear_deviation_minus");
+    for (const Extractor &x : r.extractors)
+        for (const auto &name : x.required_fields()) want_shear = want_shear || name.rfind("shear_deviation", 0) == 0;
+    if (r.need_cauchy_green && want_shear) {
+        StageTimer timer(stages, "shear deviation");
+        shear = shear_fields(cg);
+        fields["shear_deviation_plus"] = &shear.deviation_plus;
+        fields["shear_deviation_minus"] = &shear.deviation_minus;
     }
     if (r.need_positions) {
         fields["flow_x"] = &flow.flow_x;
@@ -145,6 +259,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     // Stage 3: barrier extractors. They may advect points with the experiment's
     // system and integrator (the gradient by the experiment's method).
     json barriers = json::array();
+    std::vector<Barrier> found; // the same barriers, for the validation products
     ExtractServices services;
     services.advect = [&](std::size_t n, const double *xy, double t_from, double t_to, double *xy_out, double *dF_out,
                           std::uint8_t *mask_out) {
@@ -173,7 +288,8 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
             if (m) {
                 std::fill(g, g + 4, std::nan(""));
             } else if (variational) {
-                std::copy(a.dF.begin() + 4 * k, a.dF.begin() + 4 * k + 4, g);
+                // DF = 2^exponent dF (renormalised beyond the double range: entries become +-Inf there).
+                for (int q = 0; q < 4; ++q) g[q] = std::ldexp(a.dF[4 * k + q], a.dF_exponent[k]);
             } else {
                 g[0] = (a.x[c + 1] - a.x[c + 2]) / (2 * dx);
                 g[1] = (a.x[c + 3] - a.x[c + 4]) / (2 * dy);
@@ -183,6 +299,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
         }
     };
     for (const Extractor &x : r.extractors) {
+        throw_if_cancelled("before extractor '" + x.info().name + "'");
         StageTimer timer(stages, "extractor " + x.info().name);
         std::vector<gb_field> inputs;
         for (const auto &name : x.required_fields()) inputs.push_back({name.c_str(), fields.at(name)->data()});
@@ -196,20 +313,46 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
             for (std::size_t k = 0; k + 1 < b.xy.size(); k += 2) points.push_back({b.xy[k], b.xy[k + 1]});
             json item = {{"kind", b.kind}, {"closed", b.closed}, {"extractor", x.info().name}, {"points", points}};
             for (const auto &[name, value] : b.metrics) item[name] = value;
+            for (const auto &[name, value] : b.attributes) item[name] = json::parse(value);
             barriers.push_back(item);
+            found.push_back(b);
         }
+    }
+
+    // Stage 3b: validation products (Poincaré iterates, tracers, trajectories, forcing, advected barriers), only
+    // those the experiment's "validation" object asks for; they write their own files.
+    if (!e.validation.empty()) {
+        throw_if_cancelled("before the validation products");
+        StageTimer timer(stages, "validation");
+        ValidationInput input;
+        input.dynamics = Dynamics{&r.system, &r.forcing};
+        input.integrator = e.integrator;
+        input.bounds = e.bounds;
+        input.t0 = e.t0;
+        input.t1 = e.t1;
+        input.barriers = &found;
+        input.plots = e.plots;
+        input.title = r.system.info().name + " + " + r.forcing.info().name;
+        const ValidationOutput v = run_validation(e.validation, input, out);
+        summary.files.insert(summary.files.end(), v.files.begin(), v.files.end());
+        manifest["validation"] = v.summary;
+        for (const auto &w : v.warnings) warnings.push_back(w);
     }
 
     // Stage 4: files. Each is written atomically; the manifest comes last, so a
     // folder with a manifest is a finished run.
-    {
+    throw_if_cancelled("before writing the output files");
+    try {
         StageTimer timer(stages, "output");
         std::vector<FieldVariable> variables;
         for (const auto &product : known_products()) {
             if (!e.wants(product.name)) continue;
             for (const char *name : product.variables) {
                 const FieldDoc doc = field_doc(name);
-                const bool vector_field = std::string(product.name) == "eigenvectors";
+                // Eigenvectors and derivatives of them are undefined at degenerate points too.
+                const bool vector_field = std::string(product.name) == "eigenvectors" ||
+                                          std::string(product.name) == "strain_deviation" ||
+                                          std::string(product.name).rfind("shear_deviation", 0) == 0;
                 variables.push_back(FieldVariable{name, doc.long_name, doc.units, fields.at(name),
                                                   static_cast<std::uint8_t>(vector_field ? (mask_trajectory_bits |
                                                                                             mask_degenerate)
@@ -243,6 +386,8 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
             write_text_file(file, json{{"barriers", barriers}}.dump(1) + "\n");
             summary.files.push_back(file);
         }
+    } catch (const IoError &e) {
+        throw IoError(staging.final_names(e.what()) + storage_hint(out)); // a full disk shows up as "HDF error"
     }
 
     manifest["stages"] = stages;
@@ -253,8 +398,14 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     files.push_back("manifest.json");
     manifest["files"] = files;
     const fs::path manifest_file = out / "manifest.json";
-    write_text_file(manifest_file, manifest.dump(2) + "\n");
+    throw_if_cancelled("before writing manifest.json");
+    try {
+        write_text_file(manifest_file, manifest.dump(2) + "\n");
+    } catch (const IoError &e) {
+        throw IoError(staging.final_names(e.what()) + storage_hint(out));
+    }
     summary.files.push_back(manifest_file);
+    summary.files = staging.publish(summary.files, manifest_file);
     summary.manifest = manifest;
     return summary;
 }

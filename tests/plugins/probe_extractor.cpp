@@ -24,7 +24,8 @@ struct ProbeExtractor {
         for (std::uint32_t i = 0; i < in.field_count; ++i)
             if (std::strcmp(in.fields[i].name, "ftle") == 0) ftle = in.fields[i].data;
         if (!ftle) throw std::runtime_error("no ftle field");
-        std::size_t best = 0;
+        std::size_t best = 0; // the first unmasked point (the core never hands over an all-masked grid)
+        while (best + 1 < in.nx * in.ny && in.mask[best] != 0) ++best;
         for (std::size_t k = 0; k < in.nx * in.ny; ++k)
             if (in.mask[k] == 0 && ftle[k] > ftle[best]) best = k;
         const double dx = (in.x_max - in.x_min) / (in.nx - 1), dy = (in.y_max - in.y_min) / (in.ny - 1);

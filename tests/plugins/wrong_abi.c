@@ -16,7 +16,7 @@ static gb_status evaluate(void *self, uint64_t n, const double *t, double *f, gb
     for (uint64_t k = 0; k < n; ++k) f[k] = t[k];
     return GB_OK;
 }
-static const gb_forcing_vtable forcing_table = {evaluate};
+static const gb_forcing_vtable forcing_table = {evaluate, 0u, 0u, NULL};
 static const gb_plugin_descriptor descriptors[1] = {{GB_KIND_FORCING, "wrong-abi", "1.0.0",
                                                      "forcing built for a future ABI major version", 0, NULL,
                                                      GB_THREAD_SAFE_CONCURRENT, create, destroy, NULL,

@@ -23,7 +23,10 @@ extern "C" {
 
 /* A plugin built against another major version is refused at load time. */
 #define GB_ABI_VERSION_MAJOR 1u
-#define GB_ABI_VERSION_MINOR 0u
+/* Minor 1 appended: gb_system_vtable.domain_min/domain_max and the composite-forcing
+ * fields of gb_forcing_vtable (min_terms, max_terms, combine). The core reads them only
+ * from plugins whose entry says abi_minor >= 1. */
+#define GB_ABI_VERSION_MINOR 1u
 
 /* The one symbol every plugin library exports. */
 #define GB_PLUGIN_ENTRY_SYMBOL "geobarrier_plugin_entry"
@@ -64,7 +67,7 @@ typedef struct gb_param_spec {
     double max_value;
     const char *default_string;
     const char *choices;
-    const char *unit; /* "" when dimensionless */
+    const char *unit; /* "" when dimensionless; "path" on a string: a file path, relative to the experiment's folder */
     const char *doc;  /* one line */
 } gb_param_spec;
 
@@ -110,13 +113,29 @@ typedef struct gb_system_vtable {
                           double *jac, int32_t *lane_status, gb_message *msg);
     gb_status (*divergence)(void *self, uint64_t n, uint64_t ld, const double *t, const double *x,
                             const double *f, double *div, int32_t *lane_status, gb_message *msg);
+    /* ABI 1.1: the documented domain, `dimension` bounds each (lower, upper), or NULL when the
+     * model is meant for any state. `geobarrier check-plugin` samples it for non-finite values
+     * and generated docs print it; states outside it are not refused by the core. */
+    const double *domain_min;
+    const double *domain_max;
 } gb_system_vtable;
 
 /* ---------------------------------------------------------------- forcings */
 
-/* f[k] = forcing value at t[k], for n times. */
+/* f[k] = forcing value at t[k], for n times.
+ *
+ * ABI 1.1, composite forcings (e.g. "sum", "ramp"): a forcing with max_terms > 0 combines the
+ * values of other forcings, its terms, which the experiment names in the forcing's "terms" (or
+ * "base") entry. Plugins never call each other: the core evaluates every term at the n times and
+ * hands the values to combine(), with terms[j*ld + k] = value of term j at t[k] (ld >= n).
+ * A composite forcing's evaluate() is only called by a core older than 1.1, and should fail with
+ * a message saying so. Plain forcings leave these fields 0 / NULL. */
 typedef struct gb_forcing_vtable {
     gb_status (*evaluate)(void *self, uint64_t n, const double *t, double *f, gb_message *msg);
+    uint32_t min_terms;
+    uint32_t max_terms;
+    gb_status (*combine)(void *self, uint64_t n, const double *t, uint32_t term_count, uint64_t ld,
+                         const double *terms, double *f, gb_message *msg);
 } gb_forcing_vtable;
 
 /* -------------------------------------------------------------- extractors */
@@ -159,6 +178,13 @@ typedef struct gb_host {
      * 4n values F11 F12 F21 F22 of the flow map's gradient at each point. */
     gb_status (*advect)(void *context, uint64_t n, const double *xy, double t_from, double t_to, double *xy_out,
                         double *dF_out, uint8_t *mask_out, gb_message *msg);
+    /* ABI 1.1, appended: attach non-numeric attributes to the barrier this extractor reported last, e.g.
+     * "family" = "\"+\"" or "outermost" = "true". Each value is one JSON literal (a string in quotes, true,
+     * false, null or a number), copied as such into barriers.json. A core older than 1.1 hands over a shorter
+     * struct, so a plugin may call this only when it knows its host is 1.1 or newer: the SDK offers it to
+     * plugins that link the core library, which the loader's exact core-version check guarantees. */
+    gb_status (*set_barrier_attributes)(void *context, uint32_t count, const char *const *names,
+                                        const char *const *json_values);
 } gb_host;
 
 typedef struct gb_extractor_vtable {

@@ -27,6 +27,12 @@ constexpr double degenerate_gap = 1e-12;
 // From the deformation gradient DF = [[f11, f12], [f21, f22]] over |T| = |t1 - t0|.
 CauchyGreenPoint cauchy_green_at(double f11, double f12, double f21, double f22, double abs_duration);
 
+// The same for DF = 2^exponent [[f11, f12], [f21, f22]] (renormalised variational equations, flow_map.hpp), with
+// log|det DF| from Liouville's formula when `log_abs_det` is finite (else det DF is taken from the entries).
+// Where they leave the double range lambda2 is +Inf and lambda1 is 0 (or subnormal); ftle stays finite.
+CauchyGreenPoint cauchy_green_at(double f11, double f12, double f21, double f22, double abs_duration, int exponent,
+                                 double log_abs_det);
+
 struct CauchyGreenField {
     Grid grid;
     std::vector<double> lambda1, lambda2, ftle, xi1_x, xi1_y, xi2_x, xi2_y; // NaN where masked
@@ -37,6 +43,12 @@ struct CauchyGreenField {
 // From a gradient field (4 per point, F11 F12 F21 F22) and its mask.
 CauchyGreenField cauchy_green_field(const Grid &grid, const std::vector<double> &dF,
                                     const std::vector<std::uint8_t> &mask, double abs_duration);
+
+// The same with the flow map's DF exponents and log|det DF| (GridFlowMap::dF_exponent, ::log_det); either may be
+// empty (exponent 0, det from the entries).
+CauchyGreenField cauchy_green_field(const Grid &grid, const std::vector<double> &dF,
+                                    const std::vector<std::uint8_t> &mask, double abs_duration,
+                                    const std::vector<std::int32_t> &dF_exponent, const std::vector<double> &log_det);
 
 }  // namespace geobarrier
 

@@ -28,9 +28,10 @@ struct ConformanceCheck {
 struct ConformanceOptions {
     // Plugin parameters as in an experiment's "params"; parameters left out take their defaults.
     nlohmann::json params = nlohmann::json::object();
-    // Box of states for systems: one bound per state component, or a single bound for all of them.
-    std::vector<double> state_min{-2.0};
-    std::vector<double> state_max{2.0};
+    // Box of states for systems: one bound per state component, or a single bound for all of them. Left empty,
+    // the system's documented domain (PluginInfo::domain_min/max), or [-2, 2] when it declares none.
+    std::vector<double> state_min;
+    std::vector<double> state_max;
     // Times for systems and forcings are drawn from [t_min, t_max].
     double t_min = -10.0;
     double t_max = 10.0;

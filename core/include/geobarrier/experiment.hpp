@@ -7,6 +7,7 @@
 #include <geobarrier/flow_map.hpp>
 #include <geobarrier/grid.hpp>
 #include <geobarrier/plugin.hpp>
+#include <geobarrier/validation.hpp>
 
 #include <nlohmann/json.hpp>
 
@@ -22,6 +23,10 @@ struct PluginUse {
     std::string plugin;
     nlohmann::json params = nlohmann::json::object();
     std::string json_path; // e.g. "/extractors/0"
+    // Forcings only: the terms of a composite forcing (e.g. "sum", "ramp"), written as "terms": [...] or, for one
+    // term, "base": {...} (terms_key says which, for messages and the manifest). The core evaluates them.
+    std::vector<PluginUse> terms;
+    std::string terms_key;
 };
 
 // Field products a user may request, and the fields.nc variables each writes.
@@ -51,6 +56,8 @@ struct Experiment {
     std::vector<std::string> products;
     std::filesystem::path output_dir;
     bool plots = true;
+    std::vector<std::string> warnings; // what parsing adjusted (e.g. a clamped rtol); copied into the manifest
+    ValidationSpec validation;         // the "validation" object: products computed only when asked
 
     bool wants(const std::string &product) const;
 };
@@ -61,6 +68,9 @@ struct Experiment {
 // "did you mean" hint.
 Experiment parse_experiment(const nlohmann::json &json, const std::filesystem::path &file = {});
 Experiment load_experiment(const std::filesystem::path &file);
+// The same from the text of an experiment file (`file` names it in messages and resolves relative paths). Malformed
+// JSON is a ConfigError at "file:line:col"; so are numbers beyond the double range and nesting deeper than 64.
+Experiment parse_experiment_text(const std::string &text, const std::filesystem::path &file = {});
 
 // The experiment with its plugins found, parameters validated and objects created.
 struct ResolvedExperiment {

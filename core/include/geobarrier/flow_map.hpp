@@ -25,13 +25,22 @@
 namespace geobarrier {
 
 struct IntegratorSettings {
-    std::string method = "dopri5"; // dopri5 | rkf78 | rk4
+    std::string method = "dopri5"; // dopri5 | rkf78 | rk4 | rosenbrock4 (stiff; needs the system's Jacobian)
     double rtol = 1e-8;
     double atol = 1e-10;
     double step = 0.01;             // rk4's fixed step; the first trial step of adaptive methods
     std::size_t batch = 64;         // lanes in lockstep; 64 was fastest of 1..64 on a 400x400 Duffing grid
     std::size_t max_steps = 1000000; // per batch; lanes still running after it are masked
 };
+
+// rtol below this cannot be honoured in double precision (each stage's rounding error is ~1e-16 |x|, and a step
+// sums several): the engine uses max(rtol, min_rtol), and the experiment parser warns when it clamps.
+constexpr double min_rtol = 1e-14;
+
+// Lanes per lockstep batch for these settings: `batch`, except for rosenbrock4, whose Boost.Odeint stepper solves a
+// dense linear system over the whole batch state (cost cubic in the lanes), so it integrates one lane (or one
+// auxiliary-grid group) at a time.
+std::size_t lanes_per_batch(const IntegratorSettings &settings);
 
 // An optional box: trajectories that leave it are masked (mask_left_bounds).
 struct Bounds {
@@ -54,6 +63,7 @@ struct IntegratorStats {
     std::uint64_t rhs_evaluations = 0; // lane right-hand-side evaluations (batch calls x lanes)
     std::uint64_t masked = 0;          // trajectories masked for any reason
     std::uint64_t masked_left_bounds = 0, masked_non_finite = 0, masked_step_limit = 0, masked_invalid_state = 0;
+    std::uint64_t renormalised = 0;    // variational: trajectories whose DF left [1/2, 2^256] and was rescaled
     double wall_seconds = 0.0;
 
     void add(const IntegratorStats &other);
@@ -66,7 +76,13 @@ using ProgressFn = std::function<void(std::size_t done, std::size_t total)>;
 
 struct AdvectResult {
     std::vector<double> x, y;         // final positions (NaN where masked)
-    std::vector<double> dF;           // variational only: 4 per point, F11 F12 F21 F22 (row-major DF)
+    std::vector<double> dF;           // variational only: 4 per point, F11 F12 F21 F22 (row-major DF), see dF_exponent
+    // Variational only. On long horizons DF leaves the double range (|DF| ~ e^{FTLE |T|}); the engine then carries
+    // it renormalised, and DF = 2^dF_exponent[k] * dF. dF_exponent is 0 wherever DF itself fits in a double.
+    std::vector<std::int32_t> dF_exponent;
+    // Variational only: log|det DF| by Liouville's formula, the integral of tr Dv along the trajectory. Exact for
+    // area-preserving systems, and accurate where det DF computed from the entries is lost to cancellation.
+    std::vector<double> log_det;
     std::vector<std::uint8_t> mask;   // MaskBits per point
     IntegratorStats stats;
 };
@@ -91,17 +107,27 @@ struct GridFlowMap {
     Grid grid;
     std::vector<double> flow_x, flow_y; // F(x0) on the grid; empty unless requested
     std::vector<double> dF;             // 4 per point (F11 F12 F21 F22); empty for GradientMethod::none
+    std::vector<std::int32_t> dF_exponent; // variational only: DF = 2^dF_exponent * dF (see AdvectResult)
+    std::vector<double> log_det;           // variational only: log|det DF| (Liouville)
     std::vector<std::uint8_t> mask;
     IntegratorStats stats;
 };
 
 // The flow map (and its gradient) over the grid. `want_positions` forces the
 // positions F(x0) to be integrated even when the gradient method does not
-// produce them (auxiliary grid).
+// produce them (auxiliary grid). Throws NumericalError, naming the reasons (and,
+// for a step limit, the stepper and what to try), when every grid point is masked.
 GridFlowMap compute_grid_flow_map(const Dynamics &dynamics, const Grid &grid, double t0, double t1,
                                   const IntegratorSettings &settings, GradientMethod gradient, double aux_offset,
                                   bool want_positions, const std::optional<Bounds> &bounds = std::nullopt,
                                   const ProgressFn &progress = {});
+
+// One line on why trajectories were masked, with the counts per reason; when the step limit is among them, it names
+// the stepper and suggests rosenbrock4 (stiff systems) or a larger max_steps. Empty when nothing was masked.
+std::string describe_masking(const IntegratorStats &stats, const IntegratorSettings &settings, bool has_jacobian);
+
+// How the gradient of the flow map survives long horizons, for the manifest: the method and its details.
+nlohmann::json long_horizon_method(GradientMethod method);
 
 }  // namespace geobarrier
 

@@ -11,7 +11,9 @@
 #include <cstdint>
 #include <filesystem>
 #include <functional>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace geobarrier {
@@ -47,6 +49,9 @@ struct PlotCurve {
     std::string color = "red"; // a name from plot_colors() or "#rrggbb"
     double width = 1.5;
     bool closed = false;
+    // Markers only (filled discs of marker_px diameter, in pixels), no line: e.g. points above a threshold.
+    bool points_only = false;
+    double marker_px = 5.0;
 };
 
 // The colour names PlotCurve accepts (besides "#rrggbb").
@@ -65,6 +70,69 @@ struct FieldPlot {
 // cairo PNG driver). Masked points are drawn in light grey.
 void plot_field_png(const std::filesystem::path &file, const Grid &grid, const std::vector<double> &values,
                     const std::vector<std::uint8_t> &mask, const FieldPlot &plot);
+
+// One data series of an x-y picture: points (x, y interleaved) drawn as a line, as markers (filled discs), or
+// both. Non-finite points split a line into pieces (a gap), as in PlotCurve.
+struct PlotSeries {
+    enum class Style { line, points, line_points };
+    enum class Dash { solid, dashed, dotted };
+    std::vector<double> xy;
+    std::string label;            // shown in the legend; empty = not listed
+    std::string color = "blue";   // a name from plot_colors() or "#rrggbb"
+    double width = 1.5;           // line width
+    Style style = Style::line;
+    Dash dash = Dash::solid;
+    double marker_px = 5.0;       // marker diameter in pixels
+    bool closed = false;          // join the last point to the first (lines only)
+};
+
+// An x-y picture: axes with ticks and labels, a title, series and, when any series has a label, a legend.
+struct XYPlot {
+    enum class Legend { top_right, top_left, bottom_right, bottom_left, outside_right };
+    std::string title;
+    std::string x_label = "x";
+    std::string y_label = "y";
+    std::vector<PlotSeries> series;
+    bool log_x = false, log_y = false; // logarithmic axes (non-positive values are left out)
+    bool equal_aspect = false;         // one unit of x as long as one of y (clamped to 1:4 ... 4:1)
+    double aspect = 0.6;               // box height / width when not equal_aspect
+    std::optional<std::pair<double, double>> x_range, y_range; // default: the data's, padded by 3%
+    Legend legend = Legend::top_right;
+    int width_px = 1200;
+};
+
+// Draws an x-y picture (PLplot, cairo PNG driver) with the fonts, ticks and colours of plot_field_png, written
+// atomically.
+void plot_xy_png(const std::filesystem::path &file, const XYPlot &plot);
+
+// A 3-D picture (e.g. curves in extended phase space (x, y, t), a tube swept by an advected closed curve).
+// Coordinates are x, y, z interleaved; z is drawn upwards.
+struct PlotSeries3D {
+    std::vector<double> xyz;
+    std::string label; // legend entry; empty = not listed
+    std::string color = "blue";
+    double width = 1.5;
+    bool closed = false;
+};
+// A surface given as a structured mesh: `rows` x `cols` points, point (r, c) at xyz[3 * (r * cols + c)]; with
+// `wrap_cols` column cols - 1 joins column 0 (a tube). Faces are shaded by their orientation to the viewer.
+struct PlotSurface3D {
+    std::vector<double> xyz;
+    std::size_t rows = 0, cols = 0;
+    bool wrap_cols = true;
+    std::string color = "blue";
+    double opacity = 0.85; // 0 (invisible) ... 1 (opaque)
+};
+struct XYZPlot {
+    std::string title;
+    std::string x_label = "x", y_label = "y", z_label = "t";
+    std::vector<PlotSeries3D> series;
+    std::vector<PlotSurface3D> surfaces;
+    double altitude_deg = 25.0; // viewing elevation above the x-y plane
+    double azimuth_deg = 35.0;  // rotation of the view around the z axis
+    int width_px = 1200;
+};
+void plot_xyz_png(const std::filesystem::path &file, const XYZPlot &plot);
 
 }  // namespace geobarrier
 

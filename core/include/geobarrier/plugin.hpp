@@ -55,6 +55,10 @@ struct PluginInfo {
     // Systems only.
     std::uint32_t dimension = 0;
     bool has_jacobian = false, has_divergence = false, uses_forcing = false;
+    std::vector<double> domain_min, domain_max; // the documented domain (ABI 1.1); empty when not declared
+    // Forcings only: a composite forcing (ABI 1.1) combines min_terms..max_terms other forcings; 0 = plain.
+    std::uint32_t min_terms = 0, max_terms = 0;
+    bool composite() const { return max_terms > 0; }
     // Extractors only.
     std::vector<std::string> required_fields;
 };
@@ -144,22 +148,33 @@ class System {
     const gb_system_vtable *m_table = nullptr;
 };
 
-// A forcing f(t).
+// A forcing f(t). A composite forcing (info().composite(), e.g. "sum", "ramp") owns its terms: evaluate() evaluates
+// them and hands their values to the plugin's combine(), so plugins never call each other and the flow-map engine
+// sees one Forcing either way.
 class Forcing {
   public:
     Forcing() = default;
     Forcing(const PluginHandle &handle, const ParamValues &values);
-    const PluginInfo &info() const { return m_instance.info(); }
+    // A composite forcing with its terms; throws PluginError unless min_terms <= terms.size() <= max_terms.
+    Forcing(const PluginHandle &handle, const ParamValues &values, std::vector<Forcing> terms);
+    // For a composite, thread_safety is the weakest of the tree's.
+    const PluginInfo &info() const;
+    const std::vector<Forcing> &terms() const;
     void evaluate(std::size_t n, const double *t, double *f) const;
     double operator()(double t) const {
         double f = 0.0;
         evaluate(1, &t, &f);
         return f;
     }
+    // The composite plugin's own call: terms[j * ld + k] is term j at t[k]. Throws for a plain forcing.
+    void combine(std::size_t n, const double *t, std::size_t term_count, std::size_t ld, const double *terms,
+                 double *f) const;
 
   private:
+    struct Composite;
     PluginInstance m_instance;
     const gb_forcing_vtable *m_table = nullptr;
+    std::shared_ptr<const Composite> m_composite; // null for a plain forcing
 };
 
 // One barrier reported by an extractor.
@@ -168,6 +183,7 @@ struct Barrier {
     bool closed = false;
     std::vector<double> xy; // x0, y0, x1, y1, ...
     std::vector<std::pair<std::string, double>> metrics;
+    std::vector<std::pair<std::string, std::string>> attributes; // name -> one JSON literal (ABI 1.1)
 };
 
 // What the core offers an extractor while it runs (the gb_host services).

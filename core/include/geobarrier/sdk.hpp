@@ -20,8 +20,14 @@
 //   };
 //   GEOBARRIER_PLUGINS(geobarrier::sdk::system<Pendulum>())
 //
-// Forcings provide `void evaluate(std::size_t n, const double *t, double *f) const`;
-// extractors provide `static constexpr const char *required_fields[]` (NULL-terminated)
+// A system may declare its documented domain (checked for finite values by check-plugin):
+//   static constexpr double domain_min[] = {0.0, 0.0}, domain_max[] = {2.0, 1.0};
+//
+// Forcings provide `void evaluate(std::size_t n, const double *t, double *f) const`.
+// Composite forcings (ABI 1.1) combine other forcings, which the core evaluates for them:
+// they declare `static constexpr unsigned min_terms = 1, max_terms = 1;` and provide
+// `void combine(const geobarrier::sdk::Terms &terms, double *f) const` instead of evaluate.
+// Extractors provide `static constexpr const char *required_fields[]` (NULL-terminated)
 // and `void extract(const geobarrier::sdk::Host &, const gb_extract_input &) const`.
 #ifndef GEOBARRIER_SDK_HPP
 #define GEOBARRIER_SDK_HPP
@@ -59,6 +65,12 @@ constexpr gb_param_spec string_param(const char *name, const char *default_value
     return gb_param_spec{name, GB_PARAM_STRING, 0.0, 0.0, 0.0, default_value, choices, "", doc};
 }
 
+// A string parameter holding a file path: the core resolves a relative path against the folder of the
+// experiment file that names it (the unit "path" marks it).
+constexpr gb_param_spec path_param(const char *name, const char *default_value, const char *doc) {
+    return gb_param_spec{name, GB_PARAM_STRING, 0.0, 0.0, 0.0, default_value, nullptr, "path", doc};
+}
+
 // Read access by name to the validated values the core passes to a factory.
 class Params {
   public:
@@ -94,6 +106,16 @@ struct Batch {
     const double *f;
 };
 
+// The values of a composite forcing's terms at n times: term j at time t[k] is value(j, k) = values[j * ld + k].
+struct Terms {
+    std::size_t n;
+    std::size_t count;
+    std::size_t ld;
+    const double *t;
+    const double *values;
+    double value(std::size_t j, std::size_t k) const { return values[j * ld + k]; }
+};
+
 // What an extractor may ask of the core while it runs.
 class Host {
   public:
@@ -114,6 +136,21 @@ class Host {
                                                 static_cast<std::uint32_t>(names.size()), names.data(), values.data());
         if (s != GB_OK) throw std::runtime_error("the core refused a barrier");
     }
+#ifdef GEOBARRIER_VERSION
+    // Text and boolean attributes of the barrier reported last (ABI 1.1): values are JSON literals, e.g.
+    // {"family", "\"+\""}, {"outermost", "true"}. Offered only to plugins that link the core library (whose
+    // exact core-version check guarantees a 1.1 host).
+    void set_barrier_attributes(const std::vector<std::pair<std::string, std::string>> &attributes) const {
+        std::vector<const char *> names, values;
+        for (const auto &a : attributes) {
+            names.push_back(a.first.c_str());
+            values.push_back(a.second.c_str());
+        }
+        if (m_host->set_barrier_attributes(m_host->context, static_cast<std::uint32_t>(names.size()), names.data(),
+                                           values.data()) != GB_OK)
+            throw std::runtime_error("the core refused barrier attributes (no barrier yet, or a value is not JSON)");
+    }
+#endif
     // Advects points (x, y interleaved) with the experiment's system and integrator; mask 0 = valid.
     // With `gradient`, dF receives F11 F12 F21 F22 per point.
     void advect(const std::vector<double> &xy, double t_from, double t_to, std::vector<double> &xy_out,
@@ -176,6 +213,35 @@ template <class T, class = void> struct uses_forcing : std::true_type {};
 template <class T> struct uses_forcing<T, std::void_t<decltype(T::uses_forcing)>> {
     static constexpr bool value = T::uses_forcing;
 };
+
+// A system's documented domain: both domain_min and domain_max, `dimension` values each.
+template <class T, class = void> struct has_domain : std::false_type {};
+template <class T>
+struct has_domain<T, std::void_t<decltype(T::domain_min), decltype(T::domain_max)>> : std::true_type {};
+
+template <class T> constexpr const double *domain_min() {
+    if constexpr (has_domain<T>::value) {
+        static_assert(sizeof(T::domain_min) == T::dimension * sizeof(double), "domain_min needs dimension values");
+        return T::domain_min;
+    } else {
+        return nullptr;
+    }
+}
+template <class T> constexpr const double *domain_max() {
+    if constexpr (has_domain<T>::value) {
+        static_assert(sizeof(T::domain_max) == T::dimension * sizeof(double), "domain_max needs dimension values");
+        return T::domain_max;
+    } else {
+        return nullptr;
+    }
+}
+
+// A composite forcing provides combine(const Terms &, double *).
+template <class T, class = void> struct has_combine : std::false_type {};
+template <class T>
+struct has_combine<T, std::void_t<decltype(std::declval<const T &>().combine(std::declval<const Terms &>(),
+                                                                               static_cast<double *>(nullptr)))>>
+    : std::true_type {};
 
 // A plugin without parameters simply declares no `params` member.
 template <class T, class = void> struct has_params : std::false_type {};
@@ -242,14 +308,39 @@ template <class T> struct SystemThunks {
     }
     static inline const gb_system_vtable table{T::dimension, capabilities(), &rhs,
                                                has_jacobian<T>::value ? &jacobian : nullptr,
-                                               has_divergence<T>::value ? &divergence : nullptr};
+                                               has_divergence<T>::value ? &divergence : nullptr,
+                                               domain_min<T>(), domain_max<T>()};
 };
 
 template <class T> struct ForcingThunks {
     static gb_status evaluate(void *self, std::uint64_t n, const double *t, double *f, gb_message *msg) noexcept {
-        return guarded(msg, [&] { static_cast<const T *>(self)->evaluate(static_cast<std::size_t>(n), t, f); });
+        return guarded(msg, [&] {
+            if constexpr (has_combine<T>::value)
+                throw std::runtime_error(std::string("composite forcing '") + T::name +
+                                         "' needs a geobarrier core with plugin ABI 1.1 or later");
+            else
+                static_cast<const T *>(self)->evaluate(static_cast<std::size_t>(n), t, f);
+        });
     }
-    static inline const gb_forcing_vtable table{&evaluate};
+    static gb_status combine(void *self, std::uint64_t n, const double *t, std::uint32_t term_count, std::uint64_t ld,
+                             const double *terms, double *f, gb_message *msg) noexcept {
+        return guarded(msg, [&] {
+            if constexpr (has_combine<T>::value)
+                static_cast<const T *>(self)->combine(Terms{n, term_count, ld, t, terms}, f);
+        });
+    }
+    static constexpr std::uint32_t min_terms() {
+        if constexpr (has_combine<T>::value) return T::min_terms;
+        else return 0;
+    }
+    static constexpr std::uint32_t max_terms() {
+        if constexpr (has_combine<T>::value) return T::max_terms;
+        else return 0;
+    }
+    static_assert(!has_combine<T>::value || (1 <= min_terms() && min_terms() <= max_terms()),
+                  "a composite forcing needs 1 <= min_terms <= max_terms");
+    static inline const gb_forcing_vtable table{&evaluate, min_terms(), max_terms(),
+                                                has_combine<T>::value ? &combine : nullptr};
 };
 
 template <class T> struct ExtractorThunks {

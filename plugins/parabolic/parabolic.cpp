@@ -1,0 +1,267 @@
+// The `parabolic` BarrierExtractor (paper section 2.1): parabolic barriers are open shearlines r' = eta±(r)
+// (eq. `shrline`) whose pointwise geodesic shear deviation d_g^eta± (eq. `dg_shr`, general form) stays below a
+// small threshold. Shearlines are seeded on a lattice, truncated to the compact segments where d_g < max_deviation,
+// and the segments whose mean deviation is locally minimal across their neighbours are the barriers. Built on the
+// core's shear fields (shear.hpp), tensor lines and curves; links the core's C++ library.
+#include <geobarrier/curves.hpp>
+#include <geobarrier/line_field.hpp>
+#include <geobarrier/output.hpp>
+#include <geobarrier/sdk.hpp>
+#include <geobarrier/shear.hpp>
+#include <geobarrier/tensor_lines.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace {
+
+using namespace geobarrier;
+using geobarrier::sdk::integer_param;
+using geobarrier::sdk::real_param;
+using geobarrier::sdk::string_param;
+
+// A compact shearline segment with d_g^eta < max_deviation at every point: a barrier candidate.
+struct Segment {
+    int family = 1; // +1: eta+, -1: eta-
+    std::vector<double> xy;
+    double length = 0.0;
+    double mean_deviation = 0.0, max_deviation = 0.0;
+    double mid_x = 0.0, mid_y = 0.0;                                   // the point at half its arc length
+    double x_min = 0.0, x_max = 0.0, y_min = 0.0, y_max = 0.0;         // bounding box, for neighbour queries
+};
+
+std::string format(double v) {
+    std::ostringstream s;
+    s.precision(4);
+    s << v;
+    return s.str();
+}
+
+// Does the polyline of `s` pass within r of (x, y)? (Its points are at most half a grid cell apart, so testing the
+// points is enough for radii of a few cells.)
+bool passes_near(const Segment &s, double x, double y, double r) {
+    if (x < s.x_min - r || x > s.x_max + r || y < s.y_min - r || y > s.y_max + r) return false;
+    for (std::size_t k = 0; k + 1 < s.xy.size(); k += 2)
+        if (std::hypot(s.xy[k] - x, s.xy[k + 1] - y) <= r) return true;
+    return false;
+}
+
+struct Parabolic {
+    static constexpr const char *name = "parabolic";
+    static constexpr const char *version = "1.0.0";
+    static constexpr const char *doc =
+        "parabolic barriers (paper section 2.1): open shearlines whose geodesic shear deviation stays below a "
+        "threshold; the locally least-deviating ones";
+    static constexpr const char *required_fields[] = {"lambda1", "lambda2", "xi1_x", "xi1_y", "ftle", nullptr};
+    static constexpr gb_param_spec params[] = {
+        real_param("max_deviation", 0.1, 0.0, HUGE_VAL, "",
+                   "epsilon: shearlines are cut where the pointwise d_g^eta >= this"),
+        string_param("families", "both", "both|eta+|eta-", "shearline families searched"),
+        integer_param("seed_spacing", 2, 1, 1e6, "grid cells between neighbouring seeds (seeds sit on grid points)"),
+        real_param("max_length", 0.0, 0.0, HUGE_VAL, "state",
+                   "longest shearline, per direction from its seed; 0 = 2 box diagonals"),
+        real_param("min_length", 0.0, 0.0, HUGE_VAL, "state",
+                   "segments shorter than this are no candidates; 0 = 1/4 of the box diagonal"),
+        real_param("neighbour_distance", 0.0, 0.0, HUGE_VAL, "state",
+                   "neighbours of a segment pass within this of its midpoint; 0 = 3 seed spacings"),
+        integer_param("max_barriers", 0, 0, 1e9, "report at most this many barriers, least mean deviation first; 0 = all"),
+        real_param("singular_gap", default_singular_gap, 0.0, 0.999, "",
+                   "shearlines stop where lambda2 - lambda1 <= singular_gap lambda2 (eta± undefined)"),
+        string_param("deviation_form", "general", "general|area-preserving",
+                     "d_g formula: general (any flow) or the paper's eq. dg_shr (lambda1 lambda2 = 1 only)"),
+    };
+
+    explicit Parabolic(const sdk::Params &p)
+        : m_epsilon(p.real("max_deviation")), m_families(p.string("families")),
+          m_seed_spacing(static_cast<std::size_t>(p.integer("seed_spacing"))), m_max_length(p.real("max_length")),
+          m_min_length(p.real("min_length")), m_neighbour_distance(p.real("neighbour_distance")),
+          m_max_barriers(static_cast<std::size_t>(p.integer("max_barriers"))), m_singular_gap(p.real("singular_gap")),
+          m_area_preserving(p.string("deviation_form") == "area-preserving") {}
+
+    void extract(const sdk::Host &host, const gb_extract_input &in) const;
+
+    double m_epsilon;
+    std::string m_families;
+    std::size_t m_seed_spacing;
+    double m_max_length, m_min_length, m_neighbour_distance;
+    std::size_t m_max_barriers;
+    double m_singular_gap;
+    bool m_area_preserving;
+};
+
+void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const {
+    const auto started = std::chrono::steady_clock::now();
+    const CauchyGreenField cg = cauchy_green_from_input(in);
+    const Grid &g = cg.grid;
+    const ShearFields shear =
+        shear_fields(cg, m_area_preserving ? ShearDeviationForm::area_preserving : ShearDeviationForm::general);
+    const double diagonal = std::hypot(g.x_max - g.x_min, g.y_max - g.y_min);
+    const double spacing = std::max(g.dx(), g.dy()) * static_cast<double>(m_seed_spacing);
+    const double max_length = m_max_length > 0 ? m_max_length : 2.0 * diagonal;
+    const double min_length = m_min_length > 0 ? m_min_length : 0.25 * diagonal;
+    const double radius = m_neighbour_distance > 0 ? m_neighbour_distance : 3.0 * spacing;
+
+    // 1. Shearlines of each family from a lattice of grid points where d_g < epsilon, truncated to the compact
+    // segments where d_g < epsilon at every point. Closed shearlines are elliptic, not parabolic: left out.
+    std::vector<Segment> candidates;
+    std::vector<std::vector<double>> all_lines;
+    std::size_t closed_lines = 0, short_segments = 0;
+    for (const int sign : {+1, -1}) {
+        if ((sign > 0 && m_families == "eta-") || (sign < 0 && m_families == "eta+")) continue;
+        const LineField field = shear_line_field(cg, shear, sign, m_singular_gap);
+        const std::vector<double> &deviation = sign > 0 ? shear.deviation_plus : shear.deviation_minus;
+        std::vector<double> seeds;
+        for (std::size_t i = 0; i < g.ny; i += m_seed_spacing)
+            for (std::size_t j = 0; j < g.nx; j += m_seed_spacing) {
+                const double d = deviation[i * g.nx + j];
+                if (!(d < m_epsilon) || field.status_at(g.x(j), g.y(i)) != LineStatus::ok) continue;
+                seeds.insert(seeds.end(), {g.x(j), g.y(i)});
+            }
+        const std::size_t n = seeds.size() / 2;
+        TensorLineSettings settings;
+        settings.max_length = max_length;
+        settings.detect_closure = true;
+        // Seeds whose grid point a line of this family already passed (its nearest grid point) would give that
+        // line again: they are skipped. Blocks of seeds are integrated in parallel, then their lines marked.
+        std::vector<std::uint8_t> visited(g.size(), 0);
+        std::vector<TwoWayLine> lines;
+        const std::size_t block = 64;
+        for (std::size_t start = 0; start < n; start += block) {
+            std::vector<std::size_t> todo;
+            for (std::size_t k = start; k < std::min(n, start + block); ++k) {
+                const std::size_t j = static_cast<std::size_t>(std::lround((seeds[2 * k] - g.x_min) / g.dx()));
+                const std::size_t i = static_cast<std::size_t>(std::lround((seeds[2 * k + 1] - g.y_min) / g.dy()));
+                if (!visited[i * g.nx + j]) todo.push_back(k);
+            }
+            std::vector<TwoWayLine> block_lines(todo.size());
+#pragma omp parallel for schedule(dynamic)
+            for (std::size_t q = 0; q < todo.size(); ++q)
+                block_lines[q] =
+                    integrate_tensor_line_both_ways(field, seeds[2 * todo[q]], seeds[2 * todo[q] + 1], settings);
+            for (TwoWayLine &line : block_lines) {
+                for (std::size_t p = 0; p + 1 < line.xy.size(); p += 2) {
+                    const long j = std::lround((line.xy[p] - g.x_min) / g.dx());
+                    const long i = std::lround((line.xy[p + 1] - g.y_min) / g.dy());
+                    if (i >= 0 && j >= 0 && i < static_cast<long>(g.ny) && j < static_cast<long>(g.nx))
+                        visited[static_cast<std::size_t>(i) * g.nx + static_cast<std::size_t>(j)] = 1;
+                }
+                lines.push_back(std::move(line));
+            }
+        }
+        for (const TwoWayLine &line : lines) {
+            if (line.closed) {
+                ++closed_lines;
+                continue;
+            }
+            all_lines.push_back(line.xy);
+            const std::vector<double> dev = sample_along(g, deviation, {}, line.xy);
+            const std::size_t m = line.xy.size() / 2;
+            std::size_t k = 0;
+            while (k < m) {
+                while (k < m && !(dev[k] < m_epsilon)) ++k;
+                const std::size_t first = k;
+                while (k < m && dev[k] < m_epsilon) ++k;
+                if (k - first < 2) continue;
+                Segment s;
+                s.family = sign;
+                s.xy.assign(line.xy.begin() + 2 * first, line.xy.begin() + 2 * k);
+                s.length = polyline_length(s.xy);
+                if (s.length < min_length) {
+                    ++short_segments;
+                    continue;
+                }
+                const CurveStats stats = curve_statistics(s.xy, std::vector<double>(dev.begin() + first, dev.begin() + k));
+                s.mean_deviation = stats.mean;
+                s.max_deviation = stats.max;
+                const std::vector<double> c = cumulative_length(s.xy);
+                const std::size_t mid = std::min<std::size_t>(
+                    c.size() - 1,
+                    static_cast<std::size_t>(std::lower_bound(c.begin(), c.end(), 0.5 * s.length) - c.begin()));
+                s.mid_x = s.xy[2 * mid];
+                s.mid_y = s.xy[2 * mid + 1];
+                s.x_min = s.x_max = s.xy[0];
+                s.y_min = s.y_max = s.xy[1];
+                for (std::size_t p = 0; p + 1 < s.xy.size(); p += 2) {
+                    s.x_min = std::min(s.x_min, s.xy[p]);
+                    s.x_max = std::max(s.x_max, s.xy[p]);
+                    s.y_min = std::min(s.y_min, s.xy[p + 1]);
+                    s.y_max = std::max(s.y_max, s.xy[p + 1]);
+                }
+                if (std::isfinite(s.mean_deviation)) candidates.push_back(std::move(s));
+            }
+        }
+        if (host.progress(sign > 0 ? 0.4 : 0.8)) throw std::runtime_error("parabolic: stopped on request");
+    }
+    host.info("" + std::to_string(all_lines.size()) + " open shearlines (" + std::to_string(closed_lines) +
+              " closed ones left to the elliptic extractor), " + std::to_string(candidates.size()) +
+              " segments with d_g < " + format(m_epsilon) + " at least " + format(min_length) + " long (" +
+              std::to_string(short_segments) + " shorter)");
+
+    // 2. Barriers: segments whose mean deviation is a local minimum among their neighbours (the segments passing
+    // within `radius` of their midpoint, either family), thinned so that one barrier stands for all the copies
+    // found from seeds along it: visit the minima from the least mean deviation up (ties: the longer first) and
+    // drop those passing within `radius` of a kept barrier's midpoint or whose midpoint a kept one passes near.
+    std::vector<std::size_t> minima;
+    for (std::size_t c = 0; c < candidates.size(); ++c) {
+        bool minimal = true;
+        for (std::size_t d = 0; d < candidates.size() && minimal; ++d)
+            if (d != c && candidates[d].mean_deviation < candidates[c].mean_deviation &&
+                passes_near(candidates[d], candidates[c].mid_x, candidates[c].mid_y, radius))
+                minimal = false;
+        if (minimal) minima.push_back(c);
+    }
+    std::sort(minima.begin(), minima.end(), [&](std::size_t a, std::size_t b) {
+        if (candidates[a].mean_deviation != candidates[b].mean_deviation)
+            return candidates[a].mean_deviation < candidates[b].mean_deviation;
+        return candidates[a].length > candidates[b].length;
+    });
+    std::vector<std::size_t> barriers;
+    for (std::size_t c : minima) {
+        bool taken = false;
+        for (std::size_t b : barriers)
+            taken = taken || passes_near(candidates[b], candidates[c].mid_x, candidates[c].mid_y, radius) ||
+                    passes_near(candidates[c], candidates[b].mid_x, candidates[b].mid_y, radius);
+        if (taken) continue;
+        barriers.push_back(c);
+        if (m_max_barriers > 0 && barriers.size() >= m_max_barriers) break;
+    }
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    host.info("" + std::to_string(minima.size()) + " local minima of the mean deviation, " +
+              std::to_string(barriers.size()) + " parabolic barriers (neighbour distance " + format(radius) + ") in " +
+              format(elapsed) + " s");
+
+    for (std::size_t b = 0; b < barriers.size(); ++b) {
+        const Segment &s = candidates[barriers[b]];
+        host.add_barrier("parabolic", false, s.xy,
+                         {{"length", s.length},
+                          {"mean_geodesic_deviation", s.mean_deviation},
+                          {"max_geodesic_deviation", s.max_deviation},
+                          {"rank", static_cast<double>(b + 1)}});
+        host.set_barrier_attributes({{"family", s.family > 0 ? "\"+\"" : "\"-\""}});
+    }
+
+    // 3. The picture: open shearlines (grey), candidates (black), barriers (red) over the FTLE.
+    if (in.plots && in.output_dir) {
+        FieldPlot plot;
+        plot.title = "Parabolic barriers (red); shearlines with d_g < " + format(m_epsilon) + " (black)";
+        plot.colorbar_label = "FTLE";
+        const std::size_t stride = std::max<std::size_t>(1, all_lines.size() / 150);
+        for (std::size_t l = 0; l < all_lines.size(); l += stride)
+            plot.curves.push_back({all_lines[l], "#b0b0b0", 0.6, false});
+        for (const Segment &s : candidates) plot.curves.push_back({s.xy, "black", 0.8, false});
+        for (std::size_t b : barriers) plot.curves.push_back({candidates[b].xy, "red", 2.5, false});
+        plot_field_png(std::filesystem::path(in.output_dir) / "parabolic.png", g, cg.ftle, cg.mask, plot);
+    }
+}
+
+}  // namespace
+
+GEOBARRIER_PLUGINS(geobarrier::sdk::extractor<Parabolic>())

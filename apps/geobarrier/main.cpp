@@ -57,6 +57,8 @@ int command_validate(const fs::path &file) {
               << ", " << experiment.grid.nx << " x " << experiment.grid.ny << " grid, products:";
     for (const auto &p : experiment.products) std::cout << " " << p;
     for (const auto &x : resolved.extractors) std::cout << " extractor:" << x.info().name;
+    const nlohmann::json validation = validation_to_json(experiment.validation, experiment.t0, experiment.t1);
+    for (const auto &item : validation.items()) std::cout << " validation:" << item.key();
     std::cout << ")\n";
     for (const auto &w : experiment.warnings) std::cout << "warning: " << w << "\n"; // e.g. a clamped rtol
     return 0;

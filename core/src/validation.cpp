@@ -1183,23 +1183,28 @@ struct Stage {
             plot_xy_png(out / "stretching.png", plot);
             add_file(out / "stretching.png");
         }
-        // The advected barriers in the phase plane, one colour per time.
+        // The advected barriers in the phase plane, one colour per time: at most 9 of the times, evenly chosen
+        // (first and last included), so the curves stay apart.
         {
             XYPlot plot;
             plot.title = base_title() + "barriers advected from t₀ = " + fmt_g(in.t0);
             plot.equal_aspect = true;
             plot.legend = XYPlot::Legend::outside_right;
-            for (std::size_t r = 0; r < times.size(); ++r)
+            const std::size_t shown = std::min<std::size_t>(times.size(), 9);
+            for (std::size_t m = 0; m < shown; ++m) {
+                const std::size_t r =
+                    shown == 1 ? 0 : static_cast<std::size_t>(std::lround(static_cast<double>(m * (times.size() - 1)) /
+                                                                          static_cast<double>(shown - 1)));
                 for (std::size_t k = 0; k < chosen.size(); ++k) {
                     PlotSeries line;
                     line.xy = histories[k].samples[r].xy;
                     line.closed = barriers[chosen[k]].closed;
-                    line.color = r == 0 ? barrier_color : time_color(r, times.size());
-                    line.width = r == 0 ? 2.2 : 1.4;
-                    if (k == 0 && (times.size() <= 12 || r == 0 || r + 1 == times.size()))
-                        line.label = "t = " + fmt_g(times[r]);
+                    line.color = m == 0 ? barrier_color : time_color(m, shown);
+                    line.width = m == 0 ? 2.2 : 1.4;
+                    if (k == 0) line.label = "t = " + fmt_g(times[r]);
                     plot.series.push_back(line);
                 }
+            }
             plot_xy_png(out / "barriers_advected.png", plot);
             add_file(out / "barriers_advected.png");
         }

@@ -19,6 +19,8 @@
 #include <set>
 #include <sstream>
 
+#include "json_reader.hpp"
+
 namespace fs = std::filesystem;
 using nlohmann::json;
 
@@ -30,78 +32,9 @@ constexpr double nan_value = std::numeric_limits<double>::quiet_NaN();
 
 // ------------------------------------------------------------------------------------------------ reading JSON
 
-std::string short_dump(const json &v) {
-    std::string s = v.dump();
-    if (s.size() > 60) s = s.substr(0, 57) + "...";
-    return s;
-}
-
-// A JSON object being read: remembers which keys were used so the rest can be reported as unknown, with a hint
-// (the same rules and messages as the rest of the experiment file).
-class Reader {
-  public:
-    Reader(const json &j, std::string path) : m_j(j), m_path(std::move(path)) {
-        if (!j.is_object()) throw ConfigError(m_path, short_dump(j) + " must be an object");
-    }
-    std::string child(const std::string &key) const { return m_path + "/" + key; }
-    bool has(const std::string &key) const {
-        m_known.insert(key);
-        return m_j.contains(key) && !m_j.at(key).is_null();
-    }
-    const json &get(const std::string &key) const {
-        m_known.insert(key);
-        if (!m_j.contains(key)) throw ConfigError(m_path, "missing required key \"" + key + "\"");
-        return m_j.at(key);
-    }
-    double number(const std::string &key) const {
-        const json &v = get(key);
-        if (!v.is_number()) throw ConfigError(child(key), short_dump(v) + " must be a number");
-        const double d = v.get<double>();
-        if (!std::isfinite(d)) throw ConfigError(child(key), short_dump(v) + " is not finite");
-        return d;
-    }
-    std::optional<double> optional_number(const std::string &key) const {
-        if (!has(key)) return std::nullopt;
-        return number(key);
-    }
-    std::size_t count(const std::string &key, std::size_t fallback, std::size_t min_value,
-                      std::size_t max_value) const {
-        if (!has(key)) return fallback;
-        const json &v = get(key);
-        if (!v.is_number_integer() || v.get<long long>() < static_cast<long long>(min_value) ||
-            v.get<long long>() > static_cast<long long>(max_value))
-            throw ConfigError(child(key), short_dump(v) + " must be an integer from " + std::to_string(min_value) +
-                                              " to " + std::to_string(max_value));
-        return v.get<std::size_t>();
-    }
-    bool boolean(const std::string &key, bool fallback) const {
-        if (!has(key)) return fallback;
-        const json &v = get(key);
-        if (!v.is_boolean()) throw ConfigError(child(key), short_dump(v) + " must be true or false");
-        return v.get<bool>();
-    }
-    void finish() const {
-        std::vector<std::string> known(m_known.begin(), m_known.end());
-        for (const auto &item : m_j.items()) {
-            if (m_known.count(item.key())) continue;
-            std::string msg = "unknown key";
-            const std::string hint = did_you_mean(item.key(), known);
-            if (!hint.empty()) {
-                msg += "; did you mean \"" + hint + "\"?";
-            } else {
-                msg += " (allowed here:";
-                for (const auto &k : known) msg += " " + k;
-                msg += ")";
-            }
-            throw ConfigError(child(item.key()), msg);
-        }
-    }
-
-  private:
-    const json &m_j;
-    std::string m_path;
-    mutable std::set<std::string> m_known;
-};
+using detail::short_dump;
+// The experiment file's reader: the same rules and messages everywhere.
+using Reader = detail::ObjectReader;
 
 std::array<double, 2> read_point(const json &v, const std::string &path) {
     if (!v.is_array() || v.size() != 2 || !v[0].is_number() || !v[1].is_number())

@@ -56,6 +56,40 @@ TEST_CASE("a plugin built for another ABI major version is refused, naming the f
     CHECK(msg.find('\n') == std::string::npos);
 }
 
+TEST_CASE("state names and units (ABI 1.2) reach the loader; a plugin built for ABI 1.1 still loads") {
+    const PluginHandle &duffing = test::registry().find(PluginKind::system, "duffing", "/system/plugin");
+    CHECK(duffing.info.abi_minor == GB_ABI_VERSION_MINOR);
+    CHECK(duffing.info.state_names == std::vector<std::string>{"x", "y"});
+    CHECK(duffing.info.state_units == std::vector<std::string>{"", ""});
+    CHECK(state_axis_label(duffing.info, 0) == "x [–]"); // the paper's scaled, nondimensional oscillator
+    CHECK(time_axis_label(duffing.info) == "t [–]");
+    const json schema = plugin_info_to_json(duffing.info);
+    CHECK(schema["state"]["names"] == json{"x", "y"});
+
+    const PluginHandle &pendulum = test::registry().find(PluginKind::system, "pendulum", "/system/plugin");
+    CHECK(state_axis_label(pendulum.info, 0) == "x [rad]");
+    CHECK(state_axis_label(pendulum.info, 1) == "y [rad/time]");
+    CHECK(time_axis_label(pendulum.info) == "t [time]");
+
+    // Its table ends where ABI 1.1's did, followed by poison pointers: reading the 1.2 fields would crash.
+    const std::vector<PluginHandle> old = load_plugin_library(test::test_plugin_dir() / "geobarrier-abi-1-1.so");
+    REQUIRE(old.size() == 1);
+    CHECK(old[0].info.abi_minor == 1);
+    CHECK(old[0].info.state_names.empty());
+    CHECK(old[0].info.state_units.empty());
+    CHECK(state_axis_label(old[0].info, 0) == "x");
+    CHECK(state_axis_label(old[0].info, 1) == "y");
+    CHECK(time_axis_label(old[0].info) == "t");
+    CHECK(!plugin_info_to_json(old[0].info).contains("state"));
+    const System rotation(old[0], validate_params(old[0].info, json::object(), "/system/params"));
+    const double t = 0.0, x[2] = {1.0, 2.0}, f = 0.0;
+    double dxdt[2] = {0.0, 0.0};
+    std::int32_t status = -1;
+    rotation.rhs(1, 1, &t, x, &f, dxdt, &status);
+    CHECK(dxdt[0] == -2.0);
+    CHECK(dxdt[1] == 1.0);
+}
+
 TEST_CASE("a library without the entry symbol is refused") {
     const auto file = test::test_plugin_dir() / "geobarrier-no-entry.so";
     const std::string msg = error_of([&] { load_plugin_library(file); });

@@ -2,6 +2,7 @@
 // System/Forcing wrappers the runner uses and reports what it found, with the offending values.
 #include <geobarrier/conformance.hpp>
 #include <geobarrier/errors.hpp>
+#include <geobarrier/rk_tableaux.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -94,6 +95,21 @@ ConformanceCheck check_schema(const PluginInfo &info) {
     if (info.thread_safety != GB_THREAD_SAFE_CONCURRENT && info.thread_safety != GB_THREAD_SAFE_PER_INSTANCE)
         problems.push_back("unknown thread_safety " + std::to_string(info.thread_safety));
     if (info.kind == PluginKind::system && info.dimension == 0) problems.push_back("dimension 0");
+    // State names and units (ABI 1.2): when declared, one non-empty, distinct name per component (axis labels
+    // "name [unit]"); a unit may be "" (nondimensional). The loader copied `dimension` entries, NULL ones as "".
+    if (info.kind == PluginKind::system && !info.state_names.empty()) {
+        if (info.state_names.size() != info.dimension || info.state_units.size() != info.dimension)
+            problems.push_back(std::to_string(info.state_names.size()) + " state names and " +
+                               std::to_string(info.state_units.size()) + " units for dimension " +
+                               std::to_string(info.dimension));
+        std::set<std::string> names;
+        for (std::size_t i = 0; i < info.state_names.size(); ++i) {
+            if (info.state_names[i].empty())
+                problems.push_back("state component " + std::to_string(i) + " has no name");
+            else if (!names.insert(info.state_names[i]).second)
+                problems.push_back("state name '" + info.state_names[i] + "' used twice");
+        }
+    }
     std::set<std::string> seen;
     for (const ParamSpec &p : info.params) {
         const std::string who = "parameter '" + p.name + "'";
@@ -125,8 +141,19 @@ ConformanceCheck check_schema(const PluginInfo &info) {
             break;
         }
     }
-    if (problems.empty())
-        return pass("schema", std::to_string(info.params.size()) + " parameter(s), all well-formed");
+    if (problems.empty()) {
+        std::string state;
+        if (info.kind == PluginKind::system) {
+            if (info.state_names.empty()) {
+                state = "; no state names declared (axes read x, y)";
+            } else {
+                state = "; state";
+                for (std::size_t i = 0; i < info.state_names.size(); ++i)
+                    state += (i ? ", " : " ") + state_axis_label(info, i);
+            }
+        }
+        return pass("schema", std::to_string(info.params.size()) + " parameter(s), all well-formed" + state);
+    }
     std::string detail;
     for (const auto &p : problems) detail += (detail.empty() ? "" : "; ") + p;
     return fail("schema", detail);
@@ -438,6 +465,122 @@ ConformanceCheck check_system_finite(const System &system, Random &rng, const Bo
                           num(o.t_max) + "]: all finite and valid");
 }
 
+// One step of tableau Tab over the sample's lanes (all at the time of lane 0, step h), with the variational
+// equations when `variational`: through the fused step (ABI 1.2 advance) and stage by stage through rhs() and
+// jacobian() in the flow-map engine's arithmetic order. Returns "" when every output agrees to within rtol of its
+// row's largest magnitude, "declined" when the plugin does not offer the method, else what differs.
+template <class Tab>
+std::string compare_advance(const System &system, const Sample &s, std::int32_t method, bool variational, double h,
+                            double rtol, std::size_t &compared) {
+    const std::size_t n = s.n, ld = s.ld, D = s.dim, C = variational ? D + D * D + 1 : D;
+    const double t = s.t[0];
+    std::vector<double> x(C * ld, std::numeric_limits<double>::quiet_NaN());
+    for (std::size_t k = 0; k < n; ++k) {
+        for (std::size_t i = 0; i < D; ++i) x[i * ld + k] = s.x[i * ld + k];
+        if (!variational) continue;
+        // A DF that is not the identity, so that the product Dv DF is exercised in full.
+        for (std::size_t m = 0; m < D * D; ++m)
+            x[(D + m) * ld + k] = (m % (D + 1) == 0 ? 1.0 : 0.0) + forcing_value(k + 3 * m);
+        x[(D + D * D) * ld + k] = 0.3;
+    }
+    std::vector<double> forcing(Tab::stages), times(ld, t), f(ld, 0.0), jac(D * D * ld, 0.0), y(C * ld, 0.0);
+    for (int i = 0; i < Tab::stages; ++i) forcing[i] = forcing_value(static_cast<std::size_t>(i) + 1);
+    std::vector<std::int32_t> status(ld, GB_OK);
+    // The reference: stage by stage, as BatchContext::evaluate and stage_state / new_state in flow_map.cpp.
+    std::vector<double> kst(static_cast<std::size_t>(Tab::stages) * C * ld, 0.0);
+    auto combine = [&](const detail::RkRow &row, double *out) {
+        for (std::size_t q = 0; q < C * ld; ++q) {
+            if (row.count == 0) {
+                out[q] = x[q];
+                continue;
+            }
+            double sum = row.terms[0].weight * kst[row.terms[0].stage * C * ld + q];
+            for (int m = 1; m < row.count; ++m) sum += row.terms[m].weight * kst[row.terms[m].stage * C * ld + q];
+            out[q] = x[q] + h * sum;
+        }
+    };
+    for (int I = 0; I < Tab::stages; ++I) {
+        combine(Tab::a[I], y.data());
+        std::fill(times.begin(), times.end(), t + Tab::c[I] * h);
+        std::fill(f.begin(), f.end(), forcing[I]);
+        double *k = kst.data() + static_cast<std::size_t>(I) * C * ld;
+        system.rhs(n, ld, times.data(), y.data(), f.data(), k, status.data());
+        if (!variational) continue;
+        system.jacobian(n, ld, times.data(), y.data(), f.data(), jac.data(), status.data());
+        for (std::size_t lane = 0; lane < n; ++lane) {
+            auto J = [&](std::size_t i, std::size_t j) { return jac[(i * D + j) * ld + lane]; };
+            auto F = [&](std::size_t i, std::size_t j) { return y[(D + i * D + j) * ld + lane]; };
+            for (std::size_t i = 0; i < D; ++i)
+                for (std::size_t j = 0; j < D; ++j) {
+                    double sum = J(i, 0) * F(0, j);
+                    for (std::size_t l = 1; l < D; ++l) sum += J(i, l) * F(l, j);
+                    k[(D + i * D + j) * ld + lane] = sum;
+                }
+            double trace = J(0, 0);
+            for (std::size_t i = 1; i < D; ++i) trace += J(i, i);
+            k[(D + D * D) * ld + lane] = trace;
+        }
+    }
+    std::vector<double> expected(C * ld, 0.0), got(C * ld, output_sentinel);
+    combine(Tab::b, expected.data());
+    gb_advance_request r{};
+    r.method = method;
+    r.variational = variational ? 1 : 0;
+    r.n = n;
+    r.ld = ld;
+    r.t = t;
+    r.h = h;
+    r.forcing = forcing.data();
+    r.x = x.data();
+    r.x_out = got.data();
+    if (variational) {
+        r.df = x.data() + D * ld;
+        r.log_det = x.data() + (D + D * D) * ld;
+        r.df_out = got.data() + D * ld;
+        r.log_det_out = got.data() + (D + D * D) * ld;
+    }
+    r.lane_status = status.data();
+    if (!system.advance(r)) return "declined";
+    for (std::size_t c = 0; c < C; ++c) {
+        double scale = 0.0;
+        for (std::size_t k = 0; k < n; ++k) scale = std::max(scale, std::fabs(expected[c * ld + k]));
+        for (std::size_t k = 0; k < n; ++k) {
+            const double a = got[c * ld + k], b = expected[c * ld + k];
+            ++compared;
+            if (!(std::fabs(a - b) <= rtol * scale))
+                return std::string(Tab::name) + (variational ? " (variational)" : "") + " component " +
+                       std::to_string(c) + " of lane " + std::to_string(k) + ": " + num(a) + " from advance(), " +
+                       num(b) + " stage by stage (" + lane_state(s, k) + ", h = " + num(h) + ")";
+        }
+    }
+    return "";
+}
+
+// The fused step (ABI 1.2 advance), where the plugin has one, against the core's own stage-by-stage step.
+ConformanceCheck check_advance(const System &system, const Sample &s) {
+    const std::string name = "advance_equals_stages";
+    constexpr double h = 0.1, rtol = 1e-13; // the same arithmetic: only reassociation by the compiler may differ
+    std::size_t compared = 0;
+    std::string declined;
+    for (const bool variational : {false, true}) {
+        if (variational && !system.has_jacobian()) continue;
+        for (const std::int32_t method : {std::int32_t{GB_ADVANCE_RK4}, std::int32_t{GB_ADVANCE_DOP853}}) {
+            const std::string what =
+                method == GB_ADVANCE_RK4
+                    ? compare_advance<detail::Rk4Tableau>(system, s, method, variational, h, rtol, compared)
+                    : compare_advance<detail::Dop853Tableau>(system, s, method, variational, h, rtol, compared);
+            if (what == "declined")
+                declined += std::string(declined.empty() ? "" : ", ") + (method == GB_ADVANCE_RK4 ? "rk4" : "dop853") +
+                            (variational ? " variational" : "");
+            else if (!what.empty())
+                return fail(name, what);
+        }
+    }
+    return pass(name, std::to_string(compared) + " values of rk4 and dop853 steps agree (relative tolerance " +
+                          short_num(rtol) + " of each component's largest value)" +
+                          (declined.empty() ? "" : "; declined: " + declined));
+}
+
 void check_system(const PluginHandle &handle, const ParamValues &values, const Box &box, const ConformanceOptions &o,
                   std::vector<ConformanceCheck> &out) {
     const System a(handle, values), b(handle, values);
@@ -450,6 +593,8 @@ void check_system(const PluginHandle &handle, const ParamValues &values, const B
     out.push_back(guarded("determinism", [&] { return check_system_determinism(a, b, s); }));
     out.push_back(guarded("forcing_ignored", [&] { return check_forcing_ignored(a, s); }));
     out.push_back(guarded("finite_on_sample_box", [&] { return check_system_finite(a, rng, box, o); }));
+    // Only for systems with a fused step: the others have nothing to check (and the lists stay as they were).
+    if (a.has_advance()) out.push_back(guarded("advance_equals_stages", [&] { return check_advance(a, s); }));
 }
 
 // ------------------------------------------------------------ forcings

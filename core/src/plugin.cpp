@@ -122,6 +122,14 @@ PluginInfo read_descriptor(const gb_plugin_descriptor &d, const fs::path &file, 
                 info.domain_max.push_back(hi);
             }
         }
+        // ABI 1.2 appended the state names and units; an older plugin's table ends before them. Missing entries
+        // are copied as "" here and reported by check-plugin (conformance), not refused.
+        if (entry.abi_minor >= 2 && (d.system->state_names || d.system->state_units)) {
+            for (std::uint32_t i = 0; i < info.dimension; ++i) {
+                info.state_names.push_back(d.system->state_names ? text_or_empty(d.system->state_names[i]) : "");
+                info.state_units.push_back(d.system->state_units ? text_or_empty(d.system->state_units[i]) : "");
+            }
+        }
         break;
     case GB_KIND_FORCING:
         info.kind = PluginKind::forcing;
@@ -422,11 +430,25 @@ nlohmann::json plugin_info_to_json(const PluginInfo &info) {
         j["divergence"] = info.has_divergence;
         j["uses_forcing"] = info.uses_forcing;
         if (!info.domain_min.empty()) j["domain"] = {{"min", info.domain_min}, {"max", info.domain_max}};
+        if (!info.state_names.empty()) j["state"] = {{"names", info.state_names}, {"units", info.state_units}};
     }
     if (info.kind == PluginKind::forcing && info.composite())
         j["terms"] = {{"min", info.min_terms}, {"max", info.max_terms}};
     if (info.kind == PluginKind::extractor) j["required_fields"] = info.required_fields;
     return j;
+}
+
+std::string state_axis_label(const PluginInfo &system, std::size_t i) {
+    if (i >= system.state_names.size() || system.state_names[i].empty()) return i == 0 ? "x" : i == 1 ? "y" : "z";
+    const std::string &unit = i < system.state_units.size() ? system.state_units[i] : std::string();
+    return system.state_names[i] + " [" + (unit.empty() ? std::string("–") : unit) + "]"; // [–]: nondimensional
+}
+
+std::string time_axis_label(const PluginInfo &system) {
+    if (system.state_names.empty()) return "t";
+    for (const std::string &unit : system.state_units)
+        if (!unit.empty()) return "t [time]"; // the unit the parameter schemas call "time"
+    return "t [–]"; // every state component is nondimensional: a scaled model (Duffing, Van der Pol)
 }
 
 void check_plugin_status(gb_status status, const PluginInfo &info, const char *what, const char *message) {
@@ -464,6 +486,7 @@ System::System(const PluginHandle &handle, const ParamValues &values) : m_instan
     if (handle.info.kind != PluginKind::system)
         throw PluginError(handle.info.file.string() + ": '" + handle.info.name + "' is not a system");
     m_table = handle.descriptor->system;
+    if (handle.info.abi_minor >= 2) m_advance = m_table->advance;
 }
 
 void System::rhs(std::size_t n, std::size_t ld, const double *t, const double *x, const double *f, double *dxdt,
@@ -488,6 +511,15 @@ void System::divergence(std::size_t n, std::size_t ld, const double *t, const do
     CallMessage m;
     check_plugin_status(m_table->divergence(m_instance.self(), n, ld, t, x, f, div, lane_status, &m.msg), info(),
                         "divergence", m.text);
+}
+
+bool System::advance(const gb_advance_request &request) const {
+    if (!m_advance) return false;
+    CallMessage m;
+    const gb_status status = m_advance(m_instance.self(), &request, &m.msg);
+    if (status == GB_UNSUPPORTED) return false;
+    check_plugin_status(status, info(), "advance", m.text);
+    return true;
 }
 
 Forcing::Forcing(const PluginHandle &handle, const ParamValues &values) : m_instance(handle, values) {

@@ -15,6 +15,8 @@ struct ShakenPendulum {
     static constexpr const char *version = "1.0.0";
     static constexpr const char *doc = "pendulum on a shaken pivot: y' = -omega0^2 sin x - damping y - f(t) cos x";
     static constexpr unsigned dimension = 2;
+    // Optional (ABI 1.2): names and units of the state components, for axis labels "theta [rad]".
+    static constexpr const char *state_names[] = {"theta", "omega"}, *state_units[] = {"rad", "rad/time"};
     static constexpr gb_param_spec params[] = {
         real_param("omega0", 1.0, 0.0, HUGE_VAL, "rad/time", "small-oscillation angular frequency sqrt(g / L)"),
         real_param("damping", 0.1, 0.0, HUGE_VAL, "1/time", "linear damping"),

@@ -20,6 +20,8 @@ struct DoubleGyre {
     static constexpr const char *doc =
         "double gyre (Shadden et al. 2005): u = -pi A sin(pi g) cos(pi y), v = pi A cos(pi g) sin(pi y) dg/dx";
     static constexpr unsigned dimension = 2;
+    // Positions in the box [0, 2] x [0, 1], in the length unit of `amplitude`.
+    static constexpr const char *state_names[] = {"x", "y"}, *state_units[] = {"length", "length"};
     static constexpr bool uses_forcing = false;
     // The flow is defined on the two gyres' box; outside it the formulas continue periodically.
     static constexpr double domain_min[] = {0.0, 0.0};

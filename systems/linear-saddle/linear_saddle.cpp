@@ -15,6 +15,8 @@ struct LinearSaddle {
     static constexpr const char *version = "1.0.0";
     static constexpr const char *doc = "linear saddle x' = a x, y' = -a y (test system; FTLE = |a|)";
     static constexpr unsigned dimension = 2;
+    // A nondimensional test system.
+    static constexpr const char *state_names[] = {"x", "y"}, *state_units[] = {"", ""};
     static constexpr bool uses_forcing = false;
     static constexpr gb_param_spec params[] = {
         real_param("a", 1.0, -HUGE_VAL, HUGE_VAL, "1/time", "rate: x grows as e^{a t}, y decays as e^{-a t}"),

@@ -22,6 +22,8 @@ struct ParallelShear {
     static constexpr const char *doc =
         "steady parallel shear flow (test system): x' = U p(y/L), y' = 0 (U = velocity, L = width); p = sech^2 (jet) or tanh (layer)";
     static constexpr unsigned dimension = 2;
+    // Positions along (x) and across (y) the flow, in the length unit of `width`.
+    static constexpr const char *state_names[] = {"x", "y"}, *state_units[] = {"length", "length"};
     static constexpr bool uses_forcing = false;
     static constexpr gb_param_spec params[] = {
         string_param("profile", "jet", "jet|layer",

@@ -15,6 +15,8 @@ struct Pendulum {
     static constexpr const char *version = "1.0.0";
     static constexpr const char *doc = "forced, damped pendulum: x' = y, y' = -omega0^2 sin x - damping y + f(t)";
     static constexpr unsigned dimension = 2;
+    // Angle x and angular velocity y.
+    static constexpr const char *state_names[] = {"x", "y"}, *state_units[] = {"rad", "rad/time"};
     static constexpr gb_param_spec params[] = {
         real_param("omega0", 1.0, 0.0, HUGE_VAL, "rad/time", "small-oscillation angular frequency sqrt(g / L)"),
         real_param("damping", 0.0, -HUGE_VAL, HUGE_VAL, "1/time", "linear damping: y' contains -damping y"),

@@ -19,6 +19,8 @@ struct ShearVortex {
     static constexpr const char *doc =
         "vortex with radial shear (test system): x' = -w y, y' = w x, w = omega + shear (x^2 + y^2)";
     static constexpr unsigned dimension = 2;
+    // Positions, in the length unit of `shear`.
+    static constexpr const char *state_names[] = {"x", "y"}, *state_units[] = {"length", "length"};
     static constexpr bool uses_forcing = false;
     static constexpr gb_param_spec params[] = {
         real_param("omega", 1.0, -HUGE_VAL, HUGE_VAL, "rad/time", "angular velocity at the centre"),

@@ -15,6 +15,8 @@ struct VanDerPol {
     static constexpr const char *version = "1.0.0";
     static constexpr const char *doc = "forced Van der Pol oscillator: x' = y, y' = mu (1 - x^2) y - x + f(t)";
     static constexpr unsigned dimension = 2;
+    // The nondimensional oscillator: position x and velocity y carry no unit (nor does t).
+    static constexpr const char *state_names[] = {"x", "y"}, *state_units[] = {"", ""};
     static constexpr gb_param_spec params[] = {
         real_param("mu", 1.0, -HUGE_VAL, HUGE_VAL, "1/time",
                    "nonlinear damping: negative for |x| < 1 (energy in), positive outside (energy out)"),

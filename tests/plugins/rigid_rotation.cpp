@@ -34,6 +34,13 @@ struct RigidRotation {
         }
     }
 
+    // The per-lane field without a per-lane Jacobian: the SDK's fused step then offers positions only and declines
+    // variational steps, which the core must take stage by stage instead (test_lockstep).
+    void field(double, const double *s, double, double *dsdt) const {
+        dsdt[0] = -m_omega * s[1];
+        dsdt[1] = m_omega * s[0];
+    }
+
     // jac = [[0, -omega], [omega, 0]].
     void jacobian(const Batch &b, double *jac) const {
         double *__restrict j00 = jac;

@@ -145,6 +145,34 @@ TEST_CASE("conformance: malformed schemas") {
     }
 }
 
+TEST_CASE("conformance: state names and units (ABI 1.2)") {
+    PluginHandle h = faulty("faulty-none");
+    SUBCASE("none declared: passes, and says the axes read x, y") {
+        const ConformanceCheck schema = find_check(check_plugin(h), "schema");
+        CHECK(schema.passed);
+        CHECK(schema.detail.find("no state names declared") != std::string::npos);
+    }
+    SUBCASE("declared: the axis labels are listed") {
+        h.info.state_names = {"theta", "omega"};
+        h.info.state_units = {"rad", ""};
+        const ConformanceCheck schema = find_check(check_plugin(h), "schema");
+        CHECK(schema.passed);
+        CHECK(schema.detail.find("state theta [rad], omega [–]") != std::string::npos);
+    }
+    SUBCASE("an empty name, a name used twice, a count that is not the dimension") {
+        h.info.state_names = {"x", ""};
+        h.info.state_units = {"", ""};
+        CHECK(find_check(check_plugin(h), "schema").detail.find("state component 1 has no name") !=
+              std::string::npos);
+        h.info.state_names = {"x", "x"};
+        CHECK(find_check(check_plugin(h), "schema").detail.find("state name 'x' used twice") != std::string::npos);
+        h.info.state_names = {"x"};
+        h.info.state_units = {""};
+        CHECK(find_check(check_plugin(h), "schema").detail.find("1 state names and 1 units for dimension 2") !=
+              std::string::npos);
+    }
+}
+
 TEST_CASE("conformance: another ABI major version stops the checks") {
     PluginHandle h = faulty("faulty-none");
     h.info.abi_major = GB_ABI_VERSION_MAJOR + 1;

@@ -26,7 +26,11 @@ extern "C" {
 /* Minor 1 appended: gb_system_vtable.domain_min/domain_max and the composite-forcing
  * fields of gb_forcing_vtable (min_terms, max_terms, combine). The core reads them only
  * from plugins whose entry says abi_minor >= 1. */
-#define GB_ABI_VERSION_MINOR 1u
+/* Minor 2 appended: gb_system_vtable.state_names/state_units and gb_extract_input.state_names/state_units.
+ * The core reads the system's only from plugins whose entry says abi_minor >= 2; an extractor may read the
+ * input's only when its host is 1.2 or newer (the SDK offers them to plugins that link the core library).
+ * Minor 2 also appended gb_system_vtable.advance (a fused Runge-Kutta step, gb_advance_request), read likewise. */
+#define GB_ABI_VERSION_MINOR 2u
 
 /* The one symbol every plugin library exports. */
 #define GB_PLUGIN_ENTRY_SYMBOL "geobarrier_plugin_entry"
@@ -42,6 +46,7 @@ typedef int32_t gb_status;
 #define GB_OK 0
 #define GB_ERROR 1          /* the call failed; see the message buffer */
 #define GB_LANE_INVALID 2   /* lane status only: this state is outside the model's domain */
+#define GB_UNSUPPORTED 3    /* advance() only: the plugin does not offer the requested method; nothing was written */
 
 typedef enum gb_plugin_kind {
     GB_KIND_SYSTEM = 1,
@@ -96,6 +101,33 @@ typedef struct gb_message {
 #define GB_SYSTEM_HAS_DIVERGENCE 2u  /* divergence() is provided */
 #define GB_SYSTEM_USES_FORCING 4u    /* the right-hand side reads the forcing values */
 
+/* ABI 1.2: one fused explicit Runge-Kutta step of a batch (gb_system_vtable.advance). All lanes share the time t
+ * (the core's lockstep engine); the step runs every stage of every lane inside the plugin, so a lane's stage
+ * derivatives stay in registers instead of going through memory between stages. The method is a fixed Butcher
+ * tableau that the SDK compiles in (<geobarrier/rk_tableaux.hpp>, the same tableaux as the core's kernel); a plugin
+ * answers GB_UNSUPPORTED for a method it lacks and the core then takes its stage-by-stage path.
+ *   forcing[i]   forcing value at t + c_i h, i < the method's stage count (0 when the system reads no forcing)
+ *   x[i*ld+k]    state, i < dimension; x_out receives the state after the step (same layout; x_out != x)
+ *   variational  nonzero: also advance the variational equations DF' = Dv DF (df[(i*dimension+j)*ld+k], row-major
+ *                blocks of lanes, into df_out) and (log|det DF|)' = tr Dv (log_det[k], into log_det_out)
+ *   lane_status  set by the plugin (GB_OK or GB_LANE_INVALID) for each lane
+ * The core keeps everything else: masking (it restores lanes it had frozen), bounds, renormalisation, step counts. */
+typedef enum gb_advance_method {
+    GB_ADVANCE_RK4 = 1,   /* classic 4-stage Runge-Kutta */
+    GB_ADVANCE_DOP853 = 2 /* Dormand-Prince 8(5,3), 12 stages, as in Hairer's dop853.f (no error estimate here) */
+} gb_advance_method;
+
+typedef struct gb_advance_request {
+    int32_t method; /* gb_advance_method */
+    int32_t variational;
+    uint64_t n, ld;
+    double t, h;
+    const double *forcing;
+    const double *x, *df, *log_det;
+    double *x_out, *df_out, *log_det_out;
+    int32_t *lane_status;
+} gb_advance_request;
+
 /* x' = v(x, t; f(t)) with state dimension `dimension`.
  *   t[k]        time of lane k
  *   x[i*ld+k]   state
@@ -118,6 +150,14 @@ typedef struct gb_system_vtable {
      * and generated docs print it; states outside it are not refused by the core. */
     const double *domain_min;
     const double *domain_max;
+    /* ABI 1.2: the name and unit of each state component, `dimension` entries each (e.g. {"x", "y"} and
+     * {"m", "m/s"}; "" for a nondimensional one), or NULL when the plugin declares none. Pictures label their
+     * axes "name [unit]"; generated docs print them. */
+    const char *const *state_names;
+    const char *const *state_units;
+    /* ABI 1.2: one fused Runge-Kutta step (see gb_advance_request), or NULL; the SDK generates it for systems that
+     * give a per-lane vector field. Returns GB_OK, GB_UNSUPPORTED (method not offered) or GB_ERROR. */
+    gb_status (*advance)(void *self, const gb_advance_request *request, gb_message *msg);
 } gb_system_vtable;
 
 /* ---------------------------------------------------------------- forcings */
@@ -158,6 +198,10 @@ typedef struct gb_extract_input {
     const gb_field *fields;
     const char *output_dir; /* folder for the extractor's own files (pictures); exists */
     int32_t plots;          /* nonzero when the experiment asked for pictures */
+    /* ABI 1.2, appended: the system's state names and units (2 entries each, never NULL; "" when the system
+     * declares none), for the axes of the extractor's pictures. A 1.1 host's struct ends before them. */
+    const char *const *state_names;
+    const char *const *state_units;
 } gb_extract_input;
 
 /* Services the core offers an extractor during extract(): the host pattern of

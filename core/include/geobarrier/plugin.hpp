@@ -56,6 +56,8 @@ struct PluginInfo {
     std::uint32_t dimension = 0;
     bool has_jacobian = false, has_divergence = false, uses_forcing = false;
     std::vector<double> domain_min, domain_max; // the documented domain (ABI 1.1); empty when not declared
+    // Name and unit of each state component (ABI 1.2; "" = nondimensional); both empty when not declared.
+    std::vector<std::string> state_names, state_units;
     // Forcings only: a composite forcing (ABI 1.1) combines min_terms..max_terms other forcings; 0 = plain.
     std::uint32_t min_terms = 0, max_terms = 0;
     bool composite() const { return max_terms > 0; }
@@ -107,6 +109,12 @@ nlohmann::json params_to_json(const PluginInfo &info, const ParamValues &values)
 // The schema as JSON, for `geobarrier plugins --json` and generated docs.
 nlohmann::json plugin_info_to_json(const PluginInfo &info);
 
+// Axis labels for pictures of a system's states: "name [unit]" for component i ("name [–]" when the unit is "":
+// nondimensional; "x" / "y" when the system declares no names); for time "t [time]" when any state component has a
+// unit, "t [–]" when none has, "t" when the system declares no names. Short, so that 3-D axes have room.
+std::string state_axis_label(const PluginInfo &system, std::size_t i);
+std::string time_axis_label(const PluginInfo &system);
+
 // Turns a failed call's status into a PluginError naming the plugin.
 void check_plugin_status(gb_status status, const PluginInfo &info, const char *what, const char *message);
 
@@ -142,10 +150,15 @@ class System {
                   std::int32_t *lane_status) const;
     void divergence(std::size_t n, std::size_t ld, const double *t, const double *x, const double *f, double *div,
                     std::int32_t *lane_status) const;
+    // ABI 1.2: the plugin's fused Runge-Kutta step (gb_advance_request), when it has one.
+    bool has_advance() const { return m_advance != nullptr; }
+    // One fused step; false when the plugin does not offer the request's method (nothing written). Throws on error.
+    bool advance(const gb_advance_request &request) const;
 
   private:
     PluginInstance m_instance;
     const gb_system_vtable *m_table = nullptr;
+    decltype(gb_system_vtable::advance) m_advance = nullptr; // read only from plugins of ABI 1.2 or newer
 };
 
 // A forcing f(t). A composite forcing (info().composite(), e.g. "sum", "ramp") owns its terms: evaluate() evaluates

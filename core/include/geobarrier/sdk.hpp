@@ -22,6 +22,16 @@
 //
 // A system may declare its documented domain (checked for finite values by check-plugin):
 //   static constexpr double domain_min[] = {0.0, 0.0}, domain_max[] = {2.0, 1.0};
+// and the names and units of its state components (ABI 1.2; pictures label their axes "name [unit]", "" for a
+// nondimensional component):
+//   static constexpr const char *state_names[] = {"theta", "omega"}, *state_units[] = {"rad", "rad/s"};
+//
+// A system may also give its vector field one lane at a time, as inline members (ABI 1.2):
+//   void field(double t, const double *x, double f, double *dxdt) const;          // dxdt[i] = v_i(x, t; f)
+//   void field_jacobian(double t, const double *x, double f, double *jac) const;  // jac[i * dimension + j] = dv_i/dx_j
+// The SDK then compiles a fused Runge-Kutta step into the plugin (gb_system_vtable.advance): every stage of a lane,
+// with the variational equations, runs in registers, the lanes vectorised. Keep them branch-light and inline
+// (defined in the class); they must give the same values as rhs() and jacobian(), which stay required.
 //
 // Forcings provide `void evaluate(std::size_t n, const double *t, double *f) const`.
 // Composite forcings (ABI 1.1) combine other forcings, which the core evaluates for them:
@@ -33,6 +43,7 @@
 #define GEOBARRIER_SDK_HPP
 
 #include <geobarrier/abi.h>
+#include <geobarrier/rk_tableaux.hpp>
 
 #include <cmath>
 #include <cstdint>
@@ -170,6 +181,19 @@ class Host {
     const gb_host *m_host;
 };
 
+#ifdef GEOBARRIER_VERSION
+// The axis label of state component i (0 or 1) for an extractor's pictures: "name [unit]", "name [–]" when the
+// unit is "" (nondimensional) and "x" / "y" when the system declares no names. Reads gb_extract_input's ABI 1.2
+// fields, so it is offered only to plugins that link the core library (whose exact core-version check guarantees
+// a 1.2 host).
+inline std::string axis_label(const gb_extract_input &in, unsigned i) {
+    const char *name = in.state_names && in.state_names[i] && *in.state_names[i] ? in.state_names[i] : nullptr;
+    const char *unit = in.state_units && in.state_units[i] ? in.state_units[i] : "";
+    if (!name) return i == 0 ? "x" : "y";
+    return std::string(name) + " [" + (*unit ? unit : "–") + "]";
+}
+#endif
+
 namespace detail {
 
 inline void write_message(gb_message *msg, const char *text) noexcept {
@@ -236,6 +260,30 @@ template <class T> constexpr const double *domain_max() {
     }
 }
 
+// A system's state names and units (ABI 1.2): both state_names and state_units, `dimension` entries each.
+template <class T, class = void> struct has_state_names : std::false_type {};
+template <class T>
+struct has_state_names<T, std::void_t<decltype(T::state_names), decltype(T::state_units)>> : std::true_type {};
+
+template <class T> constexpr const char *const *state_names() {
+    if constexpr (has_state_names<T>::value) {
+        static_assert(sizeof(T::state_names) == T::dimension * sizeof(const char *),
+                      "state_names needs dimension entries");
+        return T::state_names;
+    } else {
+        return nullptr;
+    }
+}
+template <class T> constexpr const char *const *state_units() {
+    if constexpr (has_state_names<T>::value) {
+        static_assert(sizeof(T::state_units) == T::dimension * sizeof(const char *),
+                      "state_units needs dimension entries");
+        return T::state_units;
+    } else {
+        return nullptr;
+    }
+}
+
 // A composite forcing provides combine(const Terms &, double *).
 template <class T, class = void> struct has_combine : std::false_type {};
 template <class T>
@@ -271,6 +319,112 @@ inline void clear_lanes(std::int32_t *lane_status, std::uint64_t n) {
     for (std::uint64_t k = 0; k < n; ++k) lane_status[k] = GB_OK;
 }
 
+// The per-lane vector field of the fused step (see the header comment).
+template <class T, class = void> struct has_field : std::false_type {};
+template <class T>
+struct has_field<T, std::void_t<decltype(std::declval<const T &>().field(0.0, static_cast<const double *>(nullptr),
+                                                                         0.0, static_cast<double *>(nullptr)))>>
+    : std::true_type {};
+template <class T, class = void> struct has_field_jacobian : std::false_type {};
+template <class T>
+struct has_field_jacobian<T, std::void_t<decltype(std::declval<const T &>().field_jacobian(
+                                 0.0, static_cast<const double *>(nullptr), 0.0, static_cast<double *>(nullptr)))>>
+    : std::true_type {};
+
+// One fused explicit Runge-Kutta step of tableau Tab for every lane of a request (gb_advance_request). Per lane the
+// state (with the variational equations: x, DF row-major, log|det DF|) and the stage derivatives are small local
+// arrays, so after inlining they live in registers, and the lane loop vectorises (GCC 12 -O3: 8 lanes with AVX-512,
+// -fopt-info-vec; `omp simd` would not: its per-lane copies of the arrays defeat the vectoriser). The arithmetic is the
+// core's stage-by-stage kernel's (flow_map.cpp: stage_state, new_state, the variational right-hand side), term for
+// term, so both agree to rounding.
+template <class T, class Tab, bool Variational> struct FusedStep {
+    static constexpr unsigned D = T::dimension;
+    static constexpr unsigned C = Variational ? D + D * D + 1 : D; // per-lane components
+    static constexpr int S = Tab::stages;
+
+    // d/dt of the lane's extended state: v, DF' = Dv DF, (log|det DF|)' = tr Dv (Liouville).
+    static inline void derivative(const T &sys, double t, double f, const double *y, double *dy) {
+        sys.field(t, y, f, dy);
+        if constexpr (Variational) {
+            double J[D * D];
+            sys.field_jacobian(t, y, f, J);
+            const double *F = y + D;
+            for (unsigned i = 0; i < D; ++i)
+                for (unsigned j = 0; j < D; ++j) {
+                    double s = J[i * D] * F[j];
+                    for (unsigned l = 1; l < D; ++l) s += J[i * D + l] * F[l * D + j];
+                    dy[D + i * D + j] = s;
+                }
+            double trace = J[0];
+            for (unsigned i = 1; i < D; ++i) trace += J[i * D + i];
+            dy[D + D * D] = trace;
+        }
+    }
+
+    template <int I>
+    static inline void stage(const T &sys, double t, double h, const double *forcing, const double *x, double (*k)[C]) {
+        if constexpr (I == 0) {
+            derivative(sys, t, forcing[0], x, k[0]);
+        } else {
+            constexpr geobarrier::detail::RkRow row = Tab::a[I];
+            double y[C];
+            for (unsigned q = 0; q < C; ++q) {
+                double s = row.terms[0].weight * k[row.terms[0].stage][q];
+                for (int m = 1; m < row.count; ++m) s += row.terms[m].weight * k[row.terms[m].stage][q];
+                y[q] = x[q] + h * s;
+            }
+            derivative(sys, t + Tab::c[I] * h, forcing[I], y, k[I]);
+        }
+    }
+    template <int... I>
+    static inline void stages(std::integer_sequence<int, I...>, const T &sys, double t, double h,
+                              const double *forcing, const double *x, double (*k)[C]) {
+        (stage<I>(sys, t, h, forcing, x, k), ...);
+    }
+
+    static void run(const T &sys, const gb_advance_request &r) {
+        const std::size_t n = r.n, ld = r.ld;
+        const double t = r.t, h = r.h;
+        const double *forcing = r.forcing;
+        const double *xin = r.x, *dfin = r.df, *ldin = r.log_det;
+        double *xout = r.x_out, *dfout = r.df_out, *ldout = r.log_det_out;
+        constexpr geobarrier::detail::RkRow b = Tab::b;
+        // Lanes are independent (x_out never aliases x): tell the vectoriser so. (Clang vectorises some of these
+        // loops on its own; forcing it with `clang loop vectorize(assume_safety)` only brings warnings.)
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC ivdep
+#endif
+        for (std::size_t lane = 0; lane < n; ++lane) {
+            double x[C], k[S][C];
+            for (unsigned i = 0; i < D; ++i) x[i] = xin[i * ld + lane];
+            if constexpr (Variational) {
+                for (unsigned m = 0; m < D * D; ++m) x[D + m] = dfin[m * ld + lane];
+                x[D + D * D] = ldin[lane];
+            }
+            stages(std::make_integer_sequence<int, S>{}, sys, t, h, forcing, x, k);
+            double out[C];
+            for (unsigned q = 0; q < C; ++q) {
+                double s = b.terms[0].weight * k[b.terms[0].stage][q];
+                for (int m = 1; m < b.count; ++m) s += b.terms[m].weight * k[b.terms[m].stage][q];
+                out[q] = x[q] + h * s;
+            }
+            for (unsigned i = 0; i < D; ++i) xout[i * ld + lane] = out[i];
+            if constexpr (Variational) {
+                for (unsigned m = 0; m < D * D; ++m) dfout[m * ld + lane] = out[D + m];
+                ldout[lane] = out[D + D * D];
+            }
+        }
+    }
+};
+
+template <class T, class Tab> void fused_step(const T &sys, const gb_advance_request &r) {
+    if (r.variational) {
+        if constexpr (has_field_jacobian<T>::value) FusedStep<T, Tab, true>::run(sys, r);
+    } else {
+        FusedStep<T, Tab, false>::run(sys, r);
+    }
+}
+
 template <class T> struct SystemThunks {
     static gb_status rhs(void *self, std::uint64_t n, std::uint64_t ld, const double *t, const double *x,
                          const double *f, double *dxdt, std::int32_t *lane_status, gb_message *msg) noexcept {
@@ -301,6 +455,18 @@ template <class T> struct SystemThunks {
             }
         });
     }
+    static gb_status advance(void *self, const gb_advance_request *r, gb_message *msg) noexcept {
+        if (r->method != GB_ADVANCE_RK4 && r->method != GB_ADVANCE_DOP853) return GB_UNSUPPORTED;
+        if (r->variational && !has_field_jacobian<T>::value) return GB_UNSUPPORTED;
+        return guarded(msg, [&] {
+            if constexpr (has_field<T>::value) {
+                clear_lanes(r->lane_status, r->n);
+                const T &sys = *static_cast<const T *>(self);
+                if (r->method == GB_ADVANCE_RK4) fused_step<T, geobarrier::detail::Rk4Tableau>(sys, *r);
+                else fused_step<T, geobarrier::detail::Dop853Tableau>(sys, *r);
+            }
+        });
+    }
     static constexpr std::uint32_t capabilities() {
         return (has_jacobian<T>::value ? GB_SYSTEM_HAS_JACOBIAN : 0u) |
                (has_divergence<T>::value ? GB_SYSTEM_HAS_DIVERGENCE : 0u) |
@@ -309,7 +475,8 @@ template <class T> struct SystemThunks {
     static inline const gb_system_vtable table{T::dimension, capabilities(), &rhs,
                                                has_jacobian<T>::value ? &jacobian : nullptr,
                                                has_divergence<T>::value ? &divergence : nullptr,
-                                               domain_min<T>(), domain_max<T>()};
+                                               domain_min<T>(), domain_max<T>(), state_names<T>(),
+                                               state_units<T>(), has_field<T>::value ? &advance : nullptr};
 };
 
 template <class T> struct ForcingThunks {

@@ -96,7 +96,11 @@ TEST_CASE("a minimal experiment parses with documented defaults") {
     CHECK(e.grid.nx == 21);
     CHECK(e.grid.ny == 13);
     CHECK(e.t1 == doctest::Approx(2 * M_PI));
-    CHECK(e.integrator.method == "dopri5");
+    // The standard quality preset: dop853 in fixed steps of at most 0.36 (docs/experiment-format.md).
+    CHECK(e.quality == "standard");
+    CHECK(e.integrator.method == "dop853");
+    CHECK_FALSE(e.integrator.adaptive);
+    CHECK(e.integrator.step == 0.36);
     CHECK(e.gradient_method == "auto");
     CHECK(e.wants("ftle"));
     CHECK_FALSE(e.wants("flow_map"));
@@ -237,7 +241,10 @@ TEST_CASE("a full run writes fields.nc, ftle.png and a manifest with statistics"
     CHECK(m["integrator_stats"]["masked"] == 0);
     CHECK(m["resolved"]["cauchy_green"]["method"] == "variational");
     CHECK(m["resolved"]["forcing"]["params"]["amplitude"] == 0.08);
-    CHECK(m["stages"].size() >= 3);
+    CHECK(m["stages"].size() >= 2); // the flow map (with the Cauchy-Green fields, tile by tile) and the output
+    CHECK(m["stages"][0]["stage"] == "flow map");
+    CHECK(m["tiles"]["count"] == 1); // 21 x 13 points: one tile
+    CHECK(m["tiles"]["kept"].size() == 7); // ftle, eigenvalues, eigenvectors
     CHECK(m["plugins"][0]["name"] == "duffing");
     // Conservative system: det DF = 1, so lambda1 * lambda2 = 1 (DESIGN §4: lambda1 = det^2 / lambda2).
     const auto l1 = netcdf_read(dir / "fields.nc", "lambda1", 21 * 13);
@@ -273,7 +280,8 @@ TEST_CASE("an extractor plugin gets its fields, advects with the host and report
     const double x0 = barrier["points"][0][0], y0 = barrier["points"][0][1];
     const System duffing = test::make_system("duffing");
     const Forcing cosine = test::make_forcing("cosine", {{"amplitude", 0.08}});
-    const AdvectResult a = advect_points({&duffing, &cosine}, {x0}, {y0}, 0.0, 2 * M_PI, IntegratorSettings{}, false);
+    const AdvectResult a =
+        advect_points({&duffing, &cosine}, {x0}, {y0}, 0.0, 2 * M_PI, r.experiment.integrator, false);
     CHECK(barrier["points"][1][0].get<double>() == doctest::Approx(a.x[0]).epsilon(1e-7));
     CHECK(barrier["points"][1][1].get<double>() == doctest::Approx(a.y[0]).epsilon(1e-7));
     fs::remove_all(dir);
@@ -281,11 +289,12 @@ TEST_CASE("an extractor plugin gets its fields, advects with the host and report
 
 TEST_CASE("FTLE of the paper's first example agrees with an independent rkf78 1e-12 computation") {
     using geobarrier::test::ftle_error_against_reference;
-    // The defaults (variational equations, dopri5 at rtol 1e-8, atol 1e-10):
-    // accurate to the tolerances everywhere.
+    // The defaults (variational equations, the standard preset: dop853 in fixed steps of at most 0.36). Measured
+    // here: max 9.3e-5, mean 1.0e-6 (at N = 1000 against the exact field: max 0.018, mean 2.0e-6; the issue's bar is
+    // interior max 0.05, mean 1e-4).
     const auto defaults = ftle_error_against_reference(example_block(), json::object());
-    CHECK(defaults.max < 1e-5);
-    CHECK(defaults.mean < 1e-7);
+    CHECK(defaults.max < 5e-4);
+    CHECK(defaults.mean < 5e-6);
     // The auxiliary grid at offset 1e-4 of the spacing with (nearly) exact
     // integration isolates the finite-difference error floor: at the most
     // stretched points a centred difference over d = 6.7e-7 is no longer

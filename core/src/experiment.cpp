@@ -6,6 +6,7 @@
 
 #include "json_reader.hpp"
 #include <geobarrier/resources.hpp>
+#include <geobarrier/tiles.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -89,6 +90,54 @@ PluginUse read_plugin_use(const json &j, const std::string &path, int forcing_de
 
 }  // namespace
 
+IntegratorSettings quality_preset(const std::string &quality) {
+    // Measured on the paper's first example at N = 1000 (docs/experiment-format.md, "Quality presets"). The fixed
+    // steps are in time units (ceil(|T| / step) equal steps); the tolerances are the ones the presets' adaptive
+    // runs use, and the auxiliary-grid offset rule reads (default_aux_offset).
+    IntegratorSettings s;
+    s.engine = "lockstep";
+    s.method = "dop853";
+    if (quality == "draft") {
+        s.adaptive = false;
+        s.step = 0.6;
+        s.rtol = 1e-6;
+        s.atol = 1e-8;
+    } else if (quality == "standard") {
+        s.adaptive = false;
+        s.step = 0.36;
+        s.rtol = 1e-8;
+        s.atol = 1e-10;
+    } else if (quality == "publication") {
+        // Twice standard's steps: FTLE error 4e-9 mean, 4e-5 max on W. (Adaptive dop853 reaches 2.5e-3 max at
+        // rtol = atol = 1e-6 for 2.6x the time of this.)
+        s.adaptive = false;
+        s.step = 0.18;
+        s.rtol = 1e-10;
+        s.atol = 1e-12;
+    } else {
+        const std::vector<std::string> choices{"draft", "standard", "publication"};
+        std::string msg = "\"" + quality + "\" is not one of: \"draft\" \"standard\" \"publication\"";
+        const std::string hint = did_you_mean(quality, choices);
+        if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
+        throw ConfigError("/quality", msg);
+    }
+    return s;
+}
+
+double default_aux_offset(const IntegratorSettings &integrator, const Grid &grid) {
+    // The centred difference D = (F(x + d) - F(x - d)) / 2d has three errors. Integration: the four neighbours share
+    // a lockstep batch and the step-size control bounds the error of D itself by the tolerances (flow_map.cpp,
+    // DifferenceControl), so the tol / d noise that makes a tiny offset with loose tolerances noisy in
+    // one-trajectory-at-a-time codes is not there. Rounding: independent per lane, ~ u sqrt(N) |x| / d (u = 1.1e-16,
+    // N ~ 100 steps), which must stay below tau, so d >= 1e-14 / tau with a factor 3 to spare; else the control would
+    // shrink the steps chasing rounding noise. Nonlinearity: grows with d where |DF| d approaches 1 (the most
+    // stretched points), so d stays small: 1e-3 of the grid spacing unless the rounding bound needs more.
+    const double tau = std::max(integrator.rtol, integrator.atol);
+    const double spacing = std::min(grid.dx(), grid.dy());
+    const double rounding = spacing > 0.0 ? 1e-14 / (tau * spacing) : 0.0;
+    return std::min(0.5, std::max(1e-3, rounding));
+}
+
 Experiment parse_experiment(const json &j, const fs::path &file) {
     Experiment e;
     e.file = file;
@@ -133,10 +182,26 @@ Experiment parse_experiment(const json &j, const fs::path &file) {
         b.finish();
         e.bounds = box;
     }
+    // The quality preset sets the integrator; the experiment's own integrator keys override it one by one.
+    e.quality = root.string("quality", e.quality, {"draft", "standard", "publication"});
+    e.integrator = quality_preset(e.quality);
     if (root.has("integrator")) {
         ObjectReader r(root.get("integrator"), "/integrator");
         IntegratorSettings &s = e.integrator;
-        s.method = r.string("method", s.method, {"dopri5", "rkf78", "rk4", "rosenbrock4"});
+        s.method = r.string("method", s.method, {"dop853", "dopri5", "rkf78", "rk4", "rosenbrock4"});
+        s.engine = r.string("engine", s.engine, {"lockstep", "odeint"});
+        // Naming a method with an error estimate, or a tolerance, asks for adaptive steps unless "adaptive" says
+        // otherwise; rk4 is fixed-step only and rosenbrock4 adaptive only.
+        if (r.has("method") || r.has("rtol") || r.has("atol")) s.adaptive = s.method != "rk4";
+        s.adaptive = r.boolean("adaptive", s.adaptive);
+        if (s.adaptive && s.method == "rk4")
+            throw ConfigError("/integrator/adaptive", "true, but rk4 has no error estimate: it runs fixed steps; use "
+                                                      "dop853, dopri5 or rkf78 for adaptive steps");
+        if (!s.adaptive && s.method == "rosenbrock4")
+            throw ConfigError("/integrator/adaptive", "false, but rosenbrock4 runs adaptive steps only");
+        if (s.engine == "odeint" && s.method == "dop853")
+            throw ConfigError("/integrator/engine", "\"odeint\" has no dop853; use \"lockstep\" or the method dopri5, "
+                                                    "rkf78 or rk4");
         s.rtol = r.positive("rtol", s.rtol);
         if (s.rtol >= 1.0)
             throw ConfigError("/integrator/rtol",
@@ -158,11 +223,13 @@ Experiment parse_experiment(const json &j, const fs::path &file) {
     if (root.has("cauchy_green")) {
         ObjectReader r(root.get("cauchy_green"), "/cauchy_green");
         e.gradient_method = r.string("method", e.gradient_method, {"auto", "auxiliary-grid", "variational"});
-        e.aux_offset = r.positive("offset", e.aux_offset);
+        e.aux_offset = r.positive("offset", default_aux_offset(e.integrator, e.grid));
         if (e.aux_offset > 0.5)
             throw ConfigError("/cauchy_green/offset",
                               std::to_string(e.aux_offset) + " must be at most 0.5 (a fraction of the grid spacing)");
         r.finish();
+    } else {
+        e.aux_offset = default_aux_offset(e.integrator, e.grid);
     }
     if (root.has("products")) {
         const json &p = root.get("products");
@@ -415,20 +482,22 @@ ResolvedExperiment resolve_experiment(const Experiment &experiment) {
     if (e.integrator.method == "rosenbrock4" && !r.system.has_jacobian())
         throw ConfigError("/integrator/method", "\"rosenbrock4\" needs the system's Jacobian, and system '" +
                                                     sys_handle->info.name + "' provides none; use \"dopri5\"");
-    // Refuse up front a grid the machine cannot hold (the estimate errs on the high side).
-    const bool derived_fields = std::any_of(e.products.begin(), e.products.end(), [](const std::string &p) {
-        return p != "ftle" && p != "eigenvalues" && p != "eigenvectors" && p != "flow_map";
-    });
-    check_memory(estimate_run_memory(e.grid, r.need_cauchy_green, r.gradient, r.need_positions,
-                                     !e.extractors.empty() || derived_fields),
-                 available_memory(), e.grid);
+    // Refuse up front a grid the machine cannot hold (the estimate of the tiled run errs on the high side).
+    check_memory(estimate_run_memory(e.grid, e.integrator, plan_fields(r)), available_memory(), e.grid);
     resolved["grid"] = {{"x", {e.grid.x_min, e.grid.x_max}},
                         {"y", {e.grid.y_min, e.grid.y_max}},
                         {"n", {e.grid.nx, e.grid.ny}}};
     resolved["time"] = {{"t0", e.t0}, {"t1", e.t1}};
-    resolved["integrator"] = {{"method", e.integrator.method}, {"rtol", e.integrator.rtol},
+    resolved["quality"] = e.quality;
+    resolved["integrator"] = {{"method", e.integrator.method}, {"engine", e.integrator.engine},
+                              {"adaptive", e.integrator.adaptive}, {"rtol", e.integrator.rtol},
                               {"atol", e.integrator.atol},     {"step", e.integrator.step},
                               {"batch", e.integrator.batch},   {"max_steps", e.integrator.max_steps}};
+    if (!e.integrator.adaptive) {
+        const double span = std::abs(e.t1 - e.t0), ratio = span / e.integrator.step;
+        resolved["integrator"]["fixed_steps"] =
+            static_cast<std::uint64_t>(std::max(1.0, std::ceil(ratio - 1e-9 * ratio))); // as flow_map.cpp steps
+    }
     resolved["cauchy_green"] = {{"method", r.need_cauchy_green ? to_string(r.gradient) : "none"},
                                 {"offset", e.aux_offset}};
     resolved["products"] = e.products;

@@ -5,6 +5,7 @@
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/flow_map.hpp>
+#include <geobarrier/rk_tableaux.hpp>
 
 #include <boost/numeric/odeint/stepper/rosenbrock4.hpp>
 #include <boost/numeric/odeint/stepper/runge_kutta4.hpp>
@@ -20,6 +21,7 @@
 #include <limits>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace geobarrier {
@@ -53,15 +55,16 @@ constexpr unsigned renormalise_every = 4;
 constexpr std::size_t position_components = 2, variational_components = 7;
 constexpr std::size_t comp_f11 = 2, comp_log_det = 6;
 
-enum class Method { dopri5, rkf78, rk4, rosenbrock4 };
+enum class Method { dopri5, rkf78, rk4, rosenbrock4, dop853 };
 
 Method parse_method(const std::string &name) {
+    if (name == "dop853") return Method::dop853;
     if (name == "dopri5") return Method::dopri5;
     if (name == "rkf78") return Method::rkf78;
     if (name == "rk4") return Method::rk4;
     if (name == "rosenbrock4") return Method::rosenbrock4;
     throw ConfigError("/integrator/method",
-                      "unknown method \"" + name + "\"; expected dopri5, rkf78, rk4 or rosenbrock4");
+                      "unknown method \"" + name + "\"; expected dop853, dopri5, rkf78, rk4 or rosenbrock4");
 }
 
 void validate(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings, bool variational) {
@@ -86,6 +89,11 @@ void validate(const Dynamics &dynamics, double t0, double t1, const IntegratorSe
     if (!(settings.step > 0.0) || !std::isfinite(settings.step))
         throw ConfigError("/integrator/step", std::to_string(settings.step) + " is not a positive step");
     if (settings.batch == 0) throw ConfigError("/integrator/batch", "0 is below the minimum 1");
+    if (settings.engine != "lockstep" && settings.engine != "odeint")
+        throw ConfigError("/integrator/engine", "unknown engine \"" + settings.engine + "\"; expected lockstep or odeint");
+    if (settings.engine == "odeint" && parse_method(settings.method) == Method::dop853)
+        throw ConfigError("/integrator/method", "dop853 runs in the lockstep engine only; use \"engine\": \"lockstep\" "
+                                                "or the odeint methods dopri5, rkf78, rk4, rosenbrock4");
     if (settings.max_steps == 0) throw ConfigError("/integrator/max_steps", "0 is below the minimum 1");
     if (!std::isfinite(t0) || !std::isfinite(t1)) throw ConfigError("/time", "t0 and t1 must be finite");
 }
@@ -161,16 +169,20 @@ struct BatchContext {
             system->jacobian(n, n, times.data(), xp, forcing_values.data(), jac.data(), lane_status.data());
             note_lane_status();
             // DF' = J DF (variational equations), DF row-major in blocks 2..5; (log|det DF|)' = tr J (Liouville).
-            const double *j11 = jac.data(), *j12 = j11 + n, *j21 = j12 + n, *j22 = j21 + n;
-            const double *f11 = xp + comp_f11 * n, *f12 = f11 + n, *f21 = f12 + n, *f22 = f21 + n;
-            double *d11 = dp + comp_f11 * n, *d12 = d11 + n, *d21 = d12 + n, *d22 = d21 + n;
-            double *dl = dp + comp_log_det * n;
+            // One base pointer per buffer (restrict): with a pointer per block the compiler must prove 13 ranges
+            // disjoint at run time and fell back to scalar code.
+            const double *__restrict J = jac.data();
+            const double *__restrict F = xp + comp_f11 * n;
+            double *__restrict D = dp + comp_f11 * n;
+#pragma omp simd
             for (std::size_t k = 0; k < n; ++k) {
-                d11[k] = j11[k] * f11[k] + j12[k] * f21[k];
-                d12[k] = j11[k] * f12[k] + j12[k] * f22[k];
-                d21[k] = j21[k] * f11[k] + j22[k] * f21[k];
-                d22[k] = j21[k] * f12[k] + j22[k] * f22[k];
-                dl[k] = j11[k] + j22[k];
+                const double j11 = J[k], j12 = J[n + k], j21 = J[2 * n + k], j22 = J[3 * n + k];
+                const double f11 = F[k], f12 = F[n + k], f21 = F[2 * n + k], f22 = F[3 * n + k];
+                D[k] = j11 * f11 + j12 * f21;
+                D[n + k] = j11 * f12 + j12 * f22;
+                D[2 * n + k] = j21 * f11 + j22 * f21;
+                D[3 * n + k] = j21 * f12 + j22 * f22;
+                D[4 * n + k] = j11 + j22; // comp_log_det
             }
         }
         // Masked lanes are frozen: with zero derivatives in every stage their state and error stay exactly put.
@@ -345,13 +357,70 @@ struct DifferenceControl {
     double inv_2dx = 0.0, inv_2dy = 0.0;
 };
 
+// ---- the lockstep kernel's passes over a block: `stride` = components x lanes contiguous doubles, the stage
+// derivatives k_j at k + j * stride. Each is one vectorisable loop; the tableau's rows are compile-time constants, so
+// the inner sums unroll with their zero coefficients already left out.
+
+// y = x + h sum_j a_Ij k_j (stage I's state).
+template <class Tab, int I>
+void stage_state(double *__restrict y, const double *__restrict x, const double *__restrict k, std::size_t stride,
+                 double h) {
+    constexpr detail::RkRow row = Tab::a[I];
+    static_assert(row.count > 0, "stage 0 is the derivative at the step's start");
+#pragma omp simd
+    for (std::size_t q = 0; q < stride; ++q) {
+        double s = row.terms[0].weight * k[row.terms[0].stage * stride + q];
+#pragma GCC unroll 16
+        for (int t = 1; t < row.count; ++t) s += row.terms[t].weight * k[row.terms[t].stage * stride + q];
+        y[q] = x[q] + h * s;
+    }
+}
+
+// x_new = x + h sum_j b_j k_j.
+template <class Tab>
+void new_state(double *__restrict x_new, const double *__restrict x, const double *__restrict k, std::size_t stride,
+               double h) {
+    constexpr detail::RkRow row = Tab::b;
+#pragma omp simd
+    for (std::size_t q = 0; q < stride; ++q) {
+        double s = row.terms[0].weight * k[row.terms[0].stage * stride + q];
+#pragma GCC unroll 16
+        for (int t = 1; t < row.count; ++t) s += row.terms[t].weight * k[row.terms[t].stage * stride + q];
+        x_new[q] = x[q] + h * s;
+    }
+}
+
+// The local error estimate per component: h sum_j e_j k_j, or for DOP853 Hairer's combination of its 5th- and
+// 3rd-order estimates e5 |e5| / sqrt(e5^2 + 0.01 e3^2), an O(h^8) estimate. The combination is homogeneous of
+// degree 1, so scaling it afterwards by atol + rtol |x| (error_norm) equals dop853.f's scaled form.
+template <class Tab>
+void error_estimate(double *__restrict err, const double *__restrict k, std::size_t stride, double h) {
+    constexpr detail::RkRow row = Tab::e, row3 = Tab::e3;
+#pragma omp simd
+    for (std::size_t q = 0; q < stride; ++q) {
+        double s = row.terms[0].weight * k[row.terms[0].stage * stride + q];
+#pragma GCC unroll 16
+        for (int t = 1; t < row.count; ++t) s += row.terms[t].weight * k[row.terms[t].stage * stride + q];
+        if constexpr (Tab::error == detail::RkError::dop853) {
+            double s3 = row3.terms[0].weight * k[row3.terms[0].stage * stride + q];
+#pragma GCC unroll 16
+            for (int t = 1; t < row3.count; ++t) s3 += row3.terms[t].weight * k[row3.terms[t].stage * stride + q];
+            const double e5 = h * s, e3 = h * s3;
+            // DBL_MIN keeps 0 / 0 out (an exactly zero estimate, e.g. a frozen lane, stays 0).
+            err[q] = e5 * std::abs(e5) / std::sqrt(e5 * e5 + 0.01 * e3 * e3 + min_scale);
+        } else {
+            err[q] = h * s;
+        }
+    }
+}
+
 // One thread's integrator: integrates one batch at a time, reusing its buffers.
 class BatchIntegrator {
   public:
     BatchIntegrator(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings, Method method,
                     bool variational, const std::optional<Bounds> &bounds, const DifferenceControl &differences)
         : m_t0(t0), m_t1(t1), m_settings(settings), m_rtol(std::max(settings.rtol, min_rtol)), m_method(method),
-          m_bounds(bounds), m_differences(differences) {
+          m_lockstep(settings.engine != "odeint"), m_bounds(bounds), m_differences(differences) {
         m_ctx.system = dynamics.system;
         m_ctx.forcing = dynamics.system->uses_forcing() ? dynamics.forcing : nullptr;
         m_ctx.variational = variational;
@@ -386,8 +455,20 @@ class BatchIntegrator {
         }
         check_bounds(nullptr);
         m_steps = m_rejected = 0;
-        if (m_t0 != m_t1 && m_active > 0) {
+        if (m_t0 != m_t1 && m_active > 0 && m_lockstep && m_method != Method::rosenbrock4) {
+            // rk4 has no error estimate: always fixed steps.
+            const bool adaptive = m_settings.adaptive && m_method != Method::rk4;
+            const bool fused = !adaptive && try_fused(); // the plugin's fused step took every step
+            if (!fused) switch (m_method) {
+            case Method::dop853: run_lockstep<detail::Dop853Tableau>(adaptive); break;
+            case Method::dopri5: run_lockstep<detail::Dopri5Tableau>(adaptive); break;
+            case Method::rkf78: run_lockstep<detail::Rkf78Tableau>(adaptive); break;
+            case Method::rk4: run_lockstep<detail::Rk4Tableau>(false); break;
+            case Method::rosenbrock4: break;
+            }
+        } else if (m_t0 != m_t1 && m_active > 0) {
             switch (m_method) {
+            case Method::dop853: break; // refused by validate()
             case Method::dopri5: run_adaptive<Dopri5, true, true>(4); break;
             case Method::rkf78: run_adaptive<Rkf78, false, true>(7); break;
             case Method::rk4: run_fixed(); break;
@@ -708,22 +789,232 @@ class BatchIntegrator {
         }
     }
 
+    // ---- the lockstep kernel (the default engine)
+
+    // Explicit Runge-Kutta over the whole block in structure-of-arrays layout, lanes in lockstep: one batched
+    // right-hand-side call (and, with the variational equations, one Jacobian call) per stage, the forcing
+    // evaluated once per stage time (BatchContext::fill_time), every pass over the block one vectorisable loop.
+    // m_k holds the stage derivatives; block 0 is the derivative at the current state (computed once per accepted
+    // step, reused by rejected retries). Adaptive: the step is controlled by the worst lane and component, the
+    // error norm and masking exactly as in run_adaptive. Fixed: ceil(|t1 - t0| / step) equal steps that land on t1.
+    template <class Tab> void run_lockstep(bool adaptive) {
+        static_assert(Tab::error != detail::RkError::none || !Tab::fsal, "FSAL needs an error-controlled tableau");
+        const std::size_t stride = m_x.size();
+        m_k.assign(static_cast<std::size_t>(Tab::stages) * stride, 0.0);
+        m_y.assign(stride, 0.0);
+        m_x_new.assign(stride, 0.0);
+        m_dxdt.assign(stride, 0.0); // screen_trial zeroes frozen lanes here; the kernel's own derivative is m_k block 0
+        if (adaptive) m_xerr.assign(stride, 0.0);
+        const double span = m_t1 - m_t0;
+        double t = m_t0;
+        m_ctx.evaluate(m_x.data(), m_k.data(), t);
+        freeze_invalid(&m_k);
+
+        double count = 1.0, h_fixed = span;
+        if (!adaptive) {
+            const double ratio = std::abs(span) / m_settings.step;
+            count = std::max(1.0, std::ceil(ratio - 1e-9 * ratio));
+            h_fixed = span / count;
+        }
+        double dt = std::copysign(std::min(m_settings.step, std::abs(span)), span);
+        const double exponent = -1.0 / (Tab::error_order + 1);
+        std::size_t attempts = 0;
+        for (double i = 0; m_active > 0 && (adaptive ? t != m_t1 : i < count);) {
+            if (const int signal = cancel_requested()) throw Cancelled(signal, "while integrating trajectories");
+            bool last;
+            double h;
+            if (adaptive) {
+                last = std::abs(dt) >= std::abs(m_t1 - t);
+                if (attempts >= m_settings.max_steps || (!last && no_progress(dt, t))) {
+                    freeze_all_active(mask_step_limit);
+                    break;
+                }
+                h = last ? m_t1 - t : dt;
+            } else {
+                if (m_steps >= m_settings.max_steps) {
+                    freeze_all_active(mask_step_limit);
+                    break;
+                }
+                last = i + 1 >= count;
+                t = m_t0 + i * h_fixed; // step times t0 + i h, not accumulated
+                h = (last ? m_t1 : m_t0 + (i + 1) * h_fixed) - t;
+            }
+            const std::size_t frozen_before = m_ctx.frozen.size();
+            m_ctx.clear_invalid();
+            run_stages<Tab>(std::make_index_sequence<Tab::stages - 1>{}, t, h, stride);
+            if constexpr (Tab::fsal) m_x_new.swap(m_y); // the last stage is evaluated at the new state
+            else new_state<Tab>(m_x_new.data(), m_x.data(), m_k.data(), stride, h);
+            ++attempts;
+            double err = 0.0;
+            if (adaptive) {
+                if constexpr (Tab::error != detail::RkError::none) {
+                    error_estimate<Tab>(m_xerr.data(), m_k.data(), stride, h);
+                    bool suspect = false;
+                    err = error_norm(m_xerr, suspect);
+                    if (suspect || m_ctx.any_invalid) {
+                        screen_trial(true, &m_k, &m_xerr);
+                        if (m_active == 0) break;
+                        err = error_norm(m_xerr, suspect);
+                    }
+                }
+            } else {
+                screen_trial(has_non_finite(m_x_new), &m_k, nullptr);
+            }
+            if (err <= 1.0) {
+                t = last ? m_t1 : t + h; // land exactly on t1
+                m_x.swap(m_x_new);
+                if constexpr (Tab::fsal) {
+                    std::copy(m_k.begin() + (Tab::stages - 1) * stride, m_k.begin() + Tab::stages * stride,
+                              m_k.begin());
+                    // Lanes frozen while screening this trial still hold their last-stage derivative.
+                    for (std::size_t f = frozen_before; f < m_ctx.frozen.size(); ++f) zero_lane(m_k, m_ctx.frozen[f]);
+                } else if (adaptive || !last) {
+                    // (Fixed steps skip it after the last step: rk4 then costs exactly 4 evaluations per step.)
+                    m_ctx.evaluate(m_x.data(), m_k.data(), t);
+                    freeze_invalid(&m_k);
+                }
+                ++m_steps;
+                ++i;
+                check_after_step(&m_k);
+                if (m_ctx.variational) renormalise(&m_k);
+                if (adaptive) dt = h * std::clamp(err > 0.0 ? 0.9 * std::pow(err, exponent) : 5.0, 0.2, 5.0);
+            } else {
+                ++m_rejected;
+                // The newly frozen lanes' derivative at the step's start must not move them in the retry.
+                for (std::size_t f = frozen_before; f < m_ctx.frozen.size(); ++f) zero_lane(m_k, m_ctx.frozen[f]);
+                dt = h * std::clamp(0.9 * std::pow(err, exponent), 0.2, 5.0);
+            }
+        }
+    }
+
+    // ---- the fused step: the plugin runs whole steps (ABI 1.2, gb_system_vtable.advance)
+
+    // Fixed steps of rk4 or dop853 when the system's plugin offers a fused step: every stage of a lane (state, DF,
+    // log|det DF|) stays in registers inside the plugin instead of passing through the k blocks in memory, which cost
+    // most of run_lockstep's time (the blocks of 64 lanes x 7 components x 12 stages do not fit in L1). The plugin
+    // gets the forcing at the stage times (evaluated here, once per stage time as in fill_time); the core keeps the
+    // rest exactly as run_lockstep: the same step times, frozen lanes restored to their pre-step state (the kernel's
+    // zero derivatives), the same screening, bounds, renormalisation and counts. Same tableaux, same arithmetic
+    // order, so the results agree with run_lockstep to rounding. False when the plugin has no fused step or
+    // declines the method on the first step (nothing has moved then); run_lockstep takes over.
+    bool try_fused() {
+        if (!m_settings.fused || !m_ctx.system->has_advance()) return false;
+        switch (m_method) {
+        case Method::dop853: return run_fused<detail::Dop853Tableau>(GB_ADVANCE_DOP853);
+        case Method::rk4: return run_fused<detail::Rk4Tableau>(GB_ADVANCE_RK4);
+        default: return false;
+        }
+    }
+    template <class Tab> bool run_fused(std::int32_t method) {
+        const std::size_t n = m_ctx.n, stride = m_x.size();
+        m_x_new.assign(stride, 0.0);
+        m_dxdt.assign(stride, 0.0); // screen_trial zeroes frozen lanes here
+        const double span = m_t1 - m_t0;
+        const double ratio = std::abs(span) / m_settings.step;
+        const double count = std::max(1.0, std::ceil(ratio - 1e-9 * ratio));
+        const double h_fixed = span / count;
+        gb_advance_request request{};
+        request.method = method;
+        request.variational = m_ctx.variational ? 1 : 0;
+        request.n = request.ld = n;
+        request.lane_status = m_ctx.lane_status.data();
+        for (double i = 0; m_active > 0 && i < count;) {
+            if (const int signal = cancel_requested()) throw Cancelled(signal, "while integrating trajectories");
+            if (m_steps >= m_settings.max_steps) {
+                freeze_all_active(mask_step_limit);
+                break;
+            }
+            const bool last = i + 1 >= count;
+            const double t = m_t0 + i * h_fixed; // step times t0 + i h, not accumulated
+            const double h = (last ? m_t1 : m_t0 + (i + 1) * h_fixed) - t;
+            request.forcing = stage_forcing<Tab>(static_cast<std::size_t>(i), count, t, h);
+            request.t = t;
+            request.h = h;
+            request.x = m_x.data();
+            request.x_out = m_x_new.data();
+            if (m_ctx.variational) {
+                request.df = m_x.data() + comp_f11 * n;
+                request.log_det = m_x.data() + comp_log_det * n;
+                request.df_out = m_x_new.data() + comp_f11 * n;
+                request.log_det_out = m_x_new.data() + comp_log_det * n;
+            }
+            m_ctx.clear_invalid();
+            std::fill(m_ctx.lane_status.begin(), m_ctx.lane_status.end(), GB_OK);
+            if (!m_ctx.system->advance(request)) {
+                if (m_steps == 0) return false;
+                throw PluginError("system '" + m_ctx.system->info().name +
+                                  "': advance() declined a method it had accepted on earlier steps");
+            }
+            m_ctx.note_lane_status();
+            m_ctx.rhs_calls += Tab::stages;
+            for (std::size_t k : m_ctx.frozen) copy_lane(m_x_new, m_x, k);
+            screen_trial(has_non_finite(m_x_new), nullptr, nullptr);
+            m_x.swap(m_x_new);
+            ++m_steps;
+            ++i;
+            check_after_step(nullptr);
+            if (m_ctx.variational) renormalise(nullptr);
+        }
+        return true;
+    }
+
+    // The forcing at the stage times of fixed step i (t, h). Every batch of this integrator takes the same steps, so
+    // the values are computed once per thread and reused by its later batches (one cos per stage time and step would
+    // otherwise cost ~10% of the fused run on workload W); beyond max_cached_forcing values they are computed per step.
+    template <class Tab> const double *stage_forcing(std::size_t i, double count, double t, double h) {
+        constexpr std::size_t max_cached_forcing = 1u << 16;
+        const std::size_t S = Tab::stages;
+        const bool cached = count * S <= max_cached_forcing;
+        const std::size_t size = cached ? static_cast<std::size_t>(count) * S : S;
+        if (m_forcing_stages != S || m_forcing.size() != size) {
+            m_forcing.assign(size, 0.0);
+            m_forcing_known.assign(cached ? static_cast<std::size_t>(count) : 1, 0);
+            m_forcing_stages = S;
+        }
+        const std::size_t slot = cached ? i : 0;
+        double *f = m_forcing.data() + slot * S;
+        if (!cached || !m_forcing_known[slot]) {
+            for (std::size_t s = 0; s < S; ++s) {
+                const double ts = t + Tab::c[s] * h;
+                f[s] = 0.0;
+                if (m_ctx.forcing) m_ctx.forcing->evaluate(1, &ts, &f[s]);
+            }
+            m_forcing_known[slot] = cached ? 1 : 0;
+        }
+        return f;
+    }
+
+    // Stages 1 .. stages-1 of one trial step from (t, m_x) with step h; stage 0 (m_k block 0) is already there.
+    template <class Tab, std::size_t... I>
+    void run_stages(std::index_sequence<I...>, double t, double h, std::size_t stride) {
+        (stage<Tab, static_cast<int>(I) + 1>(t, h, stride), ...);
+    }
+    template <class Tab, int I> void stage(double t, double h, std::size_t stride) {
+        stage_state<Tab, I>(m_y.data(), m_x.data(), m_k.data(), stride, h);
+        m_ctx.evaluate(m_y.data(), m_k.data() + static_cast<std::size_t>(I) * stride, t + Tab::c[I] * h);
+    }
+
     double m_t0, m_t1;
     const IntegratorSettings &m_settings;
     double m_rtol; // settings.rtol clamped to min_rtol
     Method m_method;
+    bool m_lockstep; // the lockstep kernel (run_lockstep) rather than Boost.Odeint's steppers
     const std::optional<Bounds> &m_bounds;
     DifferenceControl m_differences;
     BatchContext m_ctx;
     std::size_t m_active = 0;
     std::uint64_t m_steps = 0, m_rejected = 0;
     State m_x, m_x_new, m_dxdt, m_dxdt_new, m_xerr;
+    State m_k, m_y; // lockstep kernel: stage derivatives (stages x components x lanes) and the stage state
     std::vector<double> m_limit;
     std::vector<std::uint8_t> m_bad;
     std::vector<std::int32_t> m_exponent;     // variational: DF = 2^m_exponent[k] * (the state's DF block)
     std::vector<std::uint8_t> m_renormalised; // lanes rescaled at least once
     std::vector<double> m_lane_max;
     unsigned m_since_renormalise = 0;
+    std::vector<double> m_forcing;            // fused steps: forcing at each step's stage times (stage_forcing)
+    std::vector<std::uint8_t> m_forcing_known; // per step: m_forcing holds its values
+    std::size_t m_forcing_stages = 0;
 };
 
 // Fills the initial positions of lanes [first, first + n).
@@ -949,18 +1240,46 @@ GridFlowMap compute_grid_flow_map(const Dynamics &dynamics, const Grid &grid, do
                                   const IntegratorSettings &settings, GradientMethod gradient, double aux_offset,
                                   bool want_positions, const std::optional<Bounds> &bounds,
                                   const ProgressFn &progress) {
-    const bool variational = gradient == GradientMethod::variational;
-    validate(dynamics, t0, t1, settings, variational);
     if (grid.nx < 2 || grid.ny < 2)
         throw ConfigError("/grid/n", "the grid needs at least 2 points per direction (got " + std::to_string(grid.nx) +
                                          " x " + std::to_string(grid.ny) + ")");
     if (gradient == GradientMethod::auxiliary_grid && !(aux_offset > 0.0 && std::isfinite(aux_offset)))
         throw ConfigError("/cauchy_green/offset", std::to_string(aux_offset) + " is not a positive offset");
+    // The grid's points row-major (row = y), so neighbours in x share a batch; the auxiliary offset is relative to the
+    // grid spacing.
+    const std::size_t nx = grid.nx;
+    const StartFn start = [&](std::size_t p, double &x, double &y) {
+        x = grid.x(p % nx);
+        y = grid.y(p / nx);
+    };
+    GridFlowMap out = flow_map_at_points(dynamics, grid.size(), start, t0, t1, settings, gradient,
+                                         aux_offset * grid.dx(), aux_offset * grid.dy(), want_positions, bounds,
+                                         progress);
+    out.grid = grid;
+    require_unmasked_points(out, settings, dynamics);
+    return out;
+}
 
-    const std::size_t count = grid.size(), nx = grid.nx;
+// --- The flow map at arbitrary points (memory tiles, extractors' advection) ---
+
+std::size_t points_per_batch(const IntegratorSettings &settings, GradientMethod gradient, bool want_positions) {
+    if (gradient != GradientMethod::auxiliary_grid) return lanes_per_batch(settings);
+    const std::size_t per_point = want_positions ? 5 : 4;
+    return (lanes_per_batch(settings) + per_point - 1) / per_point;
+}
+
+GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, const StartFn &start, double t0,
+                               double t1, const IntegratorSettings &settings, GradientMethod gradient,
+                               double offset_x, double offset_y, bool want_positions,
+                               const std::optional<Bounds> &bounds, const ProgressFn &progress) {
+    const bool variational = gradient == GradientMethod::variational;
+    validate(dynamics, t0, t1, settings, variational);
+    if (gradient == GradientMethod::auxiliary_grid &&
+        !(offset_x > 0.0 && std::isfinite(offset_x) && offset_y > 0.0 && std::isfinite(offset_y)))
+        throw ConfigError("/cauchy_green/offset", std::to_string(offset_x) + ", " + std::to_string(offset_y) +
+                                                      " are not positive offsets");
     const bool positions = want_positions || gradient == GradientMethod::none;
     GridFlowMap out;
-    out.grid = grid;
     out.mask.assign(count, 0);
     if (positions) {
         out.flow_x.assign(count, nan_value);
@@ -971,15 +1290,11 @@ GridFlowMap compute_grid_flow_map(const Dynamics &dynamics, const Grid &grid, do
         out.dF_exponent.assign(count, 0);
         out.log_det.assign(count, nan_value);
     }
+    if (count == 0) return out;
 
     if (gradient != GradientMethod::auxiliary_grid) {
-        // One lane per grid point, row-major (row = y), so neighbours in x share a batch.
         const InitFn init = [&](std::size_t first, std::size_t n, double *xs, double *ys) {
-            for (std::size_t k = 0; k < n; ++k) {
-                const std::size_t p = first + k;
-                xs[k] = grid.x(p % nx);
-                ys[k] = grid.y(p / nx);
-            }
+            for (std::size_t k = 0; k < n; ++k) start(first + k, xs[k], ys[k]);
         };
         const FinishFn finish = [&](std::size_t first, std::size_t n, const double *s, const std::uint8_t *mask,
                                     const std::int32_t *exponent) {
@@ -1000,24 +1315,26 @@ GridFlowMap compute_grid_flow_map(const Dynamics &dynamics, const Grid &grid, do
         };
         out.stats = run_batches(dynamics, t0, t1, settings, variational, bounds, count, lanes_per_batch(settings),
                                 init, finish, progress);
-        require_unmasked_points(out, settings, dynamics);
         return out;
     }
 
-    // Auxiliary grid (Farazmand & Haller 2012): a grid point's 4 neighbours (and its centre when positions are
-    // wanted) are consecutive lanes of one batch. Integrated in lockstep, they take identical steps, so their
-    // integration errors are strongly correlated and largely cancel in the centred differences. The batch is rounded
-    // up to a whole number of points, and DF is written per batch: no aux final states are kept for the whole grid.
+    // Auxiliary grid (Farazmand & Haller 2012): a point's 4 neighbours (and its centre when positions are wanted) are
+    // consecutive lanes of one batch. Integrated in lockstep, they take identical steps, so their integration errors
+    // are strongly correlated and largely cancel in the centred differences; the difference control bounds what is
+    // left. The batch is rounded up to a whole number of points, and DF is written per batch: no auxiliary final
+    // states are kept.
     const std::size_t per_point = positions ? 5 : 4;
-    const std::size_t batch = (lanes_per_batch(settings) + per_point - 1) / per_point * per_point;
-    const double dxo = aux_offset * grid.dx(), dyo = aux_offset * grid.dy();
-    const double offset_x[5] = {dxo, -dxo, 0.0, 0.0, 0.0};
-    const double offset_y[5] = {0.0, 0.0, dyo, -dyo, 0.0};
+    const std::size_t batch = points_per_batch(settings, gradient, want_positions) * per_point;
+    const double offsets_x[5] = {offset_x, -offset_x, 0.0, 0.0, 0.0};
+    const double offsets_y[5] = {0.0, 0.0, offset_y, -offset_y, 0.0};
     const InitFn init = [&](std::size_t first, std::size_t n, double *xs, double *ys) {
+        double x = 0.0, y = 0.0;
+        std::size_t started = std::numeric_limits<std::size_t>::max();
         for (std::size_t k = 0; k < n; ++k) {
             const std::size_t lane = first + k, p = lane / per_point, q = lane % per_point;
-            xs[k] = grid.x(p % nx) + offset_x[q];
-            ys[k] = grid.y(p / nx) + offset_y[q];
+            if (p != started) start(started = p, x, y);
+            xs[k] = x + offsets_x[q];
+            ys[k] = y + offsets_y[q];
         }
     };
     const FinishFn finish = [&](std::size_t first, std::size_t n, const double *s, const std::uint8_t *mask,
@@ -1029,21 +1346,19 @@ GridFlowMap compute_grid_flow_map(const Dynamics &dynamics, const Grid &grid, do
             for (std::size_t q = 0; q < per_point; ++q) m |= mask[k + q];
             out.mask[p] = m;
             if (m != 0) continue;
-            // Centred differences: columns of DF are d F / d x0 and d F / d y0.
-            out.dF[4 * p + 0] = (xs[k] - xs[k + 1]) / (2.0 * dxo);
-            out.dF[4 * p + 1] = (xs[k + 2] - xs[k + 3]) / (2.0 * dyo);
-            out.dF[4 * p + 2] = (ys[k] - ys[k + 1]) / (2.0 * dxo);
-            out.dF[4 * p + 3] = (ys[k + 2] - ys[k + 3]) / (2.0 * dyo);
+            out.dF[4 * p + 0] = (xs[k] - xs[k + 1]) / (2.0 * offset_x);
+            out.dF[4 * p + 1] = (xs[k + 2] - xs[k + 3]) / (2.0 * offset_y);
+            out.dF[4 * p + 2] = (ys[k] - ys[k + 1]) / (2.0 * offset_x);
+            out.dF[4 * p + 3] = (ys[k + 2] - ys[k + 3]) / (2.0 * offset_y);
             if (positions) {
                 out.flow_x[p] = xs[k + 4];
                 out.flow_y[p] = ys[k + 4];
             }
         }
     };
-    const DifferenceControl differences{per_point, 1.0 / (2.0 * dxo), 1.0 / (2.0 * dyo)};
+    const DifferenceControl differences{per_point, 1.0 / (2.0 * offset_x), 1.0 / (2.0 * offset_y)};
     out.stats = run_batches(dynamics, t0, t1, settings, false, bounds, per_point * count, batch, init, finish, progress,
                             differences);
-    require_unmasked_points(out, settings, dynamics);
     return out;
 }
 

@@ -43,9 +43,11 @@ TEST_CASE("experiments/shear-vortex.json: FTLE = asinh(|shear| r^2 |T|) / |T| on
             const double y = e.grid.y_min + i * (e.grid.y_max - e.grid.y_min) / (e.grid.ny - 1);
             const std::size_t k = i * e.grid.nx + j;
             REQUIRE(flow.mask[k] == 0);
-            // The default tolerances (rtol 1e-8) bound DF's relative error near 1e-7, so log(lambda2) / (2T) to
-            // about 1e-7 / T; the degenerate centre (lambda1 = lambda2 = 1) has FTLE 0.
+            // The default (standard preset: dop853, 18 fixed steps h = 0.35 over 2 pi): the angular velocity
+            // 1 + r^2 reaches 3 at the corners, |w h| = 1.05, where each step's relative error is about
+            // |w h|^9 / 9! = 4e-6; measured max 6.9e-6 in FTLE there (1e-8 at the centre). The degenerate centre
+            // (lambda1 = lambda2 = 1) has FTLE 0.
             const double expected = std::asinh(std::fabs(shear) * (x * x + y * y) * std::fabs(T)) / std::fabs(T);
-            CHECK(std::fabs(cg.ftle[k] - expected) <= 1e-7);
+            CHECK(std::fabs(cg.ftle[k] - expected) <= 3e-5);
         }
 }

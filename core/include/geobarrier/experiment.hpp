@@ -50,9 +50,10 @@ struct Experiment {
     Grid grid;
     double t0 = 0.0, t1 = 1.0;
     std::optional<Bounds> bounds;
-    IntegratorSettings integrator;
+    std::string quality = "standard";     // the preset: draft | standard | publication (quality_preset)
+    IntegratorSettings integrator;        // the preset's, with the experiment's own keys applied
     std::string gradient_method = "auto"; // auto | auxiliary-grid | variational
-    double aux_offset = 1e-3;             // relative to the grid spacing
+    double aux_offset = 1e-3;             // relative to the grid spacing; default: default_aux_offset(integrator, grid)
     std::vector<std::string> products;
     std::filesystem::path output_dir;
     bool plots = true;
@@ -61,6 +62,16 @@ struct Experiment {
 
     bool wants(const std::string &product) const;
 };
+
+// The integrator of a quality preset ("draft", "standard", "publication"; docs/experiment-format.md gives the
+// measured time and FTLE error of each on the paper's first example). Throws ConfigError at /quality otherwise.
+IntegratorSettings quality_preset(const std::string &quality);
+
+// The auxiliary-grid offset (a fraction of the grid spacing) that goes with an integrator's tolerances when the
+// experiment gives none: 1e-3, raised so that the offset in state units is at least 1e-14 / tau (tau = max(rtol,
+// atol)) and the rounding noise of the centred differences stays below the tolerance; at most 0.5
+// (docs/experiment-format.md, cauchy_green).
+double default_aux_offset(const IntegratorSettings &integrator, const Grid &grid);
 
 // Parses and checks the structure and values of an experiment (not yet the
 // plugins' parameters: see ResolvedExperiment). Every error is a ConfigError

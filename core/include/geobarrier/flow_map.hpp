@@ -2,12 +2,14 @@
 // (t1 < t0 is backward time), optionally with the variational equations
 // DF' = Dv(x, t) DF, DF(t0) = I.
 //
-// Points are integrated in lockstep batches of `batch` lanes: one batch is one
-// Boost.Odeint state in structure-of-arrays layout, one batched right-hand-side
-// call per stage, one forcing evaluation per stage time, with the step size
-// controlled by the worst lane of the batch (so every lane meets the
-// tolerances). OpenMP runs batches in parallel. batch = 1 is classic
-// one-trajectory-at-a-time stepping.
+// Points are integrated in lockstep batches of `batch` lanes in structure-of-arrays
+// layout: one batched right-hand-side call (and Jacobian call) per stage, one
+// forcing evaluation per stage time, with the step size (when adaptive)
+// controlled by the worst lane of the batch, so every lane meets the tolerances.
+// OpenMP runs batches in parallel. Two engines: "lockstep" (the default), our
+// explicit Runge-Kutta kernel whose passes over a batch are vectorised loops, and
+// "odeint", Boost.Odeint's steppers on the same batches (batch = 1 is classic
+// one-trajectory-at-a-time stepping); rosenbrock4 always runs in Boost.Odeint.
 #ifndef GEOBARRIER_FLOW_MAP_HPP
 #define GEOBARRIER_FLOW_MAP_HPP
 
@@ -24,13 +26,23 @@
 
 namespace geobarrier {
 
+// These defaults are the library's; an experiment's defaults are its quality preset (experiment.hpp).
 struct IntegratorSettings {
-    std::string method = "dopri5"; // dopri5 | rkf78 | rk4 | rosenbrock4 (stiff; needs the system's Jacobian)
+    // dop853 | dopri5 | rkf78 | rk4 | rosenbrock4 (stiff; needs the system's Jacobian; always Boost.Odeint)
+    std::string method = "dopri5";
+    std::string engine = "lockstep"; // lockstep (our kernel) | odeint (Boost.Odeint's steppers; no dop853)
+    bool adaptive = true;            // false: fixed steps (rk4 always); rosenbrock4 is always adaptive
     double rtol = 1e-8;
     double atol = 1e-10;
-    double step = 0.01;             // rk4's fixed step; the first trial step of adaptive methods
+    // Fixed steps: the largest step; the run takes ceil(|t1 - t0| / step) equal steps landing on t1. Adaptive: the
+    // first trial step.
+    double step = 0.01;
     std::size_t batch = 64;         // lanes in lockstep; 64 was fastest of 1..64 on a 400x400 Duffing grid
     std::size_t max_steps = 1000000; // per batch; lanes still running after it are masked
+    // Lockstep, fixed steps of rk4 or dop853: take each step with the system plugin's fused step (ABI 1.2
+    // gb_system_vtable.advance, all stages in registers) when it has one; the same numbers to rounding, several
+    // times faster. false: always the stage-by-stage kernel (tests compare the two).
+    bool fused = true;
 };
 
 // rtol below this cannot be honoured in double precision (each stage's rounding error is ~1e-16 |x|, and a step
@@ -128,6 +140,26 @@ std::string describe_masking(const IntegratorStats &stats, const IntegratorSetti
 
 // How the gradient of the flow map survives long horizons, for the manifest: the method and its details.
 nlohmann::json long_horizon_method(GradientMethod method);
+
+// --- The flow map at arbitrary points (memory tiles, extractors' advection) ---
+
+// Where point k of a set starts: fills (x, y).
+using StartFn = std::function<void(std::size_t k, double &x, double &y)>;
+
+// The flow map and its gradient at `count` arbitrary points: point k starts where `start` says, lanes of neighbouring
+// k share a batch, and the auxiliary-grid gradient uses the neighbours at +-offset_x, +-offset_y with the
+// difference-aware error control. compute_grid_flow_map is this function over a grid's points in row order with
+// offset_x = aux_offset dx and offset_y = aux_offset dy; over the points [first, first + count) of that order, with
+// `first` a multiple of points_per_batch, it gives the same numbers for those points bit for bit (the memory tiles of
+// the runner rest on this). The result's `grid` is left default; flow_x/flow_y hold the positions when asked for (or
+// gradient none). Unlike compute_grid_flow_map, every point masked is a result here, not an error.
+GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, const StartFn &start, double t0,
+                               double t1, const IntegratorSettings &settings, GradientMethod gradient,
+                               double offset_x, double offset_y, bool want_positions,
+                               const std::optional<Bounds> &bounds = std::nullopt, const ProgressFn &progress = {});
+
+// Points per lockstep batch of flow_map_at_points (see there): the alignment of bit-identical tiles.
+std::size_t points_per_batch(const IntegratorSettings &settings, GradientMethod gradient, bool want_positions);
 
 }  // namespace geobarrier
 

@@ -1,0 +1,336 @@
+// Tests of the lockstep kernel (the default engine: explicit Runge-Kutta over a batch in structure-of-arrays layout)
+// and of the quality presets: accuracy against closed-form flows, against Boost.Odeint's steppers, and of the default
+// settings against a tight reference on the paper's first example. Accuracy only: timings live in the bench.
+#include <geobarrier/cauchy_green.hpp>
+#include <geobarrier/errors.hpp>
+#include <geobarrier/experiment.hpp>
+#include <geobarrier/flow_map.hpp>
+
+#include <test_support.hpp>
+
+#include <doctest/doctest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <string>
+#include <vector>
+
+using namespace geobarrier;
+using geobarrier::test::make_forcing;
+using geobarrier::test::make_system;
+
+namespace {
+
+const double pi = std::acos(-1.0);
+
+IntegratorSettings lockstep(const std::string &method, bool adaptive, double step_or_tol, std::size_t batch = 16) {
+    IntegratorSettings s;
+    s.engine = "lockstep";
+    s.method = method;
+    s.adaptive = adaptive;
+    s.batch = batch;
+    if (adaptive) s.rtol = s.atol = step_or_tol;
+    else s.step = step_or_tol;
+    return s;
+}
+
+// n points over [-1, 1]^2 on a skewed lattice.
+void sample_points(std::size_t n, std::vector<double> &x, std::vector<double> &y) {
+    x.resize(n);
+    y.resize(n);
+    for (std::size_t k = 0; k < n; ++k) {
+        x[k] = -1.0 + 2.0 * std::fmod(0.618033988749895 * static_cast<double>(k) + 0.1, 1.0);
+        y[k] = -1.0 + 2.0 * static_cast<double>(k) / static_cast<double>(n - 1);
+    }
+}
+
+double energy(double x, double y) { return 0.5 * y * y - 0.5 * x * x + 0.25 * x * x * x * x; }
+
+}  // namespace
+
+TEST_CASE("lockstep kernel, linear saddle: positions and DF = diag(e^{aT}, e^{-aT}) for every tableau") {
+    const double a = 0.8;
+    const System saddle = make_system("linear-saddle", {{"a", a}});
+    const Dynamics dyn{&saddle, nullptr};
+    std::vector<double> x0, y0;
+    sample_points(37, x0, y0); // batches of 16 leave a partial last batch
+    struct Case {
+        const char *method;
+        bool adaptive;
+        double step_or_tol, bound;
+    };
+    // Fixed steps: the relative error per step of an order-p method on x' = a x is about |ah|^(p+1) / (p+1)!, so
+    // over N = |T| / h steps: dop853 with h = 0.25 (|ah| = 0.2): 20 * 0.2^9 / 9! = 2.8e-11; rk4 with h = 0.01:
+    // |T| a^5 h^4 / 120 = 1.4e-10. The bounds leave a factor ~30 for the methods' own error constants.
+    // Adaptive: local errors <= tol (1 + |x|), carried to t1 growing like the solution: <= N tol, N <= 200.
+    const Case cases[] = {{"dop853", false, 0.25, 1e-9}, {"rk4", false, 0.01, 5e-9},     {"dop853", true, 1e-10, 2e-8},
+                          {"dopri5", true, 1e-10, 2e-8}, {"rkf78", true, 1e-10, 2e-8}};
+    for (const Case &c : cases) {
+        for (double T : {5.0, -5.0}) {
+            CAPTURE(c.method);
+            CAPTURE(c.adaptive);
+            CAPTURE(T);
+            const AdvectResult r = advect_points(dyn, x0, y0, 0.0, T, lockstep(c.method, c.adaptive, c.step_or_tol), true);
+            CHECK(r.stats.masked == 0);
+            if (c.adaptive) CHECK(r.stats.steps <= 200 * r.stats.batches);
+            else CHECK(r.stats.steps == static_cast<std::uint64_t>(std::ceil(5.0 / c.step_or_tol - 1e-9)) * 3);
+            const double ex = std::exp(a * T), ey = std::exp(-a * T), big = std::exp(a * std::abs(T));
+            for (std::size_t k = 0; k < x0.size(); ++k) {
+                CHECK(std::abs(r.x[k] - x0[k] * ex) <= c.bound * (1.0 + big));
+                CHECK(std::abs(r.y[k] - y0[k] * ey) <= c.bound * (1.0 + big));
+                CHECK(std::abs(r.dF[4 * k] - ex) <= c.bound * big);
+                CHECK(r.dF[4 * k + 1] == 0.0); // J is diagonal: the off-diagonal stays exactly zero
+                CHECK(r.dF[4 * k + 2] == 0.0);
+                CHECK(std::abs(r.dF[4 * k + 3] - ey) <= c.bound * big);
+                CHECK(r.log_det[k] == 0.0); // tr J = a - a = 0 exactly (Liouville)
+            }
+        }
+    }
+}
+
+TEST_CASE("lockstep kernel, rigid rotation: DF is the rotation by omega T, FTLE 0") {
+    const double omega = 1.7, T = 3.0;
+    const System rotation = make_system("rigid-rotation", {{"omega", omega}});
+    const Dynamics dyn{&rotation, nullptr};
+    Grid grid;
+    grid.x_min = -1.0;
+    grid.x_max = 1.0;
+    grid.y_min = -1.0;
+    grid.y_max = 1.0;
+    grid.nx = 7;
+    grid.ny = 5;
+    const double c = std::cos(omega * T), s = std::sin(omega * T);
+    // dop853, h = 3 / ceil(3 / 0.36) = 0.333, |omega h| = 0.57: per step about 0.57^9 / 9! = 1.7e-8 of relative
+    // error, 9 steps: 1.5e-7, bound 2e-7; the adaptive runs: N tol with N <= 200.
+    for (const IntegratorSettings &settings :
+         {lockstep("dop853", false, 0.36), lockstep("dop853", true, 1e-10), lockstep("dopri5", true, 1e-10)}) {
+        CAPTURE(settings.method);
+        CAPTURE(settings.adaptive);
+        const double bound = settings.adaptive ? 2e-8 : 2e-7;
+        const GridFlowMap fm =
+            compute_grid_flow_map(dyn, grid, 0.0, T, settings, GradientMethod::variational, 0.0, true);
+        const CauchyGreenField cg = cauchy_green_field(grid, fm.dF, fm.mask, T);
+        for (std::size_t p = 0; p < grid.size(); ++p) {
+            const double x = grid.x(p % grid.nx), y = grid.y(p / grid.nx);
+            CHECK(std::abs(fm.flow_x[p] - (c * x - s * y)) <= bound);
+            CHECK(std::abs(fm.flow_y[p] - (s * x + c * y)) <= bound);
+            CHECK(std::abs(fm.dF[4 * p] - c) <= bound);
+            CHECK(std::abs(fm.dF[4 * p + 1] + s) <= bound);
+            CHECK(std::abs(fm.dF[4 * p + 2] - s) <= bound);
+            CHECK(std::abs(fm.dF[4 * p + 3] - c) <= bound);
+            CHECK(std::abs(cg.ftle[p]) <= 2 * bound / T);
+        }
+    }
+}
+
+TEST_CASE("lockstep kernel, unforced Duffing: H = y^2/2 - x^2/2 + x^4/4 is conserved") {
+    const System duffing = make_system("duffing", {{"alpha", 1.0}, {"beta", 1.0}, {"delta", 0.0}});
+    const Forcing none = make_forcing("none");
+    const Dynamics dyn{&duffing, &none};
+    std::vector<double> x0, y0;
+    for (int i = 0; i < 6; ++i)
+        for (int j = 0; j < 6; ++j) {
+            x0.push_back(-1.6 + 3.2 * j / 5.0);
+            y0.push_back(-0.9 + 1.8 * i / 5.0);
+        }
+    // The standard preset's fixed step over T = 20 (56 steps of 0.357): measured max |dH| 7.2e-6 over these 36 points
+    // (the fastest orbits, |x| up to 1.9, set it); the adaptive run at 1e-10: measured 1.1e-10, bound as in
+    // test_flow_map (N tol |grad H| with N ~ 10^2-10^3).
+    struct Case {
+        IntegratorSettings settings;
+        double bound;
+    };
+    for (const Case &c : {Case{quality_preset("standard"), 3e-5}, Case{lockstep("dop853", true, 1e-10, 8), 1e-7}}) {
+        CAPTURE(c.settings.adaptive);
+        const AdvectResult r = advect_points(dyn, x0, y0, 0.0, 20.0, c.settings, false);
+        CHECK(r.stats.masked == 0);
+        double worst = 0.0;
+        for (std::size_t k = 0; k < x0.size(); ++k)
+            worst = std::max(worst, std::abs(energy(r.x[k], r.y[k]) - energy(x0[k], y0[k])));
+        MESSAGE("dop853 adaptive=" << c.settings.adaptive << ": max |dH| = " << worst);
+        CHECK(worst < c.bound);
+    }
+}
+
+TEST_CASE("lockstep and Boost.Odeint engines agree; rhs counts follow the tableaux") {
+    const System duffing = make_system("duffing");
+    const Forcing cosine = make_forcing("cosine", {{"amplitude", 0.08}});
+    const Dynamics dyn{&duffing, &cosine};
+    std::vector<double> x0, y0;
+    sample_points(24, x0, y0);
+    for (const std::string method : {"dopri5", "rkf78"}) {
+        CAPTURE(method);
+        IntegratorSettings ours = lockstep(method, true, 1e-11, 8), theirs = ours;
+        theirs.engine = "odeint";
+        const AdvectResult a = advect_points(dyn, x0, y0, 0.0, 10.0, ours, true);
+        const AdvectResult b = advect_points(dyn, x0, y0, 0.0, 10.0, theirs, true);
+        // Same tableau, same error norm and step control: the same accepted steps up to rounding; both within
+        // N tol (1 + |DF|) of the exact flow, so within twice that of each other.
+        for (std::size_t k = 0; k < x0.size(); ++k) {
+            CHECK(std::abs(a.x[k] - b.x[k]) <= 4e-8 * (1 + std::abs(a.x[k])));
+            for (int q = 0; q < 4; ++q)
+                CHECK(std::abs(a.dF[4 * k + q] - b.dF[4 * k + q]) <= 4e-8 * (1 + std::abs(a.dF[4 * k + q])));
+        }
+    }
+    // dop853 with fixed steps: 12 evaluations per step (stage 0 of the next step is the derivative at the new state,
+    // and the last step needs none): 10 / 0.36 -> 28 steps.
+    const AdvectResult f = advect_points(dyn, x0, y0, 0.0, 10.0, lockstep("dop853", false, 0.36, 8), true);
+    CHECK(f.stats.steps == 28 * 3);
+    CHECK(f.stats.rhs_evaluations == 12 * 28 * x0.size());
+    CHECK(f.stats.rejected_steps == 0);
+}
+
+TEST_CASE("the plugin's fused step (ABI 1.2 advance) gives the stage-by-stage kernel's numbers to rounding") {
+    const System duffing = make_system("duffing", {{"delta", 0.15}});
+    const Forcing cosine = make_forcing("cosine", {{"amplitude", 0.08}});
+    const Dynamics dyn{&duffing, &cosine};
+    REQUIRE(duffing.has_advance());
+    std::vector<double> x0, y0;
+    sample_points(37, x0, y0); // batches of 16 leave a partial last batch
+    x0[5] = std::nan("");      // masked from the start: the fused path must leave it masked too
+    const Bounds box{-1.3, 1.3, -1.1, 1.1}; // some lanes leave it mid-run and are frozen there
+    for (const std::string method : {"dop853", "rk4"}) {
+        for (const bool variational : {true, false}) {
+            for (const double T : {8.0, -3.0}) {
+                CAPTURE(method);
+                CAPTURE(variational);
+                CAPTURE(T);
+                IntegratorSettings fused = lockstep(method, false, method == "rk4" ? 0.05 : 0.36, 16), staged = fused;
+                staged.fused = false;
+                const AdvectResult a = advect_points(dyn, x0, y0, 0.0, T, fused, variational, box);
+                const AdvectResult b = advect_points(dyn, x0, y0, 0.0, T, staged, variational, box);
+                CHECK(a.stats.steps == b.stats.steps);
+                // The staged kernel also evaluates stage 0 of a next step that a batch whose lanes all stopped never
+                // takes; the fused step has no such evaluation (exact counts: the dop853 case of the test above).
+                CHECK(a.stats.rhs_evaluations <= b.stats.rhs_evaluations);
+                CHECK(a.stats.masked == b.stats.masked);
+                CHECK(a.stats.masked_left_bounds > 0);
+                CHECK(a.mask == b.mask);
+                double worst = 0.0; // relative difference over every unmasked output
+                auto compare = [&](double u, double v) { worst = std::max(worst, std::abs(u - v) / (1.0 + std::abs(v))); };
+                for (std::size_t k = 0; k < x0.size(); ++k) {
+                    if (b.mask[k] != 0) continue;
+                    compare(a.x[k], b.x[k]);
+                    compare(a.y[k], b.y[k]);
+                    if (!variational) continue;
+                    CHECK(a.dF_exponent[k] == b.dF_exponent[k]);
+                    compare(a.log_det[k], b.log_det[k]);
+                    for (int q = 0; q < 4; ++q) compare(a.dF[4 * k + q], b.dF[4 * k + q]);
+                }
+                // Same tableau, same arithmetic in the same order (measured: identical to the bit, GCC 12, AVX-512);
+                // the bound leaves room for compilers that reassociate differently in the two places.
+                CHECK(worst <= 1e-13);
+            }
+        }
+    }
+    // A plugin with a per-lane field but no per-lane Jacobian (the test system rigid-rotation, no forcing): fused
+    // positions; its variational steps are declined and taken stage by stage. Both against the exact rotation.
+    const double omega = 1.7, T = 3.0, c = std::cos(omega * T), s = std::sin(omega * T);
+    const System rotation = make_system("rigid-rotation", {{"omega", omega}});
+    REQUIRE(rotation.has_advance());
+    for (const bool variational : {false, true}) {
+        CAPTURE(variational);
+        IntegratorSettings fused = lockstep("dop853", false, 0.36, 16), staged = fused;
+        staged.fused = false;
+        const AdvectResult a = advect_points({&rotation, nullptr}, x0, y0, 0.0, T, fused, variational);
+        const AdvectResult b = advect_points({&rotation, nullptr}, x0, y0, 0.0, T, staged, variational);
+        CHECK(a.stats.rhs_evaluations == b.stats.rhs_evaluations);
+        for (std::size_t k = 0; k < x0.size(); ++k) {
+            if (k == 5) continue; // the NaN start
+            CHECK(a.x[k] == b.x[k]);
+            CHECK(a.y[k] == b.y[k]);
+            // dop853, h = 0.333, |omega h| = 0.57: about 1.5e-7 relative over the 9 steps (see the test above).
+            CHECK(std::abs(a.x[k] - (c * x0[k] - s * y0[k])) <= 2e-7);
+            CHECK(std::abs(a.y[k] - (s * x0[k] + c * y0[k])) <= 2e-7);
+            if (!variational) continue;
+            CHECK(std::abs(a.dF[4 * k] - c) <= 2e-7);
+            CHECK(std::abs(a.dF[4 * k + 1] + s) <= 2e-7);
+        }
+    }
+}
+
+TEST_CASE("the default (standard preset) FTLE of the paper's first example matches a tight rkf78 reference") {
+    // Workload W on a coarse grid: Duffing, cosine forcing 0.08, T = 8 pi, box [-1.8, 1.8] x [-1.2, 1.2].
+    const System duffing = make_system("duffing");
+    const Forcing cosine = make_forcing("cosine", {{"amplitude", 0.08}});
+    const Dynamics dyn{&duffing, &cosine};
+    Grid grid;
+    grid.x_min = -1.8;
+    grid.x_max = 1.8;
+    grid.y_min = -1.2;
+    grid.y_max = 1.2;
+    grid.nx = 46;
+    grid.ny = 31;
+    const double T = 8 * pi;
+    const Experiment e = parse_experiment(nlohmann::json{{"system", {{"plugin", "duffing"}}},
+                                                         {"grid", {{"x", {-1.8, 1.8}}, {"y", {-1.2, 1.2}}, {"n", {46, 31}}}},
+                                                         {"time", {{"t0", 0}, {"t1", T}}},
+                                                         {"products", {"ftle"}}});
+    CHECK(e.quality == "standard");
+    CHECK(e.integrator.method == "dop853");
+    CHECK_FALSE(e.integrator.adaptive);
+    const GridFlowMap ours = compute_grid_flow_map(dyn, grid, 0.0, T, e.integrator, GradientMethod::variational, 0.0, false);
+    IntegratorSettings tight;
+    tight.engine = "odeint";
+    tight.method = "rkf78";
+    tight.rtol = tight.atol = 1e-12;
+    const GridFlowMap exact = compute_grid_flow_map(dyn, grid, 0.0, T, tight, GradientMethod::variational, 0.0, false);
+    const CauchyGreenField a = cauchy_green_field(grid, ours.dF, ours.mask, T, ours.dF_exponent, ours.log_det);
+    const CauchyGreenField b = cauchy_green_field(grid, exact.dF, exact.mask, T, exact.dF_exponent, exact.log_det);
+    double mean = 0.0, worst = 0.0;
+    for (std::size_t p = 0; p < grid.size(); ++p) {
+        REQUIRE(std::isfinite(a.ftle[p]));
+        const double err = std::abs(a.ftle[p] - b.ftle[p]);
+        mean += err;
+        worst = std::max(worst, err);
+    }
+    mean /= static_cast<double>(grid.size());
+    MESSAGE("standard preset vs rkf78 1e-12: mean " << mean << ", max " << worst);
+    // Measured: mean 2.1e-6, max 4.8e-4 on this grid (at N = 1000: mean 2.0e-6, max 0.018 against the exact field;
+    // the bar is mean <= 1e-4, interior max <= 0.05).
+    CHECK(mean < 1e-5);
+    CHECK(worst < 5e-3);
+}
+
+TEST_CASE("quality presets: names, overrides, errors") {
+    auto experiment = [](nlohmann::json extra) {
+        nlohmann::json j{{"system", {{"plugin", "duffing"}}},
+                         {"grid", {{"x", {-1, 1}}, {"y", {-1, 1}}, {"n", {5, 5}}}},
+                         {"time", {{"t0", 0}, {"t1", 10}}},
+                         {"products", {"ftle"}}};
+        j.update(extra);
+        return parse_experiment(j);
+    };
+    const Experiment draft = experiment({{"quality", "draft"}});
+    CHECK(draft.integrator.method == "dop853");
+    CHECK_FALSE(draft.integrator.adaptive);
+    CHECK(draft.integrator.step > quality_preset("standard").step);
+    const Experiment publication = experiment({{"quality", "publication"}});
+    CHECK_FALSE(publication.integrator.adaptive);
+    CHECK(publication.integrator.step < quality_preset("standard").step);
+    // Explicit keys override the preset; a tolerance asks for adaptive steps.
+    const Experiment tol = experiment({{"quality", "draft"}, {"integrator", {{"rtol", 1e-6}, {"atol", 1e-4}}}});
+    CHECK(tol.integrator.method == "dop853");
+    CHECK(tol.integrator.adaptive);
+    CHECK(tol.integrator.rtol == 1e-6);
+    const Experiment fixed = experiment({{"integrator", {{"method", "dopri5"}, {"adaptive", false}, {"step", 0.1}}}});
+    CHECK_FALSE(fixed.integrator.adaptive);
+    CHECK(fixed.integrator.step == 0.1);
+    CHECK(experiment({{"integrator", {{"engine", "odeint"}, {"method", "dopri5"}}}}).integrator.engine == "odeint");
+    // The auxiliary-grid offset follows the tolerances unless given: 1e-3 of the spacing (0.5 here), raised to
+    // 1e-14 / tau in state units (capped at 0.5 of the spacing).
+    const Experiment paper = experiment({{"integrator", {{"method", "dopri5"}, {"rtol", 1e-6}, {"atol", 1e-4}}}});
+    CHECK(paper.aux_offset == 1e-3);
+    const Experiment tight = experiment({{"integrator", {{"rtol", 1e-12}, {"atol", 1e-12}}}});
+    CHECK(tight.aux_offset == doctest::Approx(1e-14 / (1e-12 * 0.5)));
+    CHECK(experiment({{"integrator", {{"rtol", 1e-14}, {"atol", 1e-14}}}}).aux_offset == 0.5);
+    CHECK(experiment({{"cauchy_green", {{"offset", 1e-4}}}}).aux_offset == 1e-4);
+    CHECK_THROWS_WITH_AS(experiment({{"quality", "publicaton"}}), doctest::Contains("did you mean \"publication\""),
+                         ConfigError);
+    CHECK_THROWS_WITH_AS(experiment({{"integrator", {{"method", "rk4"}, {"step", 0.1}, {"adaptive", true}}}}),
+                         doctest::Contains("/integrator/adaptive"), ConfigError);
+    CHECK_THROWS_WITH_AS(experiment({{"integrator", {{"engine", "odeint"}}}}),
+                         doctest::Contains("/integrator/engine"), ConfigError);
+    CHECK_THROWS_WITH_AS(experiment({{"integrator", {{"engine", "boost"}}}}), doctest::Contains("\"boost\""),
+                         ConfigError);
+}

@@ -511,15 +511,29 @@ TEST_CASE("grids: fewer than 3 points per direction is an error; a grid beyond t
     MESSAGE("available memory: " << format_bytes(m.bytes) << " (" << m.source << ")");
     Grid huge;
     huge.nx = huge.ny = 100000;
-    const std::uint64_t need = estimate_run_memory(huge, true, GradientMethod::variational, false, false);
-    // 1e10 points x (2 + 32 + 12 + 56 + 16 + 8 = 126 bytes) + 256 MiB.
-    CHECK(need == static_cast<std::uint64_t>(126e10 + 256.0 * 1024 * 1024));
-    CHECK(format_bytes(need) == "1.1 TiB");
+    FieldPlan ftle_only;
+    ftle_only.cauchy_green = true;
+    ftle_only.gradient = GradientMethod::variational;
+    ftle_only.keep = {"ftle"};
+    const IntegratorSettings settings;
+    const std::uint64_t need = estimate_run_memory(huge, settings, ftle_only);
+    // Tiled (tiles.hpp): 1e10 points x (mask 1 + NetCDF buffer 8 + CG mask 1 + ftle 8 = 18 bytes), one tile's points x
+    // (mask 1 + positions 16 + DF 32 + CG fields 56 + CG mask 1 + DF exponent 4 + log det 8 = 118 bytes), + 256 MiB.
+    const double tile_points = static_cast<double>(tile_rows(huge, settings, ftle_only)) * 1e5;
+    CHECK(tile_points >= 1e5);
+    CHECK(tile_points <= 1e6);
+    CHECK(need == static_cast<std::uint64_t>(18e10 + 118 * tile_points + 256.0 * 1024 * 1024));
+    CHECK(format_bytes(need) == "168 GiB");
+    // Every Cauchy-Green field kept and a picture: 7 fields and the picture's two buffers more per point.
+    FieldPlan all = ftle_only;
+    all.keep = cauchy_green_variables();
+    all.plot = true;
+    CHECK(estimate_run_memory(huge, settings, all) - need == static_cast<std::uint64_t>(1e10 * (6 * 8 + 2 * 8)));
     CHECK(format_bytes(512) == "512 bytes");
     CHECK(format_bytes(3u << 20) == "3.0 MiB");
     const AvailableMemory small{8ull << 30, "a test", true};
     CHECK_THROWS_WITH_AS(check_memory(need, small, huge),
-                         "/grid/n: a 100000 x 100000 grid needs about 1.1 TiB of memory, but only 8.0 GiB is available "
+                         "/grid/n: a 100000 x 100000 grid needs about 168 GiB of memory, but only 8.0 GiB is available "
                          "(a test); use fewer points, or split the box into several runs",
                          ConfigError);
     CHECK_NOTHROW(check_memory(1000, small, huge));

@@ -66,21 +66,25 @@ AvailableMemory available_memory() {
     return m;
 }
 
-std::uint64_t estimate_run_memory(const Grid &grid, bool cauchy_green, GradientMethod gradient, bool positions,
-                                  bool extractors_or_derived_fields) {
-    // Bytes per grid point, by what holds them (see runner.cpp): the flow map's mask, and the Cauchy-Green mask.
-    double per_point = 2;
-    if (positions) per_point += 2 * 8; // flow_x, flow_y
-    if (cauchy_green) {
-        per_point += 4 * 8;                                              // DF
-        if (gradient == GradientMethod::variational) per_point += 4 + 8; // DF exponent, log|det DF|
-        per_point += 7 * 8;                                              // lambda1, lambda2, ftle, xi1, xi2
-        per_point += 2 * 8; // the picture's copy of the FTLE and PLplot's own
+std::uint64_t estimate_run_memory(const Grid &grid, const IntegratorSettings &settings, const FieldPlan &plan) {
+    // Bytes per grid point held for the whole run (see runner.cpp and tiles.cpp): the flow map's mask and, with
+    // Cauchy-Green fields, theirs; the kept fields; the NetCDF writer's buffer of one variable.
+    double per_point = 1 + 8;
+    if (plan.positions) per_point += 2 * 8; // flow_x, flow_y
+    if (plan.cauchy_green) per_point += 1 + 8 * static_cast<double>(plan.keep.size());
+    if (plan.plot) per_point += 2 * 8;     // the picture's copy of the FTLE and PLplot's own
+    if (plan.derived) per_point += 16 * 8; // deviation fields, gradients, line-field caches
+    // Bytes per point of one tile, held while it is computed: mask, positions, DF, DF exponent and log|det DF|, and
+    // its Cauchy-Green fields (all seven, and their mask).
+    double per_tile_point = 1 + 2 * 8;
+    if (plan.cauchy_green) {
+        per_tile_point += 4 * 8 + 7 * 8 + 1;
+        if (plan.gradient == GradientMethod::variational) per_tile_point += 4 + 8;
     }
-    per_point += 8;                                        // the NetCDF writer's buffer of one variable
-    if (extractors_or_derived_fields) per_point += 16 * 8; // deviation fields, gradients, line-field caches
-    constexpr double fixed = 256.0 * 1024 * 1024;          // program, libraries, plugins, thread stacks, pictures
-    const double total = per_point * static_cast<double>(grid.nx) * static_cast<double>(grid.ny) + fixed;
+    const double tile_points = static_cast<double>(tile_rows(grid, settings, plan)) * static_cast<double>(grid.nx);
+    constexpr double fixed = 256.0 * 1024 * 1024; // program, libraries, plugins, thread stacks, pictures
+    const double total =
+        per_point * static_cast<double>(grid.nx) * static_cast<double>(grid.ny) + per_tile_point * tile_points + fixed;
     return total >= 1.8e19 ? UINT64_MAX : static_cast<std::uint64_t>(total);
 }
 

@@ -11,6 +11,7 @@
 #include <geobarrier/output.hpp>
 #include <geobarrier/resources.hpp>
 #include <geobarrier/shear.hpp>
+#include <geobarrier/tiles.hpp>
 
 #include <omp.h>
 #include <spdlog/spdlog.h>
@@ -188,44 +189,39 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
         warnings.push_back(w);
     }
 
-    // Stage 1: the flow map, with the gradient only when something needs it.
-    const GradientMethod gradient = r.need_cauchy_green ? r.gradient : GradientMethod::none;
+    // Stages 1 and 2: the flow map, with the gradient only when something needs it, and the Cauchy–Green
+    // eigenvalues, eigenvectors and FTLE, tile by tile (tiles.hpp): only the fields the products, extractors and
+    // pictures read are kept for the whole grid.
+    const FieldPlan plan = plan_fields(r);
+    const GradientMethod gradient = plan.gradient;
     GridFlowMap flow;
+    CauchyGreenField cg;
     if (r.need_cauchy_green || r.need_positions) { // validation products alone need no grid
-        StageTimer timer(stages, "flow map");
+        StageTimer timer(stages, "flow map"); // with the Cauchy–Green fields, tile by tile
         detail::ProgressBar bar("flow map", !options.quiet);
         const Dynamics dynamics{&r.system, &r.forcing};
-        flow = compute_grid_flow_map(dynamics, e.grid, e.t0, e.t1, e.integrator, gradient, e.aux_offset,
-                                     r.need_positions, e.bounds,
-                                     [&bar](std::size_t done, std::size_t total) { bar.update(done, total); });
+        GridFields computed =
+            compute_grid_fields(dynamics, e.grid, e.t0, e.t1, e.integrator, e.bounds, plan,
+                                [&bar](std::size_t done, std::size_t total) { bar.update(done, total); });
         bar.finish();
+        flow = std::move(computed.flow);
+        cg = std::move(computed.cg);
+        manifest["tiles"] = {{"count", computed.tiles}, {"rows", computed.rows_per_tile}, {"kept", plan.keep}};
     }
     manifest["integrator_stats"] = flow.stats.to_json();
     manifest["gradient_method"] = to_string(gradient);
     manifest["long_horizon"] = long_horizon_method(gradient);
     const std::uint64_t masked = flow.stats.masked;
-    if (masked == e.grid.size())
-        throw NumericalError("every one of the " + std::to_string(masked) +
-                             " grid points was masked (left the bounds, blew up or hit the step limit): " +
-                             flow.stats.to_json().dump() + "; check the grid, the time interval and the system");
     if (masked > 0) {
         const std::string w = describe_masking(flow.stats, e.integrator, r.system.has_jacobian()) +
                               " (see integrator_stats and the mask variable in fields.nc)";
         spdlog::warn("{}", w);
         warnings.push_back(w);
     }
-
-    // Stage 2: Cauchy–Green eigenvalues, eigenvectors and FTLE.
-    CauchyGreenField cg;
     std::map<std::string, const std::vector<double> *> fields;
     if (r.need_cauchy_green) {
-        StageTimer timer(stages, "cauchy-green");
-        cg = cauchy_green_field(e.grid, flow.dF, flow.mask, std::abs(e.t1 - e.t0), flow.dF_exponent, flow.log_det);
-        fields = {{"ftle", &cg.ftle},   {"lambda1", &cg.lambda1}, {"lambda2", &cg.lambda2}, {"xi1_x", &cg.xi1_x},
-                  {"xi1_y", &cg.xi1_y}, {"xi2_x", &cg.xi2_x},     {"xi2_y", &cg.xi2_y}};
+        for (const auto &name : plan.keep) fields[name] = &cauchy_green_member(cg, name);
         manifest["degenerate_points"] = cg.degenerate_count;
-        flow.dF.clear();
-        flow.dF.shrink_to_fit();
     }
     // The geodesic strain deviation (paper eq. `gdev_str`, general form) only when asked for or an extractor
     // needs it: it costs grid derivatives of lambda1, lambda2 and xi1.
@@ -263,39 +259,28 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     ExtractServices services;
     services.advect = [&](std::size_t n, const double *xy, double t_from, double t_to, double *xy_out, double *dF_out,
                           std::uint8_t *mask_out) {
+        // The grid's engine and gradient method (flow_map_at_points), so advected points get the same batching and,
+        // on the auxiliary grid, the same difference-aware error control; the offset is relative to the grid spacing.
         const Dynamics dynamics{&r.system, &r.forcing};
-        // The auxiliary offset is relative to the grid spacing, as on the grid.
-        const double dx = e.aux_offset * e.grid.dx(), dy = e.aux_offset * e.grid.dy();
-        const bool variational = dF_out && r.system.has_jacobian() && r.gradient != GradientMethod::auxiliary_grid;
-        const std::size_t per_point = (dF_out && !variational) ? 5 : 1;
-        std::vector<double> x0(per_point * n), y0(per_point * n);
-        const double ox[5] = {0, dx, -dx, 0, 0}, oy[5] = {0, 0, 0, dy, -dy};
-        for (std::size_t k = 0; k < n; ++k)
-            for (std::size_t q = 0; q < per_point; ++q) {
-                x0[per_point * k + q] = xy[2 * k] + ox[q];
-                y0[per_point * k + q] = xy[2 * k + 1] + oy[q];
-            }
-        const AdvectResult a = advect_points(dynamics, x0, y0, t_from, t_to, e.integrator, variational, e.bounds);
+        const GradientMethod method = !dF_out ? GradientMethod::none
+                                      : r.system.has_jacobian() && r.gradient != GradientMethod::auxiliary_grid
+                                          ? GradientMethod::variational
+                                          : GradientMethod::auxiliary_grid;
+        const GridFlowMap a = flow_map_at_points(
+            dynamics, n, [xy](std::size_t k, double &x, double &y) { x = xy[2 * k], y = xy[2 * k + 1]; }, t_from, t_to,
+            e.integrator, method, e.aux_offset * e.grid.dx(), e.aux_offset * e.grid.dy(), true, e.bounds);
         for (std::size_t k = 0; k < n; ++k) {
-            std::uint8_t m = 0;
-            for (std::size_t q = 0; q < per_point; ++q) m |= a.mask[per_point * k + q];
+            const std::uint8_t m = a.mask[k];
             mask_out[k] = m;
-            const std::size_t c = per_point * k;
-            xy_out[2 * k] = m ? std::nan("") : a.x[c];
-            xy_out[2 * k + 1] = m ? std::nan("") : a.y[c];
+            xy_out[2 * k] = m ? std::nan("") : a.flow_x[k];
+            xy_out[2 * k + 1] = m ? std::nan("") : a.flow_y[k];
             if (!dF_out) continue;
             double *g = dF_out + 4 * k;
-            if (m) {
-                std::fill(g, g + 4, std::nan(""));
-            } else if (variational) {
+            for (int q = 0; q < 4; ++q)
                 // DF = 2^exponent dF (renormalised beyond the double range: entries become +-Inf there).
-                for (int q = 0; q < 4; ++q) g[q] = std::ldexp(a.dF[4 * k + q], a.dF_exponent[k]);
-            } else {
-                g[0] = (a.x[c + 1] - a.x[c + 2]) / (2 * dx);
-                g[1] = (a.x[c + 3] - a.x[c + 4]) / (2 * dy);
-                g[2] = (a.y[c + 1] - a.y[c + 2]) / (2 * dx);
-                g[3] = (a.y[c + 3] - a.y[c + 4]) / (2 * dy);
-            }
+                g[q] = m                       ? std::nan("")
+                       : a.dF_exponent.empty() ? a.dF[4 * k + q]
+                                               : std::ldexp(a.dF[4 * k + q], a.dF_exponent[k]);
         }
     };
     for (const Extractor &x : r.extractors) {
@@ -304,10 +289,18 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
         std::vector<gb_field> inputs;
         for (const auto &name : x.required_fields()) inputs.push_back({name.c_str(), fields.at(name)->data()});
         const std::string out_text = out.string();
+        // The system's state names and units (ABI 1.2), "" when undeclared, for the axes of the extractor's pictures.
+        const PluginInfo &sys = r.system.info();
+        const std::string names[2] = {sys.state_names.empty() ? "" : sys.state_names[0],
+                                      sys.state_names.empty() ? "" : sys.state_names[1]};
+        const std::string units[2] = {sys.state_units.empty() ? "" : sys.state_units[0],
+                                      sys.state_units.empty() ? "" : sys.state_units[1]};
+        const char *const name_ptrs[2] = {names[0].c_str(), names[1].c_str()};
+        const char *const unit_ptrs[2] = {units[0].c_str(), units[1].c_str()};
         const gb_extract_input input{e.grid.x_min, e.grid.x_max, e.grid.y_min, e.grid.y_max,
                                      e.grid.nx,    e.grid.ny,    e.t0,         e.t1,
                                      mask.data(),  static_cast<std::uint32_t>(inputs.size()),
-                                     inputs.data(), out_text.c_str(), e.plots ? 1 : 0};
+                                     inputs.data(), out_text.c_str(), e.plots ? 1 : 0, name_ptrs, unit_ptrs};
         for (const Barrier &b : x.extract(input, services)) {
             json points = json::array();
             for (std::size_t k = 0; k + 1 < b.xy.size(); k += 2) points.push_back({b.xy[k], b.xy[k + 1]});
@@ -377,6 +370,8 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
             plot.title = "FTLE, " + r.system.info().name + " + " + r.forcing.info().name + ", t = " +
                          fmt::format("{:g}", e.t0) + " to " + fmt::format("{:g}", e.t1);
             plot.colorbar_label = "FTLE";
+            plot.x_label = state_axis_label(r.system.info(), 0);
+            plot.y_label = state_axis_label(r.system.info(), 1);
             const fs::path file = out / "ftle.png";
             plot_field_png(file, e.grid, cg.ftle, mask, plot);
             summary.files.push_back(file);

@@ -5,6 +5,7 @@
 
 #include <geobarrier/flow_map.hpp>
 #include <geobarrier/grid.hpp>
+#include <geobarrier/tiles.hpp>
 
 #include <cstdint>
 #include <filesystem>
@@ -22,11 +23,12 @@ struct AvailableMemory {
 // current usage: the OOM killer acts at whichever comes first.
 AvailableMemory available_memory();
 
-// What a run over `grid` holds at its peak, in bytes: per grid point the flow map (mask, positions, DF, DF exponent,
-// log det), the Cauchy-Green fields, output buffers and, with extractors or derived fields, their grid fields; plus
-// a fixed allowance for the program, plugins and threads. An estimate, meant to be on the high side.
-std::uint64_t estimate_run_memory(const Grid &grid, bool cauchy_green, GradientMethod gradient, bool positions,
-                                  bool extractors_or_derived_fields);
+// What a run over `grid` holds at its peak, in bytes, computing the flow map and Cauchy–Green fields tile by tile
+// (tiles.hpp): per grid point the masks, the fields the plan keeps (positions, Cauchy–Green variables), the NetCDF
+// writer's buffer, the picture's and, with extractors or derived fields, their grid fields; per point of one tile its
+// trajectories' results and Cauchy–Green fields; plus a fixed allowance for the program, plugins and threads. An
+// estimate, meant to be on the high side.
+std::uint64_t estimate_run_memory(const Grid &grid, const IntegratorSettings &settings, const FieldPlan &plan);
 
 // Throws ConfigError at /grid/n, with the estimate and what is available, when `needed` exceeds `available`.
 void check_memory(std::uint64_t needed, const AvailableMemory &available, const Grid &grid);

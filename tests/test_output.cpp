@@ -211,9 +211,8 @@ TEST_CASE("write_fields_netcdf: round trip of a 4 x 3 grid with two variables an
         CHECK(fill_value == fill);
         int shuffle = 0, deflate = 0, level = 0;
         nc_ok(nc_inq_var_deflate(ncid, id, &shuffle, &deflate, &level));
-        CHECK(shuffle == 1);
-        CHECK(deflate == 1);
-        CHECK(level == 1);
+        // Double fields are stored uncompressed (deflate cost 17% of a default run for 20% of the size).
+        CHECK(deflate == 0);
         CHECK(text_attribute(ncid, id, "long_name") == variables[v].long_name);
         CHECK(text_attribute(ncid, id, "units") == variables[v].units);
 
@@ -235,6 +234,13 @@ TEST_CASE("write_fields_netcdf: round trip of a 4 x 3 grid with two variables an
 
     int var_mask = -1;
     nc_ok(nc_inq_varid(ncid, "mask", &var_mask));
+    {
+        // The mask is mostly zeros: deflate squeezes it at little cost.
+        int shuffle = 0, deflate = 0, level = 0;
+        nc_ok(nc_inq_var_deflate(ncid, var_mask, &shuffle, &deflate, &level));
+        CHECK(deflate == 1);
+        CHECK(level == 1);
+    }
     nc_type mask_type = NC_NAT;
     nc_ok(nc_inq_vartype(ncid, var_mask, &mask_type));
     CHECK(mask_type == NC_UBYTE);

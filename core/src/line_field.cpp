@@ -206,6 +206,29 @@ LineField::LineField(const Grid &grid, std::vector<double> vx, std::vector<doubl
             m_vy[p] /= norm;
         }
     }
+    m_dx = grid.dx();
+    m_dy = grid.dy();
+    m_v.resize(2 * n);
+    for (std::size_t p = 0; p < n; ++p) {
+        m_v[2 * p] = m_vx[p];
+        m_v[2 * p + 1] = m_vy[p];
+    }
+    if (grid.nx < 2 || grid.ny < 2) return;
+    const std::size_t cx = grid.nx - 1, cy = grid.ny - 1;
+    m_cell.assign(cx * cy, 0);
+    for (std::size_t i = 0; i < cy; ++i)
+        for (std::size_t j = 0; j < cx; ++j) {
+            const std::size_t p = i * grid.nx + j;
+            std::uint8_t c = 0;
+            for (std::size_t q : {p, p + 1, p + grid.nx, p + grid.nx + 1}) {
+                if (m_state[q] == 1) {
+                    c = 1;
+                    break;
+                }
+                if (m_state[q] == 2) c = 2;
+            }
+            m_cell[i * cx + j] = c;
+        }
 }
 
 LineField LineField::from_cauchy_green(const CauchyGreenField &cg, int which, double gap) {
@@ -216,12 +239,10 @@ LineField LineField::from_cauchy_green(const CauchyGreenField &cg, int which, do
                      singular_mask(cg, gap));
 }
 
-namespace {
-
-// The cell holding (x, y) and the local coordinates in it; false outside the box.
-bool locate(const Grid &g, double x, double y, std::size_t &i, std::size_t &j, double &u, double &v) {
-    if (!(x >= g.x_min && x <= g.x_max && y >= g.y_min && y <= g.y_max)) return false;
-    const double fx = (x - g.x_min) / g.dx(), fy = (y - g.y_min) / g.dy();
+inline bool LineField::locate(double x, double y, std::size_t &i, std::size_t &j, double &u, double &v) const {
+    const Grid &g = m_grid;
+    if (m_cell.empty() || !(x >= g.x_min && x <= g.x_max && y >= g.y_min && y <= g.y_max)) return false;
+    const double fx = (x - g.x_min) / m_dx, fy = (y - g.y_min) / m_dy;
     j = std::min(static_cast<std::size_t>(fx), g.nx - 2);
     i = std::min(static_cast<std::size_t>(fy), g.ny - 2);
     u = fx - static_cast<double>(j);
@@ -229,54 +250,48 @@ bool locate(const Grid &g, double x, double y, std::size_t &i, std::size_t &j, d
     return true;
 }
 
-} // namespace
+namespace {
+constexpr LineStatus cell_status[3] = {LineStatus::ok, LineStatus::masked, LineStatus::singular};
+}
 
 LineStatus LineField::status_at(double x, double y) const {
     std::size_t i, j;
     double u, v;
-    if (!locate(m_grid, x, y, i, j, u, v)) return LineStatus::outside;
-    const std::size_t corners[4] = {i * m_grid.nx + j, i * m_grid.nx + j + 1, (i + 1) * m_grid.nx + j,
-                                    (i + 1) * m_grid.nx + j + 1};
-    LineStatus s = LineStatus::ok;
-    for (std::size_t c : corners) {
-        if (m_state[c] == 1) return LineStatus::masked;
-        if (m_state[c] == 2) s = LineStatus::singular;
-    }
-    return s;
+    if (!locate(x, y, i, j, u, v)) return LineStatus::outside;
+    return cell_status[m_cell[i * (m_grid.nx - 1) + j]];
 }
 
 LineStatus LineField::evaluate(double x, double y, double ref_x, double ref_y, double &vx, double &vy) const {
     std::size_t i, j;
     double u, v;
-    if (!locate(m_grid, x, y, i, j, u, v)) return LineStatus::outside;
+    if (!locate(x, y, i, j, u, v)) return LineStatus::outside;
+    const std::uint8_t cell = m_cell[i * (m_grid.nx - 1) + j];
+    if (cell != 0) return cell_status[cell];
     const std::size_t corners[4] = {i * m_grid.nx + j, i * m_grid.nx + j + 1, (i + 1) * m_grid.nx + j,
                                     (i + 1) * m_grid.nx + j + 1};
     const double weights[4] = {(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v};
-    LineStatus s = LineStatus::ok;
-    for (std::size_t c : corners) {
-        if (m_state[c] == 1) return LineStatus::masked;
-        if (m_state[c] == 2) s = LineStatus::singular;
-    }
-    if (s != LineStatus::ok) return s;
     // Without a reference, align to the corner with the largest weight.
     if (!(ref_x * ref_x + ref_y * ref_y > 0.0) || !std::isfinite(ref_x) || !std::isfinite(ref_y)) {
         std::size_t best = 0;
         for (std::size_t k = 1; k < 4; ++k)
             if (weights[k] > weights[best]) best = k;
-        ref_x = m_vx[corners[best]];
-        ref_y = m_vy[corners[best]];
+        ref_x = m_v[2 * corners[best]];
+        ref_y = m_v[2 * corners[best] + 1];
     }
     double sx = 0.0, sy = 0.0;
     for (std::size_t k = 0; k < 4; ++k) {
         const std::size_t c = corners[k];
-        const double sign = m_vx[c] * ref_x + m_vy[c] * ref_y < 0.0 ? -1.0 : 1.0;
-        sx += weights[k] * sign * m_vx[c];
-        sy += weights[k] * sign * m_vy[c];
+        const double cx = m_v[2 * c], cy = m_v[2 * c + 1];
+        const double sign = cx * ref_x + cy * ref_y < 0.0 ? -1.0 : 1.0;
+        sx += weights[k] * sign * cx;
+        sy += weights[k] * sign * cy;
     }
-    const double norm = std::hypot(sx, sy);
+    // sqrt, not hypot: sx, sy are O(1) (no overflow to guard against) and hypot costs several times more.
+    const double norm = std::sqrt(sx * sx + sy * sy);
     if (!(norm >= min_interpolated_norm)) return LineStatus::singular;
-    vx = sx / norm;
-    vy = sy / norm;
+    const double inverse = 1.0 / norm; // one division: a tensor-line step waits on every evaluation in turn
+    vx = sx * inverse;
+    vy = sy * inverse;
     return LineStatus::ok;
 }
 

@@ -41,14 +41,20 @@ struct Strainline {
 // A compact strainline segment with d_g^xi1 < max_deviation at every point: a barrier candidate.
 struct Segment {
     std::size_t line = 0;            // the strainline it came from
-    std::size_t first = 0, last = 0; // its points in that strainline
-    std::vector<double> xy;
-    double length = 0.0;           // l(gamma_t0)
-    double stretched_length = 0.0; // l(gamma_t1): int sqrt(lambda1) ds (direct) or the t1 length (opposite-time)
+    std::size_t first = 0, last = 0; // its points in that strainline (not copied: thousands of segments overlap)
+    double length = 0.0;             // l(gamma_t0)
+    double stretched_length = 0.0;   // l(gamma_t1): int sqrt(lambda1) ds (direct) or the t1 length (opposite-time)
     double q = 0.0;
     double mean_deviation = 0.0, max_deviation = 0.0;
     double mid_x = 0.0, mid_y = 0.0; // the point at half its arc length
 };
+
+// A segment's points, copied out of its strainline.
+std::vector<double> points_of(const std::vector<Strainline> &lines, const Segment &s) {
+    const std::vector<double> &xy = lines[s.line].xy;
+    return std::vector<double>(xy.begin() + 2 * static_cast<std::ptrdiff_t>(s.first),
+                               xy.begin() + 2 * static_cast<std::ptrdiff_t>(s.last + 1));
+}
 
 std::string format(double v) {
     std::ostringstream s;
@@ -57,34 +63,81 @@ std::string format(double v) {
     return s.str();
 }
 
-// Buckets of points for "which segments pass within r of this point" queries.
-class PointIndex {
+// Buckets (squares of side r) for "which polylines pass within r of this point" queries. A bucket holds runs of
+// consecutive points of one polyline (a pointer into its points, not a copy), which keeps the index small where
+// thousands of strainlines crowd onto an attractor.
+class RunIndex {
   public:
-    PointIndex(const Grid &box, double r) : m_r(r), m_x0(box.x_min), m_y0(box.y_min) {
+    RunIndex(const Grid &box, double r) : m_r(r), m_x0(box.x_min), m_y0(box.y_min) {
         m_nx = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil((box.x_max - box.x_min) / r)) + 1);
         m_ny = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil((box.y_max - box.y_min) / r)) + 1);
         m_buckets.resize(m_nx * m_ny);
     }
-    void add(double x, double y, std::size_t id) {
-        std::size_t b;
-        if (bucket(x, y, b)) m_buckets[b].push_back({x, y, id});
+    // The n points (x, y interleaved) at xy, which must outlive the index, as polyline `id`.
+    void add(const double *xy, std::size_t n, std::size_t id) {
+        std::size_t k = 0;
+        while (k < n) {
+            std::size_t b;
+            const bool inside = bucket(xy[2 * k], xy[2 * k + 1], b);
+            std::size_t end = k + 1, b2 = 0;
+            while (end < n && bucket(xy[2 * end], xy[2 * end + 1], b2) == inside && (!inside || b2 == b)) ++end;
+            if (inside) {
+                Run run{xy + 2 * k, end - k, id, HUGE_VAL, -HUGE_VAL, HUGE_VAL, -HUGE_VAL};
+                for (std::size_t m = k; m < end; ++m) {
+                    run.x_lo = std::min(run.x_lo, xy[2 * m]);
+                    run.x_hi = std::max(run.x_hi, xy[2 * m]);
+                    run.y_lo = std::min(run.y_lo, xy[2 * m + 1]);
+                    run.y_hi = std::max(run.y_hi, xy[2 * m + 1]);
+                }
+                m_buckets[b].push_back(run);
+            }
+            k = end;
+        }
     }
-    // Calls visit(id) once per point within r of (x, y) (ids may repeat).
-    template <class Visit> void near(double x, double y, Visit &&visit) const {
+    // Sorts every bucket by key(id), ascending (ties by id), for any_near_below.
+    template <class Key> void sort_buckets(Key &&key) {
+        for (auto &b : m_buckets)
+            std::sort(b.begin(), b.end(), [&](const Run &a, const Run &c) {
+                return key(a.id) < key(c.id) || (!(key(c.id) < key(a.id)) && a.id < c.id);
+            });
+    }
+    // Whether a point of a polyline with id != self and key(id) < limit lies within r of (x, y). The buckets must
+    // be sorted by the same key: a scan stops at the first run at or above the limit, and at the first hit.
+    template <class Key> bool any_near_below(double x, double y, double limit, std::size_t self, Key &&key) const {
+        const double r2 = m_r * m_r;
         const long bx = static_cast<long>(std::floor((x - m_x0) / m_r)),
                    by = static_cast<long>(std::floor((y - m_y0) / m_r));
-        for (long j = by - 1; j <= by + 1; ++j)
-            for (long i = bx - 1; i <= bx + 1; ++i) {
-                if (i < 0 || j < 0 || i >= static_cast<long>(m_nx) || j >= static_cast<long>(m_ny)) continue;
-                for (const Entry &e : m_buckets[static_cast<std::size_t>(j) * m_nx + static_cast<std::size_t>(i)])
-                    if (std::hypot(e.x - x, e.y - y) <= m_r) visit(e.id);
+        // The point's own bucket first: that is where a neighbour is most likely found.
+        static constexpr int order[9][2] = {{0, 0},   {-1, 0}, {1, 0},  {0, -1}, {0, 1},
+                                            {-1, -1}, {1, -1}, {-1, 1}, {1, 1}};
+        for (const auto &o : order) {
+            const long i = bx + o[0], j = by + o[1];
+            if (i < 0 || j < 0 || i >= static_cast<long>(m_nx) || j >= static_cast<long>(m_ny)) continue;
+            for (const Run &run : m_buckets[static_cast<std::size_t>(j) * m_nx + static_cast<std::size_t>(i)]) {
+                if (!(key(run.id) < limit)) break;
+                if (run.id == self) continue;
+                const double gx = std::max({run.x_lo - x, x - run.x_hi, 0.0}),
+                             gy = std::max({run.y_lo - y, y - run.y_hi, 0.0});
+                if (gx * gx + gy * gy > r2) continue; // the run's bounding box is out of reach
+                for (std::size_t k = 0; k < run.n; ++k) {
+                    const double ex = run.xy[2 * k] - x, ey = run.xy[2 * k + 1] - y;
+                    if (ex * ex + ey * ey <= r2) return true;
+                }
             }
+        }
+        return false;
+    }
+    // Whether any point lies within r of (x, y).
+    bool any_near(double x, double y) const {
+        return any_near_below(x, y, HUGE_VAL, std::numeric_limits<std::size_t>::max(), [](std::size_t) { return 0.0; });
     }
 
   private:
-    struct Entry {
-        double x, y;
+    struct Run {
+        const double *xy;
+        std::size_t n;
         std::size_t id;
+        double x_lo, x_hi, y_lo, y_hi; // bounding box of its points
     };
     bool bucket(double x, double y, std::size_t &b) const {
         const double fx = std::floor((x - m_x0) / m_r), fy = std::floor((y - m_y0) / m_r);
@@ -94,7 +147,7 @@ class PointIndex {
     }
     double m_r, m_x0, m_y0;
     std::size_t m_nx = 1, m_ny = 1;
-    std::vector<std::vector<Entry>> m_buckets;
+    std::vector<std::vector<Run>> m_buckets;
 };
 
 struct Hyperbolic {
@@ -107,7 +160,10 @@ struct Hyperbolic {
     static constexpr gb_param_spec params[] = {
         real_param("max_deviation", 1e-3, 0.0, HUGE_VAL, "1/state",
                    "epsilon: strainlines are truncated where d_g^xi1 >= this (paper: 1e-3, 1e-5)"),
-        integer_param("seed_spacing", 8, 1, 1e6, "grid cells between neighbouring seeds of the seed lattice"),
+        real_param("seed_distance", 0.0, 0.0, HUGE_VAL, "state",
+                   "distance between neighbouring seeds of the seed lattice; 0 = 1/75 of the box's longer side"),
+        integer_param("seed_spacing", 0, 0, 1e6,
+                      "grid cells between neighbouring seeds, overriding seed_distance; 0 = use seed_distance"),
         real_param("max_length", 0.0, 0.0, HUGE_VAL, "state",
                    "longest strainline, per direction from its seed; 0 = 4 box diagonals"),
         real_param("min_length", 0.0, 0.0, HUGE_VAL, "state",
@@ -126,15 +182,16 @@ struct Hyperbolic {
     };
 
     explicit Hyperbolic(const sdk::Params &p)
-        : m_epsilon(p.real("max_deviation")), m_seed_spacing(static_cast<std::size_t>(p.integer("seed_spacing"))),
-          m_max_length(p.real("max_length")), m_min_length(p.real("min_length")),
-          m_neighbour_distance(p.real("neighbour_distance")),
+        : m_epsilon(p.real("max_deviation")), m_seed_distance(p.real("seed_distance")),
+          m_seed_spacing(static_cast<std::size_t>(p.integer("seed_spacing"))), m_max_length(p.real("max_length")),
+          m_min_length(p.real("min_length")), m_neighbour_distance(p.real("neighbour_distance")),
           m_max_barriers(static_cast<std::size_t>(p.integer("max_barriers"))), m_singular_gap(p.real("singular_gap")),
           m_route(p.string("route")), m_validate(p.flag("validate")), m_max_gap_fraction(p.real("max_gap_fraction")) {}
 
     void extract(const sdk::Host &host, const gb_extract_input &in) const;
 
     double m_epsilon;
+    double m_seed_distance;
     std::size_t m_seed_spacing;
     double m_max_length, m_min_length, m_neighbour_distance;
     std::size_t m_max_barriers;
@@ -144,20 +201,24 @@ struct Hyperbolic {
     double m_max_gap_fraction;
 
   private:
+    std::vector<double> seeds(const Grid &g, const LineField &field, const std::vector<double> *deviation) const;
+    double seed_distance(const Grid &g) const {
+        return m_seed_distance > 0 ? m_seed_distance : std::max(g.x_max - g.x_min, g.y_max - g.y_min) / 75.0;
+    }
     std::vector<Strainline> direct_strainlines(const sdk::Host &host, const CauchyGreenField &cg,
                                                const std::vector<double> &deviation, double max_length) const;
     std::vector<Strainline> opposite_time_strainlines(const sdk::Host &host, const gb_extract_input &in,
                                                       const std::vector<double> &deviation, double max_length) const;
 };
 
-// The seed lattice: every seed_spacing-th grid point, offset by half a spacing from the edges, in the given field's
-// usable cells and (when `deviation` is given) where d_g^xi1 < epsilon, since a seed above it would be cut away.
-std::vector<double> seed_lattice(const Grid &g, std::size_t spacing, const LineField &field,
+// The seed lattice: points (steps_x, steps_y) grid cells apart, starting half a step in from the box's lower
+// edges, in the given field's usable cells and (when `deviation` is given) where d_g^xi1 < epsilon, since a seed
+// above it would be cut away.
+std::vector<double> seed_lattice(const Grid &g, double steps_x, double steps_y, const LineField &field,
                                  const std::vector<double> *deviation, double epsilon) {
     std::vector<double> seeds;
-    const double h = static_cast<double>(spacing);
-    for (double fi = 0.5 * h; fi <= static_cast<double>(g.ny - 1); fi += h)
-        for (double fj = 0.5 * h; fj <= static_cast<double>(g.nx - 1); fj += h) {
+    for (double fi = 0.5 * steps_y; fi <= static_cast<double>(g.ny - 1); fi += steps_y)
+        for (double fj = 0.5 * steps_x; fj <= static_cast<double>(g.nx - 1); fj += steps_x) {
             const double x = g.x_min + fj * g.dx(), y = g.y_min + fi * g.dy();
             if (field.status_at(x, y) != LineStatus::ok) continue;
             if (deviation) {
@@ -170,25 +231,48 @@ std::vector<double> seed_lattice(const Grid &g, std::size_t spacing, const LineF
     return seeds;
 }
 
+// The seeds: a lattice seed_distance apart in state units (by default 1/75 of the box's longer side), so that
+// their number, and with it the extraction's cost, does not grow with the grid; seed_spacing > 0 asks for a
+// lattice in grid cells instead. The default is the lattice of 8 cells of the 601 x 401 damped-Duffing grid the
+// extractor was validated on (docs/extractors.md); about ten seeds fall in each neighbourhood disc of the
+// selection rule.
+std::vector<double> Hyperbolic::seeds(const Grid &g, const LineField &field,
+                                      const std::vector<double> *deviation) const {
+    if (m_seed_spacing > 0) {
+        const double cells = static_cast<double>(m_seed_spacing);
+        return seed_lattice(g, cells, cells, field, deviation, m_epsilon);
+    }
+    const double d = seed_distance(g);
+    // At least one grid cell apart: denser seeds than grid points add nothing.
+    return seed_lattice(g, std::max(d / g.dx(), 1.0), std::max(d / g.dy(), 1.0), field, deviation, m_epsilon);
+}
+
 std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, const CauchyGreenField &cg,
                                                        const std::vector<double> &deviation, double max_length) const {
     const LineField xi1 = LineField::from_cauchy_green(cg, 1, m_singular_gap);
-    const std::vector<double> seeds = seed_lattice(cg.grid, m_seed_spacing, xi1, &deviation, m_epsilon);
-    const std::size_t n = seeds.size() / 2;
-    host.info("" + std::to_string(n) + " strainline seeds (every " + std::to_string(m_seed_spacing) +
-              " grid cells, where d_g < " + format(m_epsilon) + ")");
+    const std::vector<double> seed = seeds(cg.grid, xi1, &deviation);
+    const std::size_t n = seed.size() / 2;
+    host.info("" + std::to_string(n) + " strainline seeds (lattice " +
+              (m_seed_spacing > 0 ? std::to_string(m_seed_spacing) + " cells" : format(seed_distance(cg.grid))) +
+              " apart, where d_g < " + format(m_epsilon) + ")");
     TensorLineSettings settings;
     settings.max_length = max_length;
     settings.detect_closure = true;
+    // Steps of at most half a grid cell, as long as that is not finer than 1/16 of the seed distance: finer
+    // grids resolve the fields better, but strainlines sampled more densely than that only cost more (on the
+    // damped Duffing attractor, 1000 x 1000, docs/extractors.md: the same barrier, 2.5 times fewer points). With
+    // the default seed distance it is half a cell of the 601 x 401 grid the extractor was validated on.
+    if (m_seed_spacing == 0)
+        settings.max_step = std::max(0.5 * std::min(cg.grid.dx(), cg.grid.dy()), seed_distance(cg.grid) / 16.0);
     std::vector<Strainline> lines(n);
-    const std::size_t block = 64;
+    const std::size_t block = 256; // seeds per parallel region: fewer joins, progress still every ~10%
     for (std::size_t start = 0; start < n; start += block) {
         const std::size_t end = std::min(n, start + block);
 #pragma omp parallel for schedule(dynamic)
         for (std::size_t k = start; k < end; ++k) {
-            const TwoWayLine t = integrate_tensor_line_both_ways(xi1, seeds[2 * k], seeds[2 * k + 1], settings);
-            lines[k].xy = t.xy;
+            TwoWayLine t = integrate_tensor_line_both_ways(xi1, seed[2 * k], seed[2 * k + 1], settings);
             lines[k].deviation = sample_along(cg.grid, deviation, {}, t.xy);
+            lines[k].xy = std::move(t.xy);
         }
         if (host.progress(0.6 * static_cast<double>(end) / static_cast<double>(std::max<std::size_t>(n, 1))))
             throw std::runtime_error("stopped by the user");
@@ -217,7 +301,7 @@ std::vector<Strainline> Hyperbolic::opposite_time_strainlines(const sdk::Host &h
     if (host.progress(0.2)) throw std::runtime_error("stopped by the user");
     CauchyGreenField cg = cauchy_green_field(g, dF, mask, std::abs(in.t0 - in.t1));
     const LineField xi2 = LineField::from_cauchy_green(cg, 2, m_singular_gap);
-    const std::vector<double> seeds = seed_lattice(g, m_seed_spacing, xi2, nullptr, 0.0);
+    const std::vector<double> seeds = this->seeds(g, xi2, nullptr);
     const std::size_t count = seeds.size() / 2;
     host.info("" + std::to_string(count) + " stretchline seeds at t1");
     // Stretchlines at t1 are short: their images are stretched by about sqrt(lambda2). Each direction runs until
@@ -307,10 +391,12 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
 
     // 2. Truncation to compact segments with d_g^xi1 < epsilon at every point (Alg. 1, step 2), and relative
     // stretching q = l(gamma_t1) / l(gamma_t0) (eq. `rel_stretch`); directly l(gamma_t1) = int sqrt(lambda1) ds.
+    // Line by line in parallel, gathered in line order.
     std::vector<double> log_lambda1(g.size());
     for (std::size_t p = 0; p < g.size(); ++p) log_lambda1[p] = std::log(cg.lambda1[p]);
-    std::vector<Segment> candidates;
-    std::size_t short_segments = 0;
+    std::vector<std::vector<Segment>> per_line(lines.size());
+    std::vector<std::size_t> short_per_line(lines.size(), 0);
+#pragma omp parallel for schedule(dynamic)
     for (std::size_t l = 0; l < lines.size(); ++l) {
         const Strainline &line = lines[l];
         const std::size_t n = line.xy.size() / 2;
@@ -324,14 +410,14 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
             s.line = l;
             s.first = first;
             s.last = k - 1;
-            s.xy.assign(line.xy.begin() + 2 * first, line.xy.begin() + 2 * k);
-            s.length = polyline_length(s.xy);
+            const std::vector<double> xy = points_of(lines, s);
+            s.length = polyline_length(xy);
             if (s.length < min_length) {
-                ++short_segments;
+                ++short_per_line[l];
                 continue;
             }
             const std::vector<double> dev(line.deviation.begin() + first, line.deviation.begin() + k);
-            const CurveStats ds = curve_statistics(s.xy, dev);
+            const CurveStats ds = curve_statistics(xy, dev);
             s.mean_deviation = ds.mean;
             s.max_deviation = ds.max;
             if (opposite) {
@@ -339,21 +425,28 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
                     polyline_length(std::vector<double>(line.xy_t1.begin() + 2 * first, line.xy_t1.begin() + 2 * k));
             } else {
                 // Interpolating log(lambda1) is exact for exponential variation across a cell.
-                std::vector<double> root = sample_along(g, log_lambda1, cg.mask, s.xy);
+                std::vector<double> root = sample_along(g, log_lambda1, cg.mask, xy);
                 for (double &v : root) v = std::exp(0.5 * v);
-                const CurveStats rs = curve_statistics(s.xy, root);
+                const CurveStats rs = curve_statistics(xy, root);
                 if (rs.covered_length < 0.999 * s.length) continue; // sqrt(lambda1) unknown on part of it
                 s.stretched_length = rs.integral;
             }
             s.q = s.stretched_length / s.length;
-            const std::vector<double> c = cumulative_length(s.xy);
+            const std::vector<double> c = cumulative_length(xy);
             const std::size_t mid =
                 static_cast<std::size_t>(std::lower_bound(c.begin(), c.end(), 0.5 * s.length) - c.begin());
-            s.mid_x = s.xy[2 * std::min(mid, c.size() - 1)];
-            s.mid_y = s.xy[2 * std::min(mid, c.size() - 1) + 1];
-            if (std::isfinite(s.q)) candidates.push_back(std::move(s));
+            s.mid_x = xy[2 * std::min(mid, c.size() - 1)];
+            s.mid_y = xy[2 * std::min(mid, c.size() - 1) + 1];
+            if (std::isfinite(s.q)) per_line[l].push_back(s);
         }
     }
+    std::vector<Segment> candidates;
+    std::size_t short_segments = 0;
+    for (std::size_t l = 0; l < lines.size(); ++l) {
+        candidates.insert(candidates.end(), per_line[l].begin(), per_line[l].end());
+        short_segments += short_per_line[l];
+    }
+    per_line.clear();
     host.info("" + std::to_string(lines.size()) + " strainlines, " + std::to_string(candidates.size()) +
               " segments with d_g < " + format(m_epsilon) + " at least " + format(min_length) + " long (" +
               std::to_string(short_segments) + " shorter ones left out)");
@@ -363,31 +456,26 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     // of its midpoint (they cross a disc around it, so they run beside it). A segment is a local minimum when no
     // neighbour has a smaller q. Minima that are neighbours of each other (the same barrier found from several
     // seeds) are thinned to the least q, visiting them in order of increasing q (ties: the longer first).
-    PointIndex index(g, radius);
+    const auto first_point = [&](const Segment &c) { return lines[c.line].xy.data() + 2 * c.first; };
+    RunIndex index(g, radius);
     for (std::size_t c = 0; c < candidates.size(); ++c)
-        for (std::size_t k = 0; k < candidates[c].xy.size() / 2; ++k)
-            index.add(candidates[c].xy[2 * k], candidates[c].xy[2 * k + 1], c);
+        index.add(first_point(candidates[c]), candidates[c].last - candidates[c].first + 1, c);
+    const auto q_of = [&](std::size_t c) { return candidates[c].q; };
+    index.sort_buckets(q_of);
     std::vector<std::size_t> minima;
-    for (std::size_t c = 0; c < candidates.size(); ++c) {
-        bool minimal = true;
-        index.near(candidates[c].mid_x, candidates[c].mid_y, [&](std::size_t d) {
-            if (d != c && candidates[d].q < candidates[c].q) minimal = false;
-        });
-        if (minimal) minima.push_back(c);
-    }
+    for (std::size_t c = 0; c < candidates.size(); ++c)
+        if (!index.any_near_below(candidates[c].mid_x, candidates[c].mid_y, candidates[c].q, c, q_of))
+            minima.push_back(c);
     std::sort(minima.begin(), minima.end(), [&](std::size_t a, std::size_t b) {
         if (candidates[a].q != candidates[b].q) return candidates[a].q < candidates[b].q;
         return candidates[a].length > candidates[b].length;
     });
     std::vector<std::size_t> barriers;
-    PointIndex kept(g, radius);
+    RunIndex kept(g, radius);
     for (std::size_t c : minima) {
-        bool taken = false;
-        kept.near(candidates[c].mid_x, candidates[c].mid_y, [&](std::size_t) { taken = true; });
-        if (taken) continue;
+        if (kept.any_near(candidates[c].mid_x, candidates[c].mid_y)) continue;
         barriers.push_back(c);
-        for (std::size_t k = 0; k < candidates[c].xy.size() / 2; ++k)
-            kept.add(candidates[c].xy[2 * k], candidates[c].xy[2 * k + 1], c);
+        kept.add(first_point(candidates[c]), candidates[c].last - candidates[c].first + 1, c);
         if (m_max_barriers > 0 && barriers.size() >= m_max_barriers) break;
     }
     host.info("" + std::to_string(minima.size()) + " local minima of q, " + std::to_string(barriers.size()) +
@@ -401,7 +489,7 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
         CurveAdvectionSettings cs;
         cs.max_gap_fraction = m_max_gap_fraction;
         std::vector<std::vector<double>> curves;
-        for (std::size_t c : barriers) curves.push_back(candidates[c].xy);
+        for (std::size_t c : barriers) curves.push_back(points_of(lines, candidates[c]));
         advected = advect_curves(curves, std::vector<bool>(curves.size(), false), advect, cs);
     }
     if (host.progress(0.9)) throw std::runtime_error("stopped by the user");
@@ -427,7 +515,7 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
             metrics.push_back({"advection_converged", a.converged ? 1.0 : 0.0});
         }
         if (b == 0) metrics.push_back({"extraction_seconds", elapsed});
-        host.add_barrier("hyperbolic", false, s.xy, metrics);
+        host.add_barrier("hyperbolic", false, points_of(lines, s), metrics);
     }
     if (!barriers.empty()) {
         const Segment &s = candidates[barriers[0]];
@@ -449,9 +537,11 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     FieldPlot fp;
     fp.title = "FTLE and " + which + " hyperbolic barriers, t = " + format(in.t0) + " to " + format(in.t1);
     fp.colorbar_label = "FTLE";
+    fp.x_label = sdk::axis_label(in, 0); // "name [unit]" of the system's states (ABI 1.2)
+    fp.y_label = sdk::axis_label(in, 1);
     for (std::size_t b = barriers.size(); b-- > 0;) {
         PlotCurve c;
-        c.xy = candidates[barriers[b]].xy;
+        c.xy = points_of(lines, candidates[barriers[b]]);
         c.color = b == 0 ? "red" : "white";
         c.width = b == 0 ? 3.0 : 1.5;
         fp.curves.push_back(c);
@@ -460,15 +550,24 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
 
     XYPlot xp;
     xp.title = "strainlines (grey), least-stretching barrier (red), d_g > " + format(m_epsilon) + " (black)";
-    xp.x_label = "x";
-    xp.y_label = "y";
+    xp.x_label = fp.x_label;
+    xp.y_label = fp.y_label;
     xp.equal_aspect = true;
     xp.x_range = std::make_pair(g.x_min, g.x_max);
     xp.y_range = std::make_pair(g.y_min, g.y_max);
-    const std::size_t stride = std::max<std::size_t>(1, lines.size() / 1500);
+    // At most 600 grey lines, each thinned to points about a pixel apart (1200 px across the box): thousands of
+    // strainlines crowd onto the same curves, and drawing all their points cost more than extracting them.
+    const std::size_t stride = std::max<std::size_t>(1, lines.size() / 600);
+    const double pixel = std::max(g.x_max - g.x_min, g.y_max - g.y_min) / 1200.0;
     for (std::size_t l = 0; l < lines.size(); l += stride) {
         PlotSeries s;
-        s.xy = lines[l].xy;
+        const std::vector<double> &xy = lines[l].xy;
+        for (std::size_t k = 0; k < xy.size() / 2; ++k)
+            if (k == 0 || k + 1 == xy.size() / 2 ||
+                std::abs(xy[2 * k] - s.xy[s.xy.size() - 2]) + std::abs(xy[2 * k + 1] - s.xy.back()) >= pixel) {
+                s.xy.push_back(xy[2 * k]);
+                s.xy.push_back(xy[2 * k + 1]);
+            }
         s.color = "#b0b0b0";
         s.width = 0.5;
         xp.series.push_back(std::move(s));
@@ -482,7 +581,7 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
         full.width = 1.0;
         xp.series.push_back(full);
         PlotSeries seg;
-        seg.xy = best.xy;
+        seg.xy = points_of(lines, best);
         seg.color = "red";
         seg.width = 3.0;
         seg.label = "barrier, q = " + format(best.q);

@@ -9,6 +9,7 @@
 #include <doctest/doctest.h>
 #include <netcdf.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <unistd.h>
@@ -19,7 +20,10 @@ namespace fs = std::filesystem;
 
 namespace {
 
-json saddle_experiment(double t1, const json &params = json::object()) {
+// Seeds every 8 grid cells (not the default lattice in state units, which on this coarse 41 x 41 grid puts a seed
+// in every cell): the scenarios below count the columns of that lattice.
+json saddle_experiment(double t1, json params = json::object()) {
+    if (!params.contains("seed_spacing")) params["seed_spacing"] = 8;
     json j = json::parse(R"({
       "system":  {"plugin": "linear-saddle", "params": {"a": 0.5}},
       "grid":    {"x": [-1, 1], "y": [-1, 1], "n": [41, 41]},
@@ -119,6 +123,27 @@ TEST_CASE("linear saddle, opposite-time route: advected stretchlines give the sa
     fs::remove_all(r.dir);
 }
 
+TEST_CASE("the default seed lattice is fixed in state units: the same barriers on a grid twice as fine") {
+    // seed_distance 0.25 on the box [-1, 1]^2: columns of strainlines at x = -0.875, -0.625, ..., 0.875 whatever
+    // the grid, so the extraction's work does not grow with it (docs/extractors.md, the seeds).
+    const double a = 0.5, T = 2.0;
+    for (int n : {41, 81}) {
+        json j = saddle_experiment(T, {{"seed_distance", 0.25}, {"seed_spacing", 0}});
+        j["grid"]["n"] = {n, n};
+        const Run r = run(j, "lattice-" + std::to_string(n));
+        REQUIRE(r.barriers.size() == 8);
+        std::vector<double> xs;
+        for (const auto &b : r.barriers) {
+            CHECK(spread(b, 0) < 1e-9);
+            CHECK(b["relative_stretching"].get<double>() == doctest::Approx(std::exp(-a * T)).epsilon(1e-9));
+            xs.push_back(b["points"][0][0].get<double>());
+        }
+        std::sort(xs.begin(), xs.end());
+        for (std::size_t k = 0; k < xs.size(); ++k) CHECK(xs[k] == doctest::Approx(-0.875 + 0.25 * k).epsilon(1e-12));
+        fs::remove_all(r.dir);
+    }
+}
+
 TEST_CASE("strain_deviation is a field product, computed only when asked for") {
     json j = saddle_experiment(2.0);
     j.erase("extractors");
@@ -155,7 +180,9 @@ TEST_CASE("the shortcut int sqrt(lambda1) ds matches the advected length on a sm
       "products": ["ftle"],
       "output": {"dir": "unused", "plots": false}
     })");
-    j["extractors"] = {{{"plugin", "hyperbolic"}, {"params", {{"max_deviation", 1.0}, {"max_barriers", 5}}}}};
+    // Seeds every 8 cells, the lattice the tolerance below was measured with.
+    j["extractors"] = {
+        {{"plugin", "hyperbolic"}, {"params", {{"max_deviation", 1.0}, {"max_barriers", 5}, {"seed_spacing", 8}}}}};
     j["plugin_paths"] = {test::plugin_dir().string()};
     const Run r = run(j, "shortcut");
     REQUIRE(!r.barriers.empty());

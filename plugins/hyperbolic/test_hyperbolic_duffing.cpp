@@ -63,13 +63,17 @@ TEST_CASE("damped Duffing: the least-stretching attracting barrier lies on the c
         by.push_back(p[1]);
     }
 
-    // Tracers: a 60 x 40 lattice over the box at t = 0, iterated 20 times by P = F_0^{2 pi}.
+    // Tracers: a 120 x 80 lattice over the box at t = 0, iterated 20 times by P = F_0^{2 pi}. The tracers sample the
+    // chaotic attractor, and a different rounding of the integrator (e.g. a new engine) draws a different sample of
+    // it: with 60 x 40 tracers the fraction of barrier points near a tracer moved between 93.7% and 97.5% for the
+    // same barrier, which is sampling noise of a sparse cloud, not a change of the barrier.
     const Grid g = parse_experiment(j).grid;
+    constexpr int tracer_columns = 120, tracer_rows = 80;
     std::vector<double> tx, ty;
-    for (int i = 0; i < 40; ++i)
-        for (int k = 0; k < 60; ++k) {
-            tx.push_back(g.x_min + (g.x_max - g.x_min) * (k + 0.5) / 60);
-            ty.push_back(g.y_min + (g.y_max - g.y_min) * (i + 0.5) / 40);
+    for (int i = 0; i < tracer_rows; ++i)
+        for (int k = 0; k < tracer_columns; ++k) {
+            tx.push_back(g.x_min + (g.x_max - g.x_min) * (k + 0.5) / tracer_columns);
+            ty.push_back(g.y_min + (g.y_max - g.y_min) * (i + 0.5) / tracer_rows);
         }
     const Dynamics dynamics{&r.system, &r.forcing};
     for (int n = 0; n < 20; ++n) {
@@ -83,7 +87,7 @@ TEST_CASE("damped Duffing: the least-stretching attracting barrier lies on the c
         tx = nx;
         ty = ny;
     }
-    REQUIRE(tx.size() > 1000);
+    REQUIRE(tx.size() > 4000);
 
     std::size_t near_tracers = 0;
     double worst = 0;

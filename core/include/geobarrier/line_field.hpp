@@ -90,8 +90,15 @@ class LineField {
 
   private:
     Grid m_grid;
+    double m_dx = 1.0, m_dy = 1.0; // the grid's spacing, computed once (evaluate runs millions of times)
     std::vector<double> m_vx, m_vy;
+    std::vector<double> m_v; // the same vectors interleaved (x, y), so that a cell's corners share cache lines
     std::vector<std::uint8_t> m_state; // 0 ok, 1 masked, 2 undefined
+    // Per cell ((ny - 1) * (nx - 1), row-major): the status of its four corners together (0 ok, 1 masked,
+    // 2 singular), so that a tensor-line step reads one byte instead of four.
+    std::vector<std::uint8_t> m_cell;
+    // The cell holding (x, y) and the local coordinates in it; false outside the box.
+    bool locate(double x, double y, std::size_t &i, std::size_t &j, double &u, double &v) const;
 };
 
 } // namespace geobarrier

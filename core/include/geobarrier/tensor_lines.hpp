@@ -1,5 +1,5 @@
 // Tensor lines: trajectories of r' = v(r) for an orientation-free LineField, parametrised by arc length (the
-// paper's eqs. `strline` and `shrline`), integrated with an adaptive Boost.Odeint stepper while keeping the
+// paper's eqs. `strline` and `shrline`), integrated with an adaptive Cash–Karp 5(4) pair while keeping the
 // tangent consistent with the previous step. Stops are reported, never NaN.
 #ifndef GEOBARRIER_TENSOR_LINES_HPP
 #define GEOBARRIER_TENSOR_LINES_HPP
@@ -25,8 +25,8 @@ const char *to_string(StopReason reason);
 
 struct TensorLineSettings {
     double max_length = std::numeric_limits<double>::infinity(); // arc length per direction
-    double rtol = 1e-6;                                          // odeint relative tolerance
-    double atol = 1e-8;                                          // odeint absolute tolerance (state units)
+    double rtol = 1e-6;                                          // relative tolerance of a step
+    double atol = 1e-8;                                          // absolute tolerance of a step (state units)
     double max_step = 0.0;     // 0: half the smaller grid spacing, so no cell is skipped
     double initial_step = 0.0; // 0: a tenth of the smaller grid spacing
     double min_step = 0.0;     // 0: 1e-4 of the smaller grid spacing; how close a stop is located

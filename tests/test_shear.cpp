@@ -197,7 +197,9 @@ TEST_CASE("tensor singularities: wedge, trisector, centre and a degenerate grid 
     }
     // The singular point on a grid point (degenerate there): the winding around its eight neighbours.
     Grid odd = g;
-    odd.nx = odd.ny = 41; // (0, 0) is grid point (20, 20)
+    odd.nx = odd.ny = 41;          // (0, 0) is grid point (20, 20), exactly: the spacing 1/16 is a power of two, so
+    odd.x_min = odd.y_min = -1.25; // x_min + h j has no rounding even when the compiler contracts it to an FMA
+    odd.x_max = odd.y_max = 1.25;  // (-march=native), which with h = 0.05 gave x(20) = 5.6e-17
     const auto s =
         tensor_singularities(line_field_cg(odd, 0.0, 0.0, [](double dx, double dy) { return std::atan2(dy, dx); }));
     REQUIRE(s.size() == 1);
@@ -224,4 +226,68 @@ TEST_CASE("the exact circular shear field has one index +1 singularity at its ce
         CHECK(std::hypot(one.x, one.y) < 1.5 * g.dx());
     }
     CHECK(total == 2);
+}
+
+TEST_CASE("area preservation: |ln det DF| from lambda1 lambda2, zero for a conservative flow, delta T for damping") {
+    Grid g;
+    g.x_min = g.y_min = -1.0;
+    g.x_max = g.y_max = 1.0;
+    g.nx = g.ny = 41;
+    // Circular shear (divergence-free, exact DF): ln det DF = 0 to rounding.
+    const CauchyGreenField cg = circular_shear_cg(g, 1.0, 0.5, 8.0);
+    const AreaPreservation a = area_preservation(cg);
+    CHECK(a.points == g.size());
+    CHECK(a.max < 1e-12);
+    // A uniformly damped map (x' = -delta/2 x, y' = -delta/2 y over T: det DF = exp(-delta T)) with a masked point
+    // holding garbage, which must not count.
+    CauchyGreenField damped = cg;
+    const double delta_t = 0.15 * 8.0 * M_PI;
+    for (std::size_t p = 0; p < g.size(); ++p) damped.lambda1[p] = std::exp(-2.0 * delta_t) / damped.lambda2[p];
+    damped.mask[7] = mask_non_finite;
+    damped.lambda1[7] = 1e300;
+    const AreaPreservation d = area_preservation(damped);
+    CHECK(d.points == g.size() - 1);
+    CHECK(d.median == doctest::Approx(delta_t).epsilon(1e-12));
+    CHECK(d.q99 == doctest::Approx(delta_t).epsilon(1e-12));
+    CHECK(d.max == doctest::Approx(delta_t).epsilon(1e-12));
+}
+
+TEST_CASE("lambda-lines: <e, C e> = lambda^2, undefined outside [l1, l2], and shearlines when lambda = 1 = l1 l2") {
+    for (double l2 : {1.5, 10.0, 1e4, 1e12}) {
+        CAPTURE(l2);
+        // Conservative: lambda1 = 1/lambda2, lambda = 1 gives the weights of eq. `shrvec`.
+        const ShearWeights a = lambda_line_weights(1.0, 1.0 / l2, l2), b = shear_weights(1.0 / l2, l2);
+        CHECK(a.alpha == doctest::Approx(b.alpha).epsilon(1e-12));
+        CHECK(a.beta == doctest::Approx(b.beta).epsilon(1e-12));
+        // Any lambda in [sqrt(l1), sqrt(l2)] of a compressible map: the stretching of eta_lambda is lambda.
+        const double l1 = 0.3 / l2;
+        for (double lambda : {std::sqrt(l1), 0.7, 1.0, std::sqrt(l2)}) {
+            if (lambda * lambda < l1 || lambda * lambda > l2) continue;
+            const ShearWeights w = lambda_line_weights(lambda, l1, l2);
+            CHECK(w.alpha * w.alpha + w.beta * w.beta == doctest::Approx(1.0).epsilon(1e-12));
+            CHECK(w.alpha * w.alpha * l1 + w.beta * w.beta * l2 == doctest::Approx(lambda * lambda).epsilon(1e-10));
+        }
+        CHECK(std::isnan(lambda_line_weights(0.5 * std::sqrt(l1), l1, l2).alpha)); // every direction stretches more
+        CHECK(std::isnan(lambda_line_weights(2.0 * std::sqrt(l2), l1, l2).alpha)); // ... or less
+    }
+    CHECK(std::isnan(lambda_line_weights(1.0, 1.0, 1.0).alpha)); // isotropic: no lambda-line direction
+    const ShearWeights inf = lambda_line_weights(1.0, 0.0, HUGE_VAL);
+    CHECK(inf.alpha == 1.0);
+    CHECK(inf.beta == 0.0);
+    // On a grid: the fields equal shear_fields()' eta+- wherever lambda1 lambda2 = 1 (circular shear, exact DF).
+    Grid g;
+    g.x_min = g.y_min = -1.0;
+    g.x_max = g.y_max = 1.0;
+    g.nx = g.ny = 41;
+    const CauchyGreenField cg = circular_shear_cg(g, 1.0, 0.5, 8.0);
+    const ShearFields shear = shear_fields(cg), lines = lambda_line_fields(cg, 1.0);
+    std::size_t compared = 0;
+    for (std::size_t p = 0; p < g.size(); ++p) {
+        if (!std::isfinite(shear.eta_plus_x[p]) || cg.lambda2[p] < 1.0 + 1e-6) continue;
+        CHECK(lines.eta_plus_x[p] == doctest::Approx(shear.eta_plus_x[p]).epsilon(1e-9));
+        CHECK(lines.eta_minus_y[p] == doctest::Approx(shear.eta_minus_y[p]).epsilon(1e-9));
+        CHECK(std::isnan(lines.deviation_plus[p]));
+        ++compared;
+    }
+    CHECK(compared > g.size() / 2);
 }

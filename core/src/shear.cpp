@@ -60,6 +60,71 @@ ShearWeights shear_weights(double lambda1, double lambda2) {
     return w;
 }
 
+ShearWeights lambda_line_weights(double lambda, double lambda1, double lambda2) {
+    ShearWeights w;
+    const double l2 = lambda * lambda;
+    if (!(lambda1 >= 0.0) || !(lambda2 > lambda1) || !(l2 >= lambda1) || !(l2 <= lambda2) || std::isnan(l2)) {
+        w.alpha = w.beta = nan_value;
+        return w;
+    }
+    if (std::isinf(lambda2)) { // beta^2 = (lambda^2 - l1) / l2 -> 0
+        w.alpha = 1.0;
+        w.beta = 0.0;
+        return w;
+    }
+    const double d = lambda2 - lambda1;
+    w.alpha = std::sqrt((lambda2 - l2) / d);
+    w.beta = std::sqrt((l2 - lambda1) / d);
+    return w;
+}
+
+ShearFields lambda_line_fields(const CauchyGreenField &cg, double lambda) {
+    const std::size_t n = cg.grid.size();
+    ShearFields f;
+    f.grid = cg.grid;
+    for (auto *v : {&f.alpha, &f.beta, &f.eta_plus_x, &f.eta_plus_y, &f.eta_minus_x, &f.eta_minus_y, &f.deviation_plus,
+                    &f.deviation_minus})
+        v->assign(n, nan_value);
+    for (std::size_t p = 0; p < n; ++p) {
+        if (cg.mask[p] & mask_trajectory_bits) continue;
+        const ShearWeights w = lambda_line_weights(lambda, cg.lambda1[p], cg.lambda2[p]);
+        if (std::isnan(w.alpha) || !std::isfinite(cg.xi1_x[p]) || !std::isfinite(cg.xi1_y[p])) continue;
+        f.alpha[p] = w.alpha;
+        f.beta[p] = w.beta;
+        f.eta_plus_x[p] = w.alpha * cg.xi1_x[p] + w.beta * cg.xi2_x[p];
+        f.eta_plus_y[p] = w.alpha * cg.xi1_y[p] + w.beta * cg.xi2_y[p];
+        f.eta_minus_x[p] = w.alpha * cg.xi1_x[p] - w.beta * cg.xi2_x[p];
+        f.eta_minus_y[p] = w.alpha * cg.xi1_y[p] - w.beta * cg.xi2_y[p];
+    }
+    return f;
+}
+
+AreaPreservation area_preservation(const CauchyGreenField &cg) {
+    std::vector<double> v;
+    v.reserve(cg.grid.size());
+    for (std::size_t p = 0; p < cg.grid.size(); ++p) {
+        if (cg.mask[p] & mask_trajectory_bits) continue;
+        const double l1 = cg.lambda1[p], l2 = cg.lambda2[p];
+        if (std::isfinite(l1) && std::isfinite(l2) && l1 > 0.0 && l2 > 0.0)
+            v.push_back(0.5 * std::abs(std::log(l1) + std::log(l2)));
+    }
+    AreaPreservation a;
+    a.points = v.size();
+    if (v.empty()) {
+        a.median = a.q99 = a.max = nan_value;
+        return a;
+    }
+    auto quantile = [&](double q) {
+        const std::size_t k = std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())));
+        std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(k), v.end());
+        return v[k];
+    };
+    a.median = quantile(0.5);
+    a.q99 = quantile(0.99);
+    a.max = *std::max_element(v.begin(), v.end());
+    return a;
+}
+
 double anisotropy(double lambda1, double lambda2) {
     if (std::isinf(lambda2)) return 1.0;
     const double r = std::min(lambda1 / lambda2, 1.0);

@@ -218,7 +218,60 @@ Shot shoot(const LineField &eta, const Section &section, double sigma, const Ret
     }
 }
 
-ReturnMap closed_shearlines(const LineField &eta, int sign, const Section &section, const ReturnMapSettings &settings) {
+LineField coarsened(const LineField &field) {
+    const Grid &g = field.grid();
+    Grid c = g;
+    c.nx = (g.nx + 1) / 2;
+    c.ny = (g.ny + 1) / 2;
+    c.x_max = g.x(2 * (c.nx - 1));
+    c.y_max = g.y(2 * (c.ny - 1));
+    std::vector<double> vx(c.size()), vy(c.size());
+    std::vector<std::uint8_t> unusable(c.size(), 0);
+    for (std::size_t i = 0; i < c.ny; ++i)
+        for (std::size_t j = 0; j < c.nx; ++j)
+            unusable[i * c.nx + j] = field.point_vector(2 * i, 2 * j, vx[i * c.nx + j], vy[i * c.nx + j]) ? 0 : 1;
+    return LineField(c, std::move(vx), std::move(vy), {}, std::move(unusable));
+}
+
+namespace {
+
+// Richardson extrapolation of a whole shearline from its paths on the field (h) and on the coarsened field (2h),
+// both from the same launch point to the return crossing: at equal fractions tau of their arclength,
+// x(tau) = (4 x_h(tau) - x_2h(tau)) / 3. Interpolation errs by O(h^2) in the direction of eta, so both paths
+// (and their parametrisations) differ from the exact field's shearline by C(tau) h^2 and 4 C(tau) h^2; the result
+// is the exact field's shearline to higher order and returns to the section at the extrapolated P.
+std::vector<double> extrapolated_path(const std::vector<double> &fine, const std::vector<double> &coarse) {
+    const std::vector<double> sf = cumulative_length(fine), sc = cumulative_length(coarse);
+    const double lf = sf.back(), lc = sc.back();
+    std::vector<double> out(fine.size());
+    const std::size_t m = sc.size();
+    std::size_t q = 0;
+    for (std::size_t k = 0; k < sf.size(); ++k) {
+        const double target = sf[k] / lf * lc;
+        while (q + 2 < m && sc[q + 1] < target) ++q;
+        // Cubic Lagrange interpolation in arclength through the four vertices around the target: a chord (linear
+        // interpolation) would cut inside the curve by step^2 / (8 radius), an O(h^2) error of its own that the
+        // extrapolation would amplify, while the cubic's is O(step^4).
+        const std::size_t a = std::min(q > 0 ? q - 1 : 0, m >= 4 ? m - 4 : 0);
+        const std::size_t b = std::min(a + 4, m);
+        for (int c = 0; c < 2; ++c) {
+            double xc = 0.0;
+            for (std::size_t i = a; i < b; ++i) {
+                double w = 1.0;
+                for (std::size_t j = a; j < b; ++j)
+                    if (j != i) w *= (target - sc[j]) / (sc[i] - sc[j]);
+                xc += w * coarse[2 * i + c];
+            }
+            out[2 * k + c] = (4.0 * fine[2 * k + c] - xc) / 3.0;
+        }
+    }
+    return out;
+}
+
+} // namespace
+
+ReturnMap closed_shearlines(const LineField &eta, int sign, const Section &section, const ReturnMapSettings &settings,
+                            const LineField *coarse) {
     ReturnMap map;
     const std::size_t n = std::max<std::size_t>(settings.launch_points, 2);
     const double len = section.length();
@@ -227,9 +280,11 @@ ReturnMap closed_shearlines(const LineField &eta, int sign, const Section &secti
     map.sigma.resize(n);
     map.image.assign(n, nan_value);
     map.stop.assign(n, StopReason::max_length);
+    map.extrapolated.assign(n, nan_value);
     for (std::size_t k = 0; k < n; ++k) map.sigma[k] = static_cast<double>(k + 1) / static_cast<double>(n);
     const std::size_t keep_every = settings.keep_lines ? std::max<std::size_t>(n / settings.keep_lines, 1) : 0;
-    std::vector<std::vector<double>> paths(n); // kept for pictures and for shearlines closed within resolution
+    std::vector<std::vector<double>> paths(n);        // kept for pictures and for shearlines closed within resolution
+    std::vector<std::vector<double>> coarse_paths(n); // the same on the coarse field, where it returned
 
 #pragma omp parallel for schedule(dynamic, 4)
     for (long long kk = 0; kk < static_cast<long long>(n); ++kk) {
@@ -237,10 +292,22 @@ ReturnMap closed_shearlines(const LineField &eta, int sign, const Section &secti
         Shot s = shoot(eta, section, map.sigma[k], settings, true);
         if (s.returned) map.image[k] = s.image;
         map.stop[k] = s.stop;
+        double gap = s.returned ? std::abs(s.image - map.sigma[k]) * len : nan_value;
+        // Richardson: P_h = P + C h^2, P_2h = P + 4 C h^2, so P = (4 P_h - P_2h) / 3 to higher order; only where the
+        // gap on the grid is below a grid spacing: beyond, the two shearlines cross different cells and the O(h^2)
+        // expansion no longer describes their difference.
+        if (s.returned && coarse && settings.resolution_gap > 0.0 && gap <= h) {
+            Shot c = shoot(*coarse, section, map.sigma[k], settings, true);
+            if (c.returned && c.xy.size() >= 8) {
+                map.extrapolated[k] = (4.0 * s.image - c.image) / 3.0;
+                gap = std::abs(map.extrapolated[k] - map.sigma[k]) * len;
+                coarse_paths[k] = std::move(c.xy);
+            }
+        }
         const bool picture = keep_every && k % keep_every == keep_every / 2;
-        const bool near = s.returned && settings.resolution_gap > 0.0 &&
-                          std::abs(s.image - map.sigma[k]) * len <= settings.resolution_gap;
+        const bool near = s.returned && settings.resolution_gap > 0.0 && gap <= settings.resolution_gap;
         if (picture || near) paths[k] = std::move(s.xy);
+        if (!near) coarse_paths[k].clear();
     }
     for (std::size_t k = 0; k < n; ++k)
         if (keep_every && k % keep_every == keep_every / 2 && paths[k].size() >= 4) map.lines.push_back(paths[k]);
@@ -316,9 +383,10 @@ ReturnMap closed_shearlines(const LineField &eta, int sign, const Section &secti
     // Launched shearlines that close to within the field's resolution (not already a bracket's end).
     if (settings.resolution_gap > 0.0) {
         std::vector<std::uint8_t> close(n, 0);
-        for (std::size_t k = 0; k < n; ++k)
-            close[k] =
-                std::isfinite(map.image[k]) && std::abs(map.image[k] - map.sigma[k]) * len <= settings.resolution_gap;
+        for (std::size_t k = 0; k < n; ++k) {
+            const double p = std::isfinite(map.extrapolated[k]) ? map.extrapolated[k] : map.image[k];
+            close[k] = std::isfinite(p) && std::abs(p - map.sigma[k]) * len <= settings.resolution_gap;
+        }
         std::vector<std::size_t> near;
         for (std::size_t k = 0; k < n;) {
             std::size_t end = k;
@@ -335,7 +403,8 @@ ReturnMap closed_shearlines(const LineField &eta, int sign, const Section &secti
             c.sigma = map.sigma[k];
             c.closure_error = std::abs(map.image[k] - map.sigma[k]) * len;
             c.fixed_point = false;
-            c.xy = std::move(paths[k]);
+            c.extrapolated_gap = std::abs(map.extrapolated[k] - map.sigma[k]) * len; // NaN without a coarse field
+            c.xy = coarse_paths[k].empty() ? std::move(paths[k]) : extrapolated_path(paths[k], coarse_paths[k]);
             c.xy.resize(c.xy.size() - 2); // the return crossing: within resolution_gap of the launch point
             map.closed.push_back(std::move(c));
         }

@@ -11,6 +11,7 @@
 #include <geobarrier/tensor_lines.hpp>
 
 #include <cstddef>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -73,6 +74,11 @@ struct ReturnMapSettings {
     // ... and only inside a run of at least this many consecutive launch points that all close so: the band of
     // nested closed shearlines, not a return map that merely grazes the gap once (a secant root needs no run).
     std::size_t min_run = 3;
+    // With a coarse field (closed_shearlines' `coarse`), the gap compared with resolution_gap is the Richardson
+    // extrapolation (4 d_h - d_2h) / 3 of the gaps on the field and on the field sampled at twice the spacing:
+    // bilinear interpolation errs by O(h^2), and that error of the return gap grows outwards (longer shearlines,
+    // faster turning fields near the chaotic layer) until it exceeds any fixed fraction of h while the exact
+    // field's shearlines still close.
     TensorLineSettings line;    // detect_closure and max_length are set by the search
     std::size_t keep_lines = 0; // launched shearlines kept for pictures (evenly spread)
 };
@@ -83,6 +89,7 @@ struct ClosedShearline {
     double sigma = 0.0;       // where it crosses the section
     double closure_error = 0; // |P(sigma) - sigma| * section length
     bool fixed_point = true;  // a fixed point found by the secant method; false: closed within resolution_gap
+    double extrapolated_gap = std::numeric_limits<double>::quiet_NaN(); // Richardson gap, as closure_error (coarse)
     std::size_t secant_iterations = 0;
     std::vector<double> xy;
 };
@@ -96,9 +103,17 @@ struct ReturnMap {
     std::vector<ClosedShearline> closed;
     std::size_t brackets = 0, failed_brackets = 0; // sign changes of P - id, and those whose secant failed
     std::size_t within_resolution = 0;             // launch points whose shearline closed within resolution_gap
+    std::vector<double> extrapolated;              // (4 P_h - P_2h) / 3 with a coarse field; NaN where unknown
 };
 
-ReturnMap closed_shearlines(const LineField &eta, int sign, const Section &section, const ReturnMapSettings &settings);
+// The return map of `eta` on `section`, its fixed points and the shearlines closed within the resolution gap.
+// `coarse` (may be null): the same field at twice the spacing (coarsened()), for the Richardson gap above.
+ReturnMap closed_shearlines(const LineField &eta, int sign, const Section &section, const ReturnMapSettings &settings,
+                            const LineField *coarse = nullptr);
+
+// The field sampled at every other grid point (spacing 2h, the same box up to one trailing row or column when a
+// count is even); points the field may not use stay unusable.
+LineField coarsened(const LineField &field);
 
 // A shearline launched from the section at sigma, followed until it crosses the section again in the same sense.
 struct Shot {

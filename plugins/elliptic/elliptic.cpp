@@ -38,6 +38,13 @@ using nlohmann::json;
 // where the derivatives are undefined); otherwise its mean is not trusted.
 constexpr double min_deviation_coverage = 0.9;
 
+// The flow map counts as area-preserving (conservation of arclength and area expected) when |ln det DF| is below
+// this at 99% of the grid points: det DF within 0.01% of 1, two orders below the 1.5% arclength change the paper
+// accepts (eq. `rel_def`), while a damping delta gives |ln det DF| = delta |T| everywhere (3.8 for the paper's
+// delta = 0.15 over 8 pi). The quantile, not the maximum, so that a few points where an auxiliary-grid DF lost
+// its accuracy do not decide.
+constexpr double max_log_det_conservative = 1e-4;
+
 std::vector<Section> parse_sections(const std::string &text) {
     std::vector<Section> out;
     std::stringstream all(text);
@@ -116,6 +123,16 @@ struct Elliptic {
                    "outermost's equivalent radius (0 = all)"),
         real_param("resolution_gap", 0.1, 0.0, HUGE_VAL, "grid spacings",
                    "shearlines returning this close to their launch point count as closed (0 = fixed points only)"),
+        real_param(
+            "lambda", 0.0, 0.0, HUGE_VAL, "",
+            "0: shearlines (eq. shrvec); > 0: closed generalized lambda-lines, |DF e| = lambda |e| (Haller & "
+            "Beron-Vera 2013; lambda = 1 gives the shearlines of a conservative system), kept without a d_g test"),
+        string_param("conservative", "auto", "auto|yes|no",
+                     "whether arclength and area conservation is expected: auto = decided from det DF = "
+                     "sqrt(lambda1 lambda2) on the grid (Liouville: the system's divergence over [t0, t1])"),
+        bool_param("extrapolate_gap", true,
+                   "compare the Richardson-extrapolated return gap (field at h and 2h) with resolution_gap, not the "
+                   "gap on the grid, whose O(h^2) interpolation error grows towards the island's edge"),
     };
 
     explicit Elliptic(const Params &p)
@@ -129,7 +146,9 @@ struct Elliptic {
           m_poincare_iterates(static_cast<std::size_t>(p.integer("poincare_iterates"))),
           m_poincare_points(static_cast<std::size_t>(p.integer("poincare_points"))),
           m_plot_shearlines(static_cast<std::size_t>(p.integer("plot_shearlines"))), m_line_rtol(p.real("line_rtol")),
-          m_resolution_gap(p.real("resolution_gap")), m_barrier_spacing(p.real("barrier_spacing")) {}
+          m_resolution_gap(p.real("resolution_gap")), m_barrier_spacing(p.real("barrier_spacing")),
+          m_extrapolate_gap(p.flag("extrapolate_gap")), m_conservative(p.string("conservative")),
+          m_lambda(p.real("lambda")) {}
 
     void extract(const sdk::Host &host, const gb_extract_input &in) const;
 
@@ -143,6 +162,9 @@ struct Elliptic {
     double m_poincare_period;
     std::size_t m_poincare_iterates, m_poincare_points, m_plot_shearlines;
     double m_line_rtol, m_resolution_gap, m_barrier_spacing;
+    bool m_extrapolate_gap;
+    std::string m_conservative;
+    double m_lambda;
 };
 
 void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const {
@@ -153,9 +175,27 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
     const CauchyGreenField cg = cauchy_green_from_input(in);
     const Grid &grid = cg.grid;
     const double h = std::min(grid.dx(), grid.dy());
-    const ShearFields shear =
-        shear_fields(cg, strain_derivatives(cg),
-                     m_area_preserving ? ShearDeviationForm::area_preserving : ShearDeviationForm::general);
+    // Shearlines (eq. shrvec) with their geodesic deviation, or generalized lambda-lines, which need none.
+    const bool lambda_lines = m_lambda > 0.0;
+    const ShearFields shear = lambda_lines ? lambda_line_fields(cg, m_lambda)
+                                           : shear_fields(cg, strain_derivatives(cg),
+                                                          m_area_preserving ? ShearDeviationForm::area_preserving
+                                                                            : ShearDeviationForm::general);
+    if (lambda_lines)
+        host.info("closed lambda-lines with lambda = " + fmt(m_lambda) +
+                  " (|DF e| = lambda |e|), kept without a d_g test");
+
+    // Is the flow map area-preserving (paper section 2.1, "conservative": div v = 0)? Only then does the theory
+    // say that barriers keep their arclength and enclosed area; otherwise both are still measured, as information.
+    const AreaPreservation area = area_preservation(cg);
+    const bool conservative =
+        m_conservative == "auto" ? area.points > 0 && area.q99 <= max_log_det_conservative : m_conservative == "yes";
+    host.info(std::string("flow map ") + (conservative ? "" : "not ") + "area-preserving (|ln det DF| median " +
+              fmt(area.median) + ", 99% " + fmt(area.q99) + ", max " + fmt(area.max) + " over " +
+              std::to_string(area.points) + " points" +
+              (m_conservative == "auto" ? "" : "; set by the \"conservative\" parameter") + ")" +
+              (conservative ? ": barriers must keep arclength and area"
+                            : ": the arclength and area changes of barriers are reported, not expected to vanish"));
 
     // Step 2 of Alg. 2 without looking: candidate regions and their sections.
     std::vector<Candidate> candidates;
@@ -200,10 +240,12 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
     std::size_t maps_done = 0;
     for (int sign : signs) {
         const LineField eta = shear_line_field(cg, shear, sign, m_singular_gap);
+        const LineField coarse = m_extrapolate_gap && m_resolution_gap > 0.0 ? coarsened(eta) : LineField();
         const std::vector<double> &deviation = sign > 0 ? shear.deviation_plus : shear.deviation_minus;
         for (std::size_t c = 0; c < candidates.size(); ++c) {
             const Candidate &cand = candidates[c];
-            ReturnMap map = closed_shearlines(eta, sign, cand.section, rs);
+            ReturnMap map = closed_shearlines(eta, sign, cand.section, rs,
+                                              m_extrapolate_gap && m_resolution_gap > 0.0 ? &coarse : nullptr);
             std::size_t stops[6] = {0, 0, 0, 0, 0, 0};
             for (std::size_t k = 0; k < map.sigma.size(); ++k)
                 if (!std::isfinite(map.image[k])) ++stops[static_cast<int>(map.stop[k])];
@@ -220,7 +262,8 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
                 f.mean_deviation = st.finite_points ? st.mean : std::numeric_limits<double>::quiet_NaN();
                 f.max_deviation = st.max;
                 f.coverage = f.length > 0.0 ? st.covered_length / f.length : 0.0;
-                f.kept = f.coverage >= min_deviation_coverage && f.mean_deviation < m_max_mean_deviation;
+                f.kept =
+                    lambda_lines || (f.coverage >= min_deviation_coverage && f.mean_deviation < m_max_mean_deviation);
                 kept_here += f.kept ? 1 : 0;
                 double cx = 0.0, cy = 0.0;
                 const std::size_t np = orbit.xy.size() / 2;
@@ -230,14 +273,17 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
                 }
                 f.centroid_x = cx / static_cast<double>(np);
                 f.centroid_y = cy / static_cast<double>(np);
-                closed_json.push_back({{"sigma", orbit.sigma},
-                                       {"fixed_point", orbit.fixed_point},
-                                       {"closure_error", orbit.closure_error},
-                                       {"length", f.length},
-                                       {"enclosed_area", f.area},
-                                       {"mean_geodesic_deviation",
-                                        std::isfinite(f.mean_deviation) ? json(f.mean_deviation) : json(nullptr)},
-                                       {"kept", f.kept}});
+                closed_json.push_back(
+                    {{"sigma", orbit.sigma},
+                     {"fixed_point", orbit.fixed_point},
+                     {"closure_error", orbit.closure_error},
+                     {"extrapolated_gap",
+                      std::isfinite(orbit.extrapolated_gap) ? json(orbit.extrapolated_gap) : json(nullptr)},
+                     {"length", f.length},
+                     {"enclosed_area", f.area},
+                     {"mean_geodesic_deviation",
+                      std::isfinite(f.mean_deviation) ? json(f.mean_deviation) : json(nullptr)},
+                     {"kept", f.kept}});
                 f.orbit = std::move(orbit);
                 found.push_back(std::move(f));
             }
@@ -250,7 +296,8 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
                       (map.failed_brackets ? "; " + std::to_string(map.failed_brackets) + " secant failure(s)" : ""));
             json samples = json::array();
             for (std::size_t k = 0; k < map.sigma.size(); ++k)
-                samples.push_back({map.sigma[k], std::isfinite(map.image[k]) ? json(map.image[k]) : json(nullptr)});
+                samples.push_back({map.sigma[k], std::isfinite(map.image[k]) ? json(map.image[k]) : json(nullptr),
+                                   std::isfinite(map.extrapolated[k]) ? json(map.extrapolated[k]) : json(nullptr)});
             sections_json.push_back(
                 {{"region", c},
                  {"family", sign > 0 ? "+" : "-"},
@@ -359,12 +406,17 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
         std::vector<std::pair<std::string, double>> metrics = {
             {"length", f.length},
             {"enclosed_area", f.area},
-            {"mean_geodesic_deviation", f.mean_deviation},
-            {"max_geodesic_deviation", f.max_deviation},
             {"island", static_cast<double>(f.island)},
             {"closure_error", f.orbit.closure_error},
             {"section_sigma", f.orbit.sigma},
         };
+        if (lambda_lines) {
+            metrics.emplace_back("lambda", m_lambda);
+        } else {
+            metrics.emplace_back("mean_geodesic_deviation", f.mean_deviation);
+            metrics.emplace_back("max_geodesic_deviation", f.max_deviation);
+        }
+        if (std::isfinite(f.orbit.extrapolated_gap)) metrics.emplace_back("extrapolated_gap", f.orbit.extrapolated_gap);
         const bool advect = m_advect == "all" || (m_advect == "outermost" && f.outermost);
         if (advect) {
             const AdvectedCurve a = advect_curve(f.orbit.xy, true, advect_to_t1);
@@ -400,6 +452,7 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
         host.add_barrier("elliptic", true, f.orbit.xy, metrics);
         host.set_barrier_attributes({{"family", f.orbit.sign > 0 ? "\"+\"" : "\"-\""},
                                      {"outermost", f.outermost ? "true" : "false"},
+                                     {"conservation_expected", conservative ? "true" : "false"},
                                      {"fixed_point", f.orbit.fixed_point ? "true" : "false"}});
         ++checked;
         if (host.progress(0.7 + 0.3 * static_cast<double>(checked) / static_cast<double>(kept.size())))
@@ -415,7 +468,10 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
     const std::filesystem::path out_dir =
         in.output_dir ? std::filesystem::path(in.output_dir) : std::filesystem::path();
     if (!out_dir.empty()) {
-        json doc = {{"regions", sections_json}, {"ftle_threshold", report.ftle_threshold}};
+        json doc = {{"regions", sections_json},
+                    {"ftle_threshold", report.ftle_threshold},
+                    {"area_preserving", conservative},
+                    {"log_det_dF", {{"median", area.median}, {"q99", area.q99}, {"max", area.max}}}};
         json sing = json::array();
         for (const auto &s : report.singularities)
             if (s.anisotropy < m_max_anisotropy) sing.push_back({s.x, s.y, 0.5 * s.twice_index, s.anisotropy});
@@ -427,6 +483,8 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
         FieldPlot plot;
         plot.title = "Shearlines; closed with <d_g> < " + fmt(m_max_mean_deviation) + " red (outermost thick)";
         plot.colorbar_label = "FTLE";
+        plot.x_label = sdk::axis_label(in, 0); // "name [unit]" of the system's states (ABI 1.2)
+        plot.y_label = sdk::axis_label(in, 1);
         for (auto &line : picture_lines) plot.curves.push_back({line, "black", 0.6, false});
         for (const Candidate &c : candidates)
             plot.curves.push_back({{c.section.x0, c.section.y0, c.section.x1, c.section.y1}, "white", 0.8, false});

@@ -21,6 +21,14 @@ struct ShearWeights {
 };
 ShearWeights shear_weights(double lambda1, double lambda2);
 
+// Weights of the generalized lambda-lines eta_lambda± = alpha xi1 ± beta xi2 (Haller & Beron-Vera 2013, "Coherent
+// Lagrangian vortices"): alpha^2 = (l2 - lambda^2) / (l2 - l1), beta^2 = (lambda^2 - l1) / (l2 - l1), the two
+// directions e with <e, C e> = lambda^2 |e|^2, i.e. |DF e| = lambda |e|: material lines along which every element is
+// stretched by exactly lambda. Defined where l1 <= lambda^2 <= l2, NaN elsewhere (and where l1 = l2). With
+// lambda = 1 and l1 l2 = 1 (area-preserving) they equal shear_weights(): alpha^2 = l2 / (1 + l2) in both, so the
+// closed lambda = 1 lines of a conservative system are its closed shearlines (eq. `shrvec`).
+ShearWeights lambda_line_weights(double lambda, double lambda1, double lambda2);
+
 // Geodesic shear deviation, general form (Haller & Beron-Vera 2012 eq. 33, as the authors' 2012 code had it;
 // DESIGN.md §4), sign = +1 for eta+ and -1 for eta-:
 //   d_g^eta± = |1 - alpha| + | ∓<grad alpha, eta±>/beta + alpha kappa1 ∓ beta kappa2 + (l1/l2 - 1) kappa1
@@ -58,10 +66,27 @@ ShearFields shear_fields(const CauchyGreenField &cg, const StrainDerivatives &de
                          ShearDeviationForm form = ShearDeviationForm::general);
 ShearFields shear_fields(const CauchyGreenField &cg, ShearDeviationForm form = ShearDeviationForm::general);
 
+// The lambda-line fields eta_lambda± in the places of eta± (alpha, beta and the vectors; NaN where lambda^2 is
+// outside [lambda1, lambda2] or the point is masked). The deviations are NaN: d_g (eq. `dg_shr`) measures how far a
+// shearline is from a geodesic and has no counterpart here (lambda-lines are exact stationary curves of the
+// averaged strain, Haller & Beron-Vera 2013).
+ShearFields lambda_line_fields(const CauchyGreenField &cg, double lambda);
+
 // The eta+ (sign = +1) or eta- (sign = -1) line field, for shearlines r' = eta±(r) (paper eq. `shrline`); masked
 // where a trajectory was, undefined where lambda2 - lambda1 <= gap * lambda2 (as LineField::from_cauchy_green).
 LineField shear_line_field(const CauchyGreenField &cg, const ShearFields &shear, int sign,
                            double gap = default_singular_gap);
+
+// How far the flow map F_t0^t1 is from area-preserving, from |ln det DF| = |ln(lambda1 lambda2)| / 2 at the grid
+// points with finite eigenvalues (Liouville: ln det DF is the integral of div v along the trajectory, so this
+// samples the system's divergence over the domain and [t0, t1]). The paper (section 2.1) calls a system
+// conservative when div v = 0; then F_t0^t1 preserves area and shearlines keep their length, so elliptic barriers
+// keep arclength and enclosed area.
+struct AreaPreservation {
+    double median = 0.0, q99 = 0.0, max = 0.0; // of |ln det DF|; NaN when no point has finite eigenvalues
+    std::size_t points = 0;
+};
+AreaPreservation area_preservation(const CauchyGreenField &cg);
 
 // (lambda2 - lambda1) / (lambda2 + lambda1) in [0, 1]: 0 at a tensor singularity (C a multiple of I), near 1 where
 // the flow map stretches strongly. Computed from the ratio, so an infinite lambda2 gives 1.

@@ -567,8 +567,10 @@ void draw_field(const std::filesystem::path &file, const Grid &grid, const std::
         }
         columns[j] = column_major.data() + j * grid.ny;
     }
-    plimagefr(columns.data(), static_cast<PLINT>(grid.nx), static_cast<PLINT>(grid.ny), x0, x1, y0, y1, range.low,
-              range.high, range.low, range.high, nullptr, nullptr);
+    // plimagefr without a transform spreads the nx values over nx - 1 steps of (xmax - xmin) / (nx - 1) and draws
+    // value j on [xmin + j step, xmin + (j + 1) step]: with xmax one cell short of x1, cell j is centred on x(j).
+    plimagefr(columns.data(), static_cast<PLINT>(grid.nx), static_cast<PLINT>(grid.ny), x0, x1 - grid.dx(), y0,
+              y1 - grid.dy(), range.low, range.high, range.low, range.high, nullptr, nullptr);
 
     const double px_x = (x1 - x0) / layout.box_width(), px_y = (y1 - y0) / layout.box_height();
     for (const PlotCurve &curve : plot.curves)

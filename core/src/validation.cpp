@@ -681,6 +681,22 @@ struct Stage {
         result.warnings.push_back(w);
     }
     std::string base_title() const { return in.title.empty() ? std::string() : in.title + ": "; }
+    // Axis labels "name [unit]" from the system's declared state names and units (ABI 1.2), "t [time]" for time.
+    std::string state_label(std::size_t i) const {
+        return in.dynamics.system ? state_axis_label(in.dynamics.system->info(), i) : std::string(i == 0 ? "x" : "y");
+    }
+    std::string time_label() const {
+        return in.dynamics.system ? time_axis_label(in.dynamics.system->info()) : std::string("t");
+    }
+    void label_phase_plane(XYPlot &plot) const {
+        plot.x_label = state_label(0);
+        plot.y_label = state_label(1);
+    }
+    void label_extended(XYZPlot &plot) const {
+        plot.x_label = state_label(0);
+        plot.y_label = state_label(1);
+        plot.z_label = time_label();
+    }
 
     // The found barriers a product works on ("all", "outermost", or given indices).
     std::vector<std::size_t> choose_barriers(const std::string &which, const std::vector<std::size_t> &indices,
@@ -769,6 +785,7 @@ struct Stage {
         if (!in.plots) return;
         XYPlot plot;
         plot.title = base_title() + fmt::format("period map, {} iterates of {} seeds", spec.iterations, n_seeds);
+        label_phase_plane(plot);
         plot.equal_aspect = true;
         plot.legend = XYPlot::Legend::outside_right;
         PlotSeries cloud;
@@ -822,6 +839,7 @@ struct Stage {
                     XYPlot plot;
                     plot.title = base_title() + fmt::format("{} tracers released at t = {}, at t = {}", n,
                                                             fmt_g(release), fmt_g(all_times[k]));
+                    label_phase_plane(plot);
                     plot.equal_aspect = true;
                     plot.legend = XYPlot::Legend::outside_right;
                     PlotSeries cloud;
@@ -910,6 +928,7 @@ struct Stage {
         {
             XYPlot plot;
             plot.title = base_title() + fmt::format("trajectories, t = {} to {}", fmt_g(t_start), fmt_g(t_end));
+            label_phase_plane(plot);
             plot.equal_aspect = true;
             plot.legend = XYPlot::Legend::outside_right;
             for (std::size_t s = 0; s < n; ++s) {
@@ -939,8 +958,8 @@ struct Stage {
             XYPlot plot;
             const std::string coordinate = c == 0 ? "x" : "y";
             plot.title = base_title() + coordinate + "(t) of the trajectories";
-            plot.x_label = "t";
-            plot.y_label = coordinate;
+            plot.x_label = time_label();
+            plot.y_label = state_label(static_cast<std::size_t>(c));
             plot.aspect = 0.45;
             plot.legend = XYPlot::Legend::outside_right;
             for (std::size_t s = 0; s < n; ++s) {
@@ -961,6 +980,7 @@ struct Stage {
         {
             XYZPlot plot;
             plot.title = base_title() + "trajectories in extended phase space";
+            label_extended(plot);
             for (std::size_t s = 0; s < n; ++s) {
                 PlotSeries3D line;
                 line.color = palette[s % palette.size()];
@@ -1014,7 +1034,7 @@ struct Stage {
         if (!in.plots) return;
         XYPlot plot;
         plot.title = base_title() + "the forcing f(t)";
-        plot.x_label = "t";
+        plot.x_label = time_label();
         plot.y_label = "f(t)";
         plot.aspect = 0.4;
         PlotSeries line;
@@ -1099,8 +1119,8 @@ struct Stage {
         {
             XYPlot plot;
             plot.title = base_title() + "relative stretching of the advected barriers";
-            plot.x_label = "t";
-            plot.y_label = "δℓ(t) × 100";
+            plot.x_label = time_label();
+            plot.y_label = "δℓ(t) [%]";
             plot.aspect = 0.5;
             plot.legend = XYPlot::Legend::outside_right;
             for (std::size_t k = 0; k < chosen.size(); ++k) {
@@ -1121,6 +1141,7 @@ struct Stage {
         {
             XYPlot plot;
             plot.title = base_title() + "barriers advected from t₀ = " + fmt_g(in.t0);
+            label_phase_plane(plot);
             plot.equal_aspect = true;
             plot.legend = XYPlot::Legend::outside_right;
             const std::size_t shown = std::min<std::size_t>(times.size(), 9);
@@ -1144,6 +1165,7 @@ struct Stage {
         if (spec.tube && !tubes.empty()) {
             XYZPlot plot;
             plot.title = base_title() + "barriers swept through extended phase space";
+            label_extended(plot);
             for (std::size_t k = 0; k < tubes.size(); ++k) {
                 const BarrierTube &tube = tubes[k];
                 PlotSurface3D surface;
@@ -1164,6 +1186,19 @@ struct Stage {
                 for (std::size_t p = 0; p + 1 < barrier.xy.size(); p += 2)
                     ring.xyz.insert(ring.xyz.end(), {barrier.xy[p], barrier.xy[p + 1], in.t0});
                 plot.series.push_back(ring);
+                // Its last advected slice in the tube's colour names the tube in the legend, with the colour the
+                // same barrier has in stretching.png.
+                if (!tube.slices.empty()) {
+                    PlotSeries3D last;
+                    last.color = surface.color;
+                    last.width = 1.6;
+                    last.closed = tube.closed;
+                    if (legend) last.label = fmt::format("barrier {} ({})", chosen[k], barrier.kind);
+                    const std::vector<double> &curve = tube.slices.back();
+                    for (std::size_t p = 0; p + 1 < curve.size(); p += 2)
+                        last.xyz.insert(last.xyz.end(), {curve[p], curve[p + 1], tube.slice_times.back()});
+                    plot.series.push_back(last);
+                }
             }
             plot_xyz_png(out / "tube.png", plot);
             add_file(out / "tube.png");

@@ -1,14 +1,21 @@
-// The `parabolic` BarrierExtractor (paper section 2.1): parabolic barriers are open shearlines r' = eta±(r)
-// (eq. `shrline`) whose pointwise geodesic shear deviation d_g^eta± (eq. `dg_shr`, general form) stays below a
-// small threshold. Shearlines are seeded on a lattice, truncated to the compact segments where d_g < max_deviation,
-// and the segments whose mean deviation is locally minimal across their neighbours are the barriers. Built on the
-// core's shear fields (shear.hpp), tensor lines and curves; links the core's C++ library.
+// The `parabolic` BarrierExtractor: parabolic barriers, by one of two methods.
+// - "shearless" (default): jet cores, the shearless barriers of Farazmand, Blazevski & Haller (2014): material
+//   lines of locally weakest stretching, traced as trenches of the FTLE field (trenches.hpp). At a jet core the
+//   shear vanishes and C = I, so no shearline passes there; the trench does.
+// - "shearline": the paper's section 2.1 (Haller & Beron-Vera 2012): open shearlines r' = eta±(r) (eq. `shrline`)
+//   whose pointwise geodesic shear deviation d_g^eta± (eq. `dg_shr`, general form) stays below a small threshold.
+//   Shearlines are seeded on a lattice, truncated to the compact segments where d_g < max_deviation, and the
+//   segments whose mean deviation is locally minimal across their neighbours are the barriers: in a jet, the lines
+//   of strongest shear on either side of the core.
+// Built on the core's shear fields (shear.hpp), tensor lines and curves; links the core's C++ library.
 #include <geobarrier/curves.hpp>
 #include <geobarrier/line_field.hpp>
 #include <geobarrier/output.hpp>
 #include <geobarrier/sdk.hpp>
 #include <geobarrier/shear.hpp>
 #include <geobarrier/tensor_lines.hpp>
+
+#include "trenches.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -45,6 +52,13 @@ std::string format(double v) {
     return s.str();
 }
 
+// The FTLE picture's mask: the FTLE is a scalar, defined at degenerate points too (C = I on a steady jet core).
+std::vector<std::uint8_t> ftle_mask(const CauchyGreenField &cg) {
+    std::vector<std::uint8_t> mask(cg.mask);
+    for (std::uint8_t &m : mask) m &= mask_trajectory_bits;
+    return mask;
+}
+
 // Does the polyline of `s` pass within r of (x, y)? (Its points are at most half a grid cell apart, so testing the
 // points is enough for radii of a few cells.)
 bool passes_near(const Segment &s, double x, double y, double r) {
@@ -58,36 +72,48 @@ struct Parabolic {
     static constexpr const char *name = "parabolic";
     static constexpr const char *version = "1.0.0";
     static constexpr const char *doc =
-        "parabolic barriers (paper section 2.1): open shearlines whose geodesic shear deviation stays below a "
-        "threshold; the locally least-deviating ones";
+        "parabolic barriers: jet cores as trenches of the FTLE (shearless barriers, Farazmand, Blazevski & Haller "
+        "2014), or the paper's open shearlines of small geodesic shear deviation (section 2.1)";
     static constexpr const char *required_fields[] = {"lambda1", "lambda2", "xi1_x", "xi1_y", "ftle", nullptr};
     static constexpr gb_param_spec params[] = {
+        string_param("method", "shearless", "shearless|shearline",
+                     "shearless: jet cores, trenches of the FTLE; shearline: the paper's open shearlines of small d_g"),
+        real_param("min_depth", 0.05, 0.0, 1.0, "",
+                   "shearless: trench depth (FTLE 3 grid spacings across minus FTLE on it), as a fraction of the "
+                   "FTLE range"),
         real_param("max_deviation", 0.1, 0.0, HUGE_VAL, "",
-                   "epsilon: shearlines are cut where the pointwise d_g^eta >= this"),
-        string_param("families", "both", "both|eta+|eta-", "shearline families searched"),
-        integer_param("seed_spacing", 2, 1, 1e6, "grid cells between neighbouring seeds (seeds sit on grid points)"),
+                   "shearline: epsilon: shearlines are cut where the pointwise d_g^eta >= this"),
+        string_param("families", "both", "both|eta+|eta-", "shearline: shearline families searched"),
+        integer_param("seed_spacing", 2, 1, 1e6,
+                      "shearline: grid cells between neighbouring seeds (seeds sit on grid points)"),
         real_param("max_length", 0.0, 0.0, HUGE_VAL, "state",
-                   "longest shearline, per direction from its seed; 0 = 2 box diagonals"),
+                   "longest shearline or trench, per direction from its seed; 0 = 2 box diagonals"),
         real_param("min_length", 0.0, 0.0, HUGE_VAL, "state",
-                   "segments shorter than this are no candidates; 0 = 1/4 of the box diagonal"),
+                   "shorter segments or trenches are no barriers; 0 = 1/4 of the box diagonal"),
         real_param("neighbour_distance", 0.0, 0.0, HUGE_VAL, "state",
-                   "neighbours of a segment pass within this of its midpoint; 0 = 3 seed spacings"),
-        integer_param("max_barriers", 0, 0, 1e9, "report at most this many barriers, least mean deviation first; 0 = all"),
+                   "shearline: neighbours of a segment pass within this of its midpoint; 0 = 3 seed spacings"),
+        integer_param("max_barriers", 0, 0, 1e9,
+                      "report at most this many barriers, the best first (deepest trench, least mean deviation); "
+                      "0 = all"),
         real_param("singular_gap", default_singular_gap, 0.0, 0.999, "",
-                   "shearlines stop where lambda2 - lambda1 <= singular_gap lambda2 (eta± undefined)"),
+                   "shearline: shearlines stop where lambda2 - lambda1 <= singular_gap lambda2 (eta± undefined)"),
         string_param("deviation_form", "general", "general|area-preserving",
-                     "d_g formula: general (any flow) or the paper's eq. dg_shr (lambda1 lambda2 = 1 only)"),
+                     "shearline: d_g formula: general (any flow) or the paper's eq. dg_shr (lambda1 lambda2 = 1 only)"),
     };
 
     explicit Parabolic(const sdk::Params &p)
-        : m_epsilon(p.real("max_deviation")), m_families(p.string("families")),
+        : m_shearless(p.string("method") == "shearless"), m_min_depth(p.real("min_depth")),
+          m_epsilon(p.real("max_deviation")), m_families(p.string("families")),
           m_seed_spacing(static_cast<std::size_t>(p.integer("seed_spacing"))), m_max_length(p.real("max_length")),
           m_min_length(p.real("min_length")), m_neighbour_distance(p.real("neighbour_distance")),
           m_max_barriers(static_cast<std::size_t>(p.integer("max_barriers"))), m_singular_gap(p.real("singular_gap")),
           m_area_preserving(p.string("deviation_form") == "area-preserving") {}
 
     void extract(const sdk::Host &host, const gb_extract_input &in) const;
+    void extract_shearless(const sdk::Host &host, const gb_extract_input &in) const;
 
+    bool m_shearless;
+    double m_min_depth;
     double m_epsilon;
     std::string m_families;
     std::size_t m_seed_spacing;
@@ -97,7 +123,65 @@ struct Parabolic {
     bool m_area_preserving;
 };
 
+// Jet cores: trenches of the FTLE (a monotone function of lambda2, on a log scale), at least min_length long,
+// deepest first.
+void Parabolic::extract_shearless(const sdk::Host &host, const gb_extract_input &in) const {
+    const auto started = std::chrono::steady_clock::now();
+    const CauchyGreenField cg = cauchy_green_from_input(in);
+    const Grid &g = cg.grid;
+    const double diagonal = std::hypot(g.x_max - g.x_min, g.y_max - g.y_min);
+    const double min_length = m_min_length > 0 ? m_min_length : 0.25 * diagonal;
+    // The FTLE is a scalar: it stays usable at degenerate points (C = I at a steady jet core, FTLE = 0).
+    double low = HUGE_VAL, high = -HUGE_VAL;
+    for (std::size_t k = 0; k < g.size(); ++k)
+        if (!(cg.mask[k] & mask_trajectory_bits) && std::isfinite(cg.ftle[k])) {
+            low = std::min(low, cg.ftle[k]);
+            high = std::max(high, cg.ftle[k]);
+        }
+    parabolic::TrenchSettings settings;
+    settings.min_depth = high > low ? m_min_depth * (high - low) : HUGE_VAL;
+    settings.max_length = m_max_length > 0 ? m_max_length : 2.0 * diagonal;
+    const std::vector<parabolic::Trench> all =
+        parabolic::trace_trenches(g, cg.ftle, cg.mask, mask_trajectory_bits, settings);
+    if (host.progress(0.8)) throw std::runtime_error("parabolic: stopped on request");
+    std::vector<const parabolic::Trench *> kept;
+    for (const parabolic::Trench &t : all)
+        if (t.length >= min_length) kept.push_back(&t);
+    std::stable_sort(kept.begin(), kept.end(), [](const parabolic::Trench *a, const parabolic::Trench *b) {
+        return a->mean_depth > b->mean_depth;
+    });
+    if (m_max_barriers > 0 && kept.size() > m_max_barriers) kept.resize(m_max_barriers);
+    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+    host.info(std::to_string(all.size()) + " FTLE trenches at least " + format(settings.min_depth) + " deep, " +
+              std::to_string(kept.size()) + " at least " + format(min_length) +
+              " long: parabolic barriers (jet cores) in " + format(elapsed) + " s");
+    for (std::size_t b = 0; b < kept.size(); ++b) {
+        const parabolic::Trench &t = *kept[b];
+        const CurveStats ftle = curve_statistics(t.xy, sample_along(g, cg.ftle, cg.mask, t.xy, mask_trajectory_bits),
+                                                 t.closed);
+        host.add_barrier("parabolic", t.closed, t.xy,
+                         {{"length", t.length},
+                          {"mean_ftle", ftle.mean},
+                          {"trench_depth", t.mean_depth},
+                          {"rank", static_cast<double>(b + 1)}});
+        host.set_barrier_attributes({{"method", "\"shearless\""}});
+    }
+    // The picture: trenches too short (black) and the barriers (red) over the FTLE.
+    if (in.plots && in.output_dir) {
+        FieldPlot plot;
+        plot.title = "Parabolic barriers (jet cores, red): FTLE trenches; shorter trenches black";
+        plot.colorbar_label = "FTLE";
+        plot.x_label = sdk::axis_label(in, 0);
+        plot.y_label = sdk::axis_label(in, 1);
+        for (const parabolic::Trench &t : all)
+            if (t.length < min_length) plot.curves.push_back({t.xy, "black", 0.8, t.closed});
+        for (const parabolic::Trench *t : kept) plot.curves.push_back({t->xy, "red", 2.5, t->closed});
+        plot_field_png(std::filesystem::path(in.output_dir) / "parabolic.png", g, cg.ftle, ftle_mask(cg), plot);
+    }
+}
+
 void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const {
+    if (m_shearless) return extract_shearless(host, in);
     const auto started = std::chrono::steady_clock::now();
     const CauchyGreenField cg = cauchy_green_from_input(in);
     const Grid &g = cg.grid;
@@ -245,7 +329,7 @@ void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const
                           {"mean_geodesic_deviation", s.mean_deviation},
                           {"max_geodesic_deviation", s.max_deviation},
                           {"rank", static_cast<double>(b + 1)}});
-        host.set_barrier_attributes({{"family", s.family > 0 ? "\"+\"" : "\"-\""}});
+        host.set_barrier_attributes({{"family", s.family > 0 ? "\"+\"" : "\"-\""}, {"method", "\"shearline\""}});
     }
 
     // 3. The picture: open shearlines (grey), candidates (black), barriers (red) over the FTLE.
@@ -253,12 +337,14 @@ void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const
         FieldPlot plot;
         plot.title = "Parabolic barriers (red); shearlines with d_g < " + format(m_epsilon) + " (black)";
         plot.colorbar_label = "FTLE";
+        plot.x_label = sdk::axis_label(in, 0);
+        plot.y_label = sdk::axis_label(in, 1);
         const std::size_t stride = std::max<std::size_t>(1, all_lines.size() / 150);
         for (std::size_t l = 0; l < all_lines.size(); l += stride)
             plot.curves.push_back({all_lines[l], "#b0b0b0", 0.6, false});
         for (const Segment &s : candidates) plot.curves.push_back({s.xy, "black", 0.8, false});
         for (std::size_t b : barriers) plot.curves.push_back({candidates[b].xy, "red", 2.5, false});
-        plot_field_png(std::filesystem::path(in.output_dir) / "parabolic.png", g, cg.ftle, cg.mask, plot);
+        plot_field_png(std::filesystem::path(in.output_dir) / "parabolic.png", g, cg.ftle, ftle_mask(cg), plot);
     }
 }
 

@@ -32,18 +32,6 @@ IntegratorSettings settings_for(const std::string &method, double tol, std::size
     return s;
 }
 
-// n points spread over [-1, 1]^2 on a skewed lattice (no symmetric pairs hide sign errors).
-void sample_points(std::size_t n, std::vector<double> &x, std::vector<double> &y) {
-    x.resize(n);
-    y.resize(n);
-    for (std::size_t k = 0; k < n; ++k) {
-        x[k] = -1.0 + 2.0 * std::fmod(0.618033988749895 * static_cast<double>(k) + 0.1, 1.0);
-        y[k] = -1.0 + 2.0 * static_cast<double>(k) / static_cast<double>(n - 1);
-    }
-}
-
-double energy(double x, double y) { return 0.5 * y * y - 0.5 * x * x + 0.25 * x * x * x * x; }
-
 // Classic RK4 applied to x' = a x multiplies by this per step of size h.
 double rk4_factor(double z) { return 1.0 + z + z * z / 2.0 + z * z * z / 6.0 + z * z * z * z / 24.0; }
 
@@ -54,7 +42,7 @@ TEST_CASE("linear saddle: flow map = (x0 e^{aT}, y0 e^{-aT}) for every stepper, 
     const System saddle = make_system("linear-saddle", {{"a", a}});
     const Dynamics dyn{&saddle, nullptr};
     std::vector<double> x0, y0;
-    sample_points(37, x0, y0); // 37: batches of 16 leave a partial last batch
+    test::sample_points(37, x0, y0); // 37: batches of 16 leave a partial last batch
     for (const std::string method : {"dopri5", "rkf78", "rk4"}) {
         for (double t1 : {6.0, -4.0}) {
             for (std::size_t batch : {1, 16}) {
@@ -102,7 +90,7 @@ TEST_CASE("linear saddle: variational DF = diag(e^{aT}, e^{-aT})") {
     const System saddle = make_system("linear-saddle", {{"a", a}});
     const Dynamics dyn{&saddle, nullptr};
     std::vector<double> x0, y0;
-    sample_points(20, x0, y0);
+    test::sample_points(20, x0, y0);
     for (const std::string method : {"dopri5", "rkf78", "rk4"}) {
         for (double T : {3.0, -3.0}) {
             CAPTURE(method);
@@ -241,7 +229,8 @@ TEST_CASE("unforced undamped Duffing conserves H = y^2/2 - x^2/2 + x^4/4") {
             CHECK(r.stats.masked == 0);
             double worst = 0.0;
             for (std::size_t k = 0; k < x0.size(); ++k)
-                worst = std::max(worst, std::abs(energy(r.x[k], r.y[k]) - energy(x0[k], y0[k])));
+                worst = std::max(worst, std::abs(test::duffing_energy(r.x[k], r.y[k]) -
+                                                 test::duffing_energy(x0[k], y0[k])));
             MESSAGE(method << ": max |dH| = " << worst);
             // Local errors <= 1e-10 (1 + |x|) in state give |dH| <= |grad H| 1e-10 per step, N ~ 10^2-10^3 steps.
             CHECK(worst < 1e-7);
@@ -438,7 +427,7 @@ TEST_CASE("an exception inside the parallel batches reaches the caller") {
     const System saddle = make_system("linear-saddle");
     const Dynamics dyn{&saddle, nullptr};
     std::vector<double> x0, y0;
-    sample_points(100, x0, y0);
+    test::sample_points(100, x0, y0);
     // The progress callback runs inside the OpenMP region, like the plugin calls; what it throws must come out
     // (the same path carries a PluginError from a failing plugin call).
     CHECK_THROWS_WITH_AS(advect_points(dyn, x0, y0, 0.0, 1.0, settings_for("dopri5", 1e-8, 4), false, std::nullopt,
@@ -453,7 +442,7 @@ TEST_CASE("a lockstep batch gives the batch = 1 result to within the integration
     const Forcing cosine = make_forcing("cosine", {{"amplitude", 0.08}, {"omega", 1.0}, {"phase", 0.3}});
     const Dynamics dyn{&duffing, &cosine};
     std::vector<double> x0, y0;
-    sample_points(64, x0, y0);
+    test::sample_points(64, x0, y0);
     const double T = 2.0 * pi;
     const AdvectResult ref = advect_points(dyn, x0, y0, 0.0, T, settings_for("rkf78", 1e-13, 1), true);
     for (const std::string method : {"dopri5", "rkf78"}) {
@@ -489,7 +478,7 @@ TEST_CASE("statistics are consistent with the steppers' stage counts") {
     const System saddle = make_system("linear-saddle", {{"a", 0.5}});
     const Dynamics dyn{&saddle, nullptr};
     std::vector<double> x0, y0;
-    sample_points(10, x0, y0);
+    test::sample_points(10, x0, y0);
     // One batch of 10 lanes, so per-batch counts are the totals. Rhs calls per batch:
     //   dopri5: 1 initial + 6 per attempt (FSAL);  rkf78: 1 initial + 12 per attempt + 1 per accepted step;
     //   rk4: 4 per step.
@@ -537,7 +526,7 @@ TEST_CASE("step limit and progress: no hang, remaining lanes masked, progress re
     const System saddle = make_system("linear-saddle", {{"a", 0.5}});
     const Dynamics dyn{&saddle, nullptr};
     std::vector<double> x0, y0;
-    sample_points(50, x0, y0);
+    test::sample_points(50, x0, y0);
     IntegratorSettings s = settings_for("dopri5", 1e-12, 8);
     s.max_steps = 5; // far too few for T = 10 at 1e-12
     std::atomic<std::size_t> calls{0}, last_total{0}, max_done{0};

@@ -34,18 +34,6 @@ IntegratorSettings lockstep(const std::string &method, bool adaptive, double ste
     return s;
 }
 
-// n points over [-1, 1]^2 on a skewed lattice.
-void sample_points(std::size_t n, std::vector<double> &x, std::vector<double> &y) {
-    x.resize(n);
-    y.resize(n);
-    for (std::size_t k = 0; k < n; ++k) {
-        x[k] = -1.0 + 2.0 * std::fmod(0.618033988749895 * static_cast<double>(k) + 0.1, 1.0);
-        y[k] = -1.0 + 2.0 * static_cast<double>(k) / static_cast<double>(n - 1);
-    }
-}
-
-double energy(double x, double y) { return 0.5 * y * y - 0.5 * x * x + 0.25 * x * x * x * x; }
-
 }  // namespace
 
 TEST_CASE("lockstep kernel, linear saddle: positions and DF = diag(e^{aT}, e^{-aT}) for every tableau") {
@@ -53,7 +41,7 @@ TEST_CASE("lockstep kernel, linear saddle: positions and DF = diag(e^{aT}, e^{-a
     const System saddle = make_system("linear-saddle", {{"a", a}});
     const Dynamics dyn{&saddle, nullptr};
     std::vector<double> x0, y0;
-    sample_points(37, x0, y0); // batches of 16 leave a partial last batch
+    test::sample_points(37, x0, y0); // batches of 16 leave a partial last batch
     struct Case {
         const char *method;
         bool adaptive;
@@ -146,7 +134,7 @@ TEST_CASE("lockstep kernel, unforced Duffing: H = y^2/2 - x^2/2 + x^4/4 is conse
         CHECK(r.stats.masked == 0);
         double worst = 0.0;
         for (std::size_t k = 0; k < x0.size(); ++k)
-            worst = std::max(worst, std::abs(energy(r.x[k], r.y[k]) - energy(x0[k], y0[k])));
+            worst = std::max(worst, std::abs(test::duffing_energy(r.x[k], r.y[k]) - test::duffing_energy(x0[k], y0[k])));
         MESSAGE("dop853 adaptive=" << c.settings.adaptive << ": max |dH| = " << worst);
         CHECK(worst < c.bound);
     }
@@ -157,7 +145,7 @@ TEST_CASE("lockstep and Boost.Odeint engines agree; rhs counts follow the tablea
     const Forcing cosine = make_forcing("cosine", {{"amplitude", 0.08}});
     const Dynamics dyn{&duffing, &cosine};
     std::vector<double> x0, y0;
-    sample_points(24, x0, y0);
+    test::sample_points(24, x0, y0);
     for (const std::string method : {"dopri5", "rkf78"}) {
         CAPTURE(method);
         IntegratorSettings ours = lockstep(method, true, 1e-11, 8), theirs = ours;
@@ -186,7 +174,7 @@ TEST_CASE("the plugin's fused step (ABI 1.2 advance) gives the stage-by-stage ke
     const Dynamics dyn{&duffing, &cosine};
     REQUIRE(duffing.has_advance());
     std::vector<double> x0, y0;
-    sample_points(37, x0, y0); // batches of 16 leave a partial last batch
+    test::sample_points(37, x0, y0); // batches of 16 leave a partial last batch
     x0[5] = std::nan("");      // masked from the start: the fused path must leave it masked too
     const Bounds box{-1.3, 1.3, -1.1, 1.1}; // some lanes leave it mid-run and are frozen there
     for (const std::string method : {"dop853", "rk4"}) {

@@ -5,8 +5,10 @@
 
 #include <geobarrier/plugin.hpp>
 
+#include <cmath>
 #include <filesystem>
 #include <string>
+#include <vector>
 
 namespace geobarrier::test {
 
@@ -31,6 +33,19 @@ inline Forcing make_forcing(const std::string &name, const nlohmann::json &param
     const PluginHandle &h = registry().find(PluginKind::forcing, name, "/forcing/plugin");
     return Forcing(h, validate_params(h.info, params, "/forcing/params"));
 }
+
+// n points spread over [-1, 1]^2 on a skewed lattice (no symmetric pairs hide sign errors).
+inline void sample_points(std::size_t n, std::vector<double> &x, std::vector<double> &y) {
+    x.resize(n);
+    y.resize(n);
+    for (std::size_t k = 0; k < n; ++k) {
+        x[k] = -1.0 + 2.0 * std::fmod(0.618033988749895 * static_cast<double>(k) + 0.1, 1.0);
+        y[k] = -1.0 + 2.0 * static_cast<double>(k) / static_cast<double>(n - 1);
+    }
+}
+
+// The unforced, undamped Duffing oscillator's energy H = y^2/2 - x^2/2 + x^4/4: conserved along its trajectories.
+inline double duffing_energy(double x, double y) { return 0.5 * y * y - 0.5 * x * x + 0.25 * x * x * x * x; }
 
 }  // namespace geobarrier::test
 

@@ -134,7 +134,8 @@ TEST_CASE("lockstep kernel, unforced Duffing: H = y^2/2 - x^2/2 + x^4/4 is conse
         CHECK(r.stats.masked == 0);
         double worst = 0.0;
         for (std::size_t k = 0; k < x0.size(); ++k)
-            worst = std::max(worst, std::abs(test::duffing_energy(r.x[k], r.y[k]) - test::duffing_energy(x0[k], y0[k])));
+            worst = std::max(worst, std::abs(test::duffing_energy(r.x[k], r.y[k]) -
+                                             test::duffing_energy(x0[k], y0[k])));
         MESSAGE("dop853 adaptive=" << c.settings.adaptive << ": max |dH| = " << worst);
         CHECK(worst < c.bound);
     }

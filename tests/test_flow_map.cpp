@@ -114,13 +114,7 @@ TEST_CASE("linear saddle on a grid: both gradient methods give DF = diag(e^{aT},
     const double a = 0.9, T = 4.0;
     const System saddle = make_system("linear-saddle", {{"a", a}});
     const Dynamics dyn{&saddle, nullptr};
-    Grid grid;
-    grid.x_min = -1.0;
-    grid.x_max = 1.0;
-    grid.y_min = -0.5;
-    grid.y_max = 0.7;
-    grid.nx = 13;
-    grid.ny = 7;
+    const Grid grid{-1.0, 1.0, -0.5, 0.7, 13, 7}; // x range, y range, nx, ny
     for (GradientMethod gm : {GradientMethod::variational, GradientMethod::auxiliary_grid}) {
         for (double t1 : {T, -T}) {
             for (bool positions : {false, true}) {
@@ -172,13 +166,7 @@ TEST_CASE("rigid rotation: C = I, so lambda1 = lambda2 = 1, FTLE 0, degenerate")
     const double omega = 1.7, T = 3.0;
     const System rotation = make_system("rigid-rotation", {{"omega", omega}});
     const Dynamics dyn{&rotation, nullptr};
-    Grid grid;
-    grid.x_min = -1.0;
-    grid.x_max = 1.0;
-    grid.y_min = -1.0;
-    grid.y_max = 1.0;
-    grid.nx = 9;
-    grid.ny = 9;
+    const Grid grid{-1.0, 1.0, -1.0, 1.0, 9, 9}; // x range, y range, nx, ny
     REQUIRE(rotation.has_jacobian());
     for (GradientMethod gm : {GradientMethod::auxiliary_grid, GradientMethod::variational}) {
         CAPTURE(to_string(gm));
@@ -244,13 +232,7 @@ TEST_CASE("forced Duffing: variational and auxiliary-grid gradients agree") {
     const System duffing = make_system("duffing");
     const Forcing cosine = make_forcing("cosine", {{"amplitude", 0.08}, {"omega", 1.0}, {"phase", 0.0}});
     const Dynamics dyn{&duffing, &cosine};
-    Grid grid;
-    grid.x_min = -1.8;
-    grid.x_max = 1.8;
-    grid.y_min = -1.2;
-    grid.y_max = 1.2;
-    grid.nx = 15;
-    grid.ny = 11;
+    const Grid grid{-1.8, 1.8, -1.2, 1.2, 15, 11}; // x range, y range, nx, ny
     const double T = 4.0 * pi, offset = 1e-4;
     const IntegratorSettings s = settings_for("dopri5", 1e-11, 16);
     const GridFlowMap var = compute_grid_flow_map(dyn, grid, 0.0, T, s, GradientMethod::variational, offset, true);
@@ -326,13 +308,7 @@ TEST_CASE("bounds: trajectories leaving the box are masked, the others are exact
         CHECK(r.stats.masked == expected);
     }
     // On a grid, a point is masked when any of its auxiliary neighbours is.
-    Grid grid;
-    grid.x_min = -1.0;
-    grid.x_max = 1.0;
-    grid.y_min = 0.0;
-    grid.y_max = 0.5;
-    grid.nx = 21;
-    grid.ny = 2;
+    const Grid grid{-1.0, 1.0, 0.0, 0.5, 21, 2}; // x range, y range, nx, ny
     const GridFlowMap fm = compute_grid_flow_map(dyn, grid, 0.0, T, settings_for("dopri5", 1e-10, 16),
                                                  GradientMethod::auxiliary_grid, 1e-4, false, box);
     for (std::size_t p = 0; p < grid.size(); ++p) {

@@ -80,13 +80,7 @@ TEST_CASE("lockstep kernel, rigid rotation: DF is the rotation by omega T, FTLE 
     const double omega = 1.7, T = 3.0;
     const System rotation = make_system("rigid-rotation", {{"omega", omega}});
     const Dynamics dyn{&rotation, nullptr};
-    Grid grid;
-    grid.x_min = -1.0;
-    grid.x_max = 1.0;
-    grid.y_min = -1.0;
-    grid.y_max = 1.0;
-    grid.nx = 7;
-    grid.ny = 5;
+    const Grid grid{-1.0, 1.0, -1.0, 1.0, 7, 5}; // x range, y range, nx, ny
     const double c = std::cos(omega * T), s = std::sin(omega * T);
     // dop853, h = 3 / ceil(3 / 0.36) = 0.333, |omega h| = 0.57: per step about 0.57^9 / 9! = 1.7e-8 of relative
     // error, 9 steps: 1.5e-7, bound 2e-7; the adaptive runs: N tol with N <= 200.
@@ -243,13 +237,7 @@ TEST_CASE("the default (standard preset) FTLE of the paper's first example match
     const System duffing = make_system("duffing");
     const Forcing cosine = make_forcing("cosine", {{"amplitude", 0.08}});
     const Dynamics dyn{&duffing, &cosine};
-    Grid grid;
-    grid.x_min = -1.8;
-    grid.x_max = 1.8;
-    grid.y_min = -1.2;
-    grid.y_max = 1.2;
-    grid.nx = 46;
-    grid.ny = 31;
+    const Grid grid{-1.8, 1.8, -1.2, 1.2, 46, 31}; // x range, y range, nx, ny
     const double T = 8 * pi;
     const Experiment e = parse_experiment(nlohmann::json{{"system", {{"plugin", "duffing"}}},
                                                          {"grid", {{"x", {-1.8, 1.8}}, {"y", {-1.2, 1.2}}, {"n", {46, 31}}}},

@@ -135,13 +135,7 @@ TEST_CASE("write_fields_netcdf: round trip of a 4 x 3 grid with two variables an
 {
     ScratchDir dir("netcdf");
     const fs::path file = dir.path() / "fields.nc";
-    Grid grid;
-    grid.x_min = -1.5;
-    grid.x_max = 1.5;
-    grid.y_min = 0.0;
-    grid.y_max = 2.0;
-    grid.nx = 4;
-    grid.ny = 3;
+    const Grid grid{-1.5, 1.5, 0.0, 2.0, 4, 3}; // x range, y range, nx, ny
     const double nan = std::numeric_limits<double>::quiet_NaN();
     // Row-major, row = y. a has a NaN at an unmasked point (k = 3): it must become _FillValue too.
     const std::vector<double> a{0.5, 1.0, 1.5, nan, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0, 5.5, 6.0};
@@ -295,13 +289,7 @@ TEST_CASE("plot_field_png: a PNG of the requested width")
 {
     ScratchDir dir("png");
     const fs::path file = dir.path() / "lambda2.png";
-    Grid grid;
-    grid.x_min = -2.0;
-    grid.x_max = 2.0;
-    grid.y_min = -1.0;
-    grid.y_max = 1.0;
-    grid.nx = 41;
-    grid.ny = 21;
+    const Grid grid{-2.0, 2.0, -1.0, 1.0, 41, 21}; // x range, y range, nx, ny
     std::vector<double> values(grid.size());
     std::vector<std::uint8_t> mask(grid.size(), 0);
     for (std::size_t i = 0; i < grid.ny; ++i)

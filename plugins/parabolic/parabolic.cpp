@@ -219,17 +219,18 @@ void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const
         std::vector<TwoWayLine> lines;
         const std::size_t block = 64;
         for (std::size_t start = 0; start < n; start += block) {
-            std::vector<std::size_t> todo;
+            std::vector<std::size_t> unvisited_seeds;
             for (std::size_t k = start; k < std::min(n, start + block); ++k) {
                 const std::size_t j = static_cast<std::size_t>(std::lround((seeds[2 * k] - g.x_min) / g.dx()));
                 const std::size_t i = static_cast<std::size_t>(std::lround((seeds[2 * k + 1] - g.y_min) / g.dy()));
-                if (!visited[i * g.nx + j]) todo.push_back(k);
+                if (!visited[i * g.nx + j]) unvisited_seeds.push_back(k);
             }
-            std::vector<TwoWayLine> block_lines(todo.size());
+            std::vector<TwoWayLine> block_lines(unvisited_seeds.size());
 #pragma omp parallel for schedule(dynamic)
-            for (std::size_t q = 0; q < todo.size(); ++q)
-                block_lines[q] =
-                    integrate_tensor_line_both_ways(field, seeds[2 * todo[q]], seeds[2 * todo[q] + 1], settings);
+            for (std::size_t q = 0; q < unvisited_seeds.size(); ++q) {
+                const std::size_t k = unvisited_seeds[q];
+                block_lines[q] = integrate_tensor_line_both_ways(field, seeds[2 * k], seeds[2 * k + 1], settings);
+            }
             for (TwoWayLine &line : block_lines) {
                 for (std::size_t p = 0; p + 1 < line.xy.size(); p += 2) {
                     const long j = std::lround((line.xy[p] - g.x_min) / g.dx());

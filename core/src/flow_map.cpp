@@ -178,10 +178,11 @@ struct BatchContext {
             for (std::size_t k = 0; k < n; ++k) {
                 const double j11 = J[k], j12 = J[n + k], j21 = J[2 * n + k], j22 = J[3 * n + k];
                 const double f11 = F[k], f12 = F[n + k], f21 = F[2 * n + k], f22 = F[3 * n + k];
-                D[k] = j11 * f11 + j12 * f21;
-                D[n + k] = j11 * f12 + j12 * f22;
-                D[2 * n + k] = j21 * f11 + j22 * f21;
-                D[3 * n + k] = j21 * f12 + j22 * f22;
+                // The SDK's fused step sums in this order too (sdk.hpp, FusedStep::derivative).
+                D[k] = detail::mul_add(j12, f21, j11 * f11);
+                D[n + k] = detail::mul_add(j12, f22, j11 * f12);
+                D[2 * n + k] = detail::mul_add(j22, f21, j21 * f11);
+                D[3 * n + k] = detail::mul_add(j22, f22, j21 * f12);
                 D[4 * n + k] = j11 + j22; // comp_log_det
             }
         }
@@ -365,29 +366,19 @@ struct DifferenceControl {
 template <class Tab, int I>
 void stage_state(double *__restrict y, const double *__restrict x, const double *__restrict k, std::size_t stride,
                  double h) {
-    constexpr detail::RkRow row = Tab::a[I];
-    static_assert(row.count > 0, "stage 0 is the derivative at the step's start");
+    static_assert(Tab::a[I].count > 0, "stage 0 is the derivative at the step's start");
 #pragma omp simd
-    for (std::size_t q = 0; q < stride; ++q) {
-        double s = row.terms[0].weight * k[row.terms[0].stage * stride + q];
-#pragma GCC unroll 16
-        for (int t = 1; t < row.count; ++t) s += row.terms[t].weight * k[row.terms[t].stage * stride + q];
-        y[q] = x[q] + h * s;
-    }
+    for (std::size_t q = 0; q < stride; ++q)
+        y[q] = detail::mul_add(h, detail::row_sum(Tab::a[I], [&](int j) { return k[j * stride + q]; }), x[q]);
 }
 
 // x_new = x + h sum_j b_j k_j.
 template <class Tab>
 void new_state(double *__restrict x_new, const double *__restrict x, const double *__restrict k, std::size_t stride,
                double h) {
-    constexpr detail::RkRow row = Tab::b;
 #pragma omp simd
-    for (std::size_t q = 0; q < stride; ++q) {
-        double s = row.terms[0].weight * k[row.terms[0].stage * stride + q];
-#pragma GCC unroll 16
-        for (int t = 1; t < row.count; ++t) s += row.terms[t].weight * k[row.terms[t].stage * stride + q];
-        x_new[q] = x[q] + h * s;
-    }
+    for (std::size_t q = 0; q < stride; ++q)
+        x_new[q] = detail::mul_add(h, detail::row_sum(Tab::b, [&](int j) { return k[j * stride + q]; }), x[q]);
 }
 
 // The local error estimate per component: h sum_j e_j k_j, or for DOP853 Hairer's combination of its 5th- and
@@ -395,16 +386,12 @@ void new_state(double *__restrict x_new, const double *__restrict x, const doubl
 // degree 1, so scaling it afterwards by atol + rtol |x| (error_norm) equals dop853.f's scaled form.
 template <class Tab>
 void error_estimate(double *__restrict err, const double *__restrict k, std::size_t stride, double h) {
-    constexpr detail::RkRow row = Tab::e, row3 = Tab::e3;
 #pragma omp simd
     for (std::size_t q = 0; q < stride; ++q) {
-        double s = row.terms[0].weight * k[row.terms[0].stage * stride + q];
-#pragma GCC unroll 16
-        for (int t = 1; t < row.count; ++t) s += row.terms[t].weight * k[row.terms[t].stage * stride + q];
+        const auto stage_value = [&](int j) { return k[j * stride + q]; };
+        const double s = detail::row_sum(Tab::e, stage_value);
         if constexpr (Tab::error == detail::RkError::dop853) {
-            double s3 = row3.terms[0].weight * k[row3.terms[0].stage * stride + q];
-#pragma GCC unroll 16
-            for (int t = 1; t < row3.count; ++t) s3 += row3.terms[t].weight * k[row3.terms[t].stage * stride + q];
+            const double s3 = detail::row_sum(Tab::e3, stage_value);
             const double e5 = h * s, e3 = h * s3;
             // DBL_MIN keeps 0 / 0 out (an exactly zero estimate, e.g. a frozen lane, stays 0).
             err[q] = e5 * std::abs(e5) / std::sqrt(e5 * e5 + 0.01 * e3 * e3 + min_scale);

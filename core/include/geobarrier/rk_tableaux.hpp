@@ -6,6 +6,16 @@
 #ifndef GEOBARRIER_RK_TABLEAUX_HPP
 #define GEOBARRIER_RK_TABLEAUX_HPP
 
+#include <cmath>
+
+// The Runge-Kutta pieces below and the SDK's fused step must be inlined into their lane loops, or the loops do not
+// vectorise.
+#if defined(__GNUC__)
+#define GEOBARRIER_ALWAYS_INLINE inline __attribute__((always_inline))
+#else
+#define GEOBARRIER_ALWAYS_INLINE inline
+#endif
+
 namespace geobarrier::detail {
 
 struct RkTerm {
@@ -17,6 +27,28 @@ struct RkRow {
     int count;
     RkTerm terms[13];
 };
+
+// a * b + c with one rounding where the target has fused multiply-add instructions (then it is one instruction), else
+// a * b + c. The builds use -ffp-contract=off, so the compiler never fuses on its own; the Runge-Kutta sums fuse
+// explicitly through here: a dop853 stage costs half the arithmetic instructions, and the core's kernel and a
+// plugin's fused step built with the same flags still round alike.
+GEOBARRIER_ALWAYS_INLINE double mul_add(double a, double b, double c) {
+#if defined(__FMA__) || defined(__aarch64__)
+    return std::fma(a, b, c);
+#else
+    return a * b + c;
+#endif
+}
+
+// sum over the row's terms of weight * value(stage), in term order, as a chain of mul_add: the one sum of the core's
+// kernel (flow_map.cpp) and of the SDK's fused step (sdk.hpp). Rows are compile-time constants, so after inlining
+// the loop unrolls with the zero coefficients already left out.
+template <class Value> GEOBARRIER_ALWAYS_INLINE double row_sum(const RkRow &row, Value value) {
+    double s = row.terms[0].weight * value(row.terms[0].stage);
+#pragma GCC unroll 16
+    for (int t = 1; t < row.count; ++t) s = mul_add(row.terms[t].weight, value(row.terms[t].stage), s);
+    return s;
+}
 
 // How a tableau estimates its local error: none (fixed step only), one embedded row e (err = h sum e_i k_i), or
 // DOP853's pair of a 5th- and a 3rd-order estimate combined as err5^2 / sqrt(err5^2 + 0.01 err3^2) (Hairer's dop853.f,

@@ -343,75 +343,82 @@ template <class T, class Tab, bool Variational> struct FusedStep {
     static constexpr int S = Tab::stages;
 
     // d/dt of the lane's extended state: v, DF' = Dv DF, (log|det DF|)' = tr Dv (Liouville).
-    static inline void derivative(const T &sys, double t, double f, const double *y, double *dy) {
+    GEOBARRIER_ALWAYS_INLINE static void derivative(const T &sys, double t, double f, const double *y,
+                                                        double *dy) {
         sys.field(t, y, f, dy);
         if constexpr (Variational) {
             double J[D * D];
             sys.field_jacobian(t, y, f, J);
             const double *F = y + D;
+#pragma GCC unroll 16
             for (unsigned i = 0; i < D; ++i)
+#pragma GCC unroll 16
                 for (unsigned j = 0; j < D; ++j) {
                     double s = J[i * D] * F[j];
-                    for (unsigned l = 1; l < D; ++l) s += J[i * D + l] * F[l * D + j];
+#pragma GCC unroll 16
+                    for (unsigned l = 1; l < D; ++l) s = geobarrier::detail::mul_add(J[i * D + l], F[l * D + j], s);
                     dy[D + i * D + j] = s;
                 }
             double trace = J[0];
+#pragma GCC unroll 16
             for (unsigned i = 1; i < D; ++i) trace += J[i * D + i];
             dy[D + D * D] = trace;
         }
     }
 
+    // y = x + h sum_j row_j k_j, component by component (flow_map.cpp's stage_state and new_state).
+    GEOBARRIER_ALWAYS_INLINE static void combine(const geobarrier::detail::RkRow &row, double h, const double *x,
+                                                     const double (*k)[C], double *y) {
+#pragma GCC unroll 16
+        for (unsigned q = 0; q < C; ++q)
+            y[q] = geobarrier::detail::mul_add(h, geobarrier::detail::row_sum(row, [&](int j) { return k[j][q]; }),
+                                               x[q]);
+    }
+
     template <int I>
-    static inline void stage(const T &sys, double t, double h, const double *forcing, const double *x, double (*k)[C]) {
+    GEOBARRIER_ALWAYS_INLINE static void stage(const T &sys, double t, double h, const double *forcing,
+                                                   const double *x, double (*k)[C]) {
         if constexpr (I == 0) {
             derivative(sys, t, forcing[0], x, k[0]);
         } else {
-            constexpr geobarrier::detail::RkRow row = Tab::a[I];
             double y[C];
-            for (unsigned q = 0; q < C; ++q) {
-                double s = row.terms[0].weight * k[row.terms[0].stage][q];
-                for (int m = 1; m < row.count; ++m) s += row.terms[m].weight * k[row.terms[m].stage][q];
-                y[q] = x[q] + h * s;
-            }
+            combine(Tab::a[I], h, x, k, y);
             derivative(sys, t + Tab::c[I] * h, forcing[I], y, k[I]);
         }
     }
     template <int... I>
-    static inline void stages(std::integer_sequence<int, I...>, const T &sys, double t, double h,
-                              const double *forcing, const double *x, double (*k)[C]) {
+    GEOBARRIER_ALWAYS_INLINE static void stages(std::integer_sequence<int, I...>, const T &sys, double t,
+                                                    double h, const double *forcing, const double *x,
+                                                    double (*k)[C]) {
         (stage<I>(sys, t, h, forcing, x, k), ...);
     }
 
+    // Lanes are independent (x_out never aliases x): tell the vectoriser so. (Clang vectorises some of these loops on
+    // its own; forcing it with `clang loop vectorize(assume_safety)` only brings warnings.) Every small loop above is
+    // unrolled by pragma: with std::fma in the sums GCC's own unrolling heuristics leave some in place, and a lane
+    // loop with inner loops does not vectorise.
     static void run(const T &sys, const gb_advance_request &r) {
         const std::size_t n = r.n, ld = r.ld;
-        const double t = r.t, h = r.h;
-        const double *forcing = r.forcing;
-        const double *xin = r.x, *dfin = r.df, *ldin = r.log_det;
-        double *xout = r.x_out, *dfout = r.df_out, *ldout = r.log_det_out;
-        constexpr geobarrier::detail::RkRow b = Tab::b;
-        // Lanes are independent (x_out never aliases x): tell the vectoriser so. (Clang vectorises some of these
-        // loops on its own; forcing it with `clang loop vectorize(assume_safety)` only brings warnings.)
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC ivdep
 #endif
         for (std::size_t lane = 0; lane < n; ++lane) {
-            double x[C], k[S][C];
-            for (unsigned i = 0; i < D; ++i) x[i] = xin[i * ld + lane];
+            double x[C], k[S][C], out[C];
+#pragma GCC unroll 16
+            for (unsigned i = 0; i < D; ++i) x[i] = r.x[i * ld + lane];
             if constexpr (Variational) {
-                for (unsigned m = 0; m < D * D; ++m) x[D + m] = dfin[m * ld + lane];
-                x[D + D * D] = ldin[lane];
+#pragma GCC unroll 16
+                for (unsigned m = 0; m < D * D; ++m) x[D + m] = r.df[m * ld + lane];
+                x[D + D * D] = r.log_det[lane];
             }
-            stages(std::make_integer_sequence<int, S>{}, sys, t, h, forcing, x, k);
-            double out[C];
-            for (unsigned q = 0; q < C; ++q) {
-                double s = b.terms[0].weight * k[b.terms[0].stage][q];
-                for (int m = 1; m < b.count; ++m) s += b.terms[m].weight * k[b.terms[m].stage][q];
-                out[q] = x[q] + h * s;
-            }
-            for (unsigned i = 0; i < D; ++i) xout[i * ld + lane] = out[i];
+            stages(std::make_integer_sequence<int, S>{}, sys, r.t, r.h, r.forcing, x, k);
+            combine(Tab::b, r.h, x, k, out);
+#pragma GCC unroll 16
+            for (unsigned i = 0; i < D; ++i) r.x_out[i * ld + lane] = out[i];
             if constexpr (Variational) {
-                for (unsigned m = 0; m < D * D; ++m) dfout[m * ld + lane] = out[D + m];
-                ldout[lane] = out[D + D * D];
+#pragma GCC unroll 16
+                for (unsigned m = 0; m < D * D; ++m) r.df_out[m * ld + lane] = out[D + m];
+                r.log_det_out[lane] = out[D + D * D];
             }
         }
     }

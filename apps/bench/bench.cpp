@@ -549,6 +549,7 @@ int main(int argc, char **argv) {
     std::size_t n = 1000, memory_n = 4000, scipy_n = 0, extraction_n = 1000;
     std::string out_dir = "out/bench", peers_dir, peers_source, program, machine, source = ".";
     std::string sections_text;
+    std::vector<std::string> tries;
     bool quick = false;
     int repeat = 0;
     app.add_option("--n", n, "grid points per direction of the headline runs")->check(CLI::Range(10, 20000));
@@ -566,6 +567,9 @@ int main(int argc, char **argv) {
                    "sweep and gyre with --quick, all without)");
     app.add_option("--repeat", repeat,
                    "runs per configuration, the fastest kept (default: 2 for threads and scaling, 1 elsewhere)");
+    app.add_option("--try", tries,
+                   "NAME=JSON: also run W with this patch merged into the experiment (RFC 7386, e.g. "
+                   "'step 0.4={\"integrator\":{\"step\":0.4}}'), next to the headline; repeatable");
     app.add_flag("--quick", quick, "the short run for the docs (a few minutes): no sweep, no double gyre");
     CLI11_PARSE(app, argc, argv);
 
@@ -609,6 +613,19 @@ int main(int argc, char **argv) {
             headline.push_back(r);
             if (c.name == "default") default_row = r;
         }
+    }
+    for (const std::string &t : tries) {
+        const std::size_t eq = t.find('=');
+        if (eq == std::string::npos || eq == 0) throw std::runtime_error("--try " + t + ": expected NAME=JSON");
+        json patch;
+        try {
+            patch = json::parse(t.substr(eq + 1));
+        } catch (const json::parse_error &e) {
+            throw std::runtime_error("--try " + t.substr(0, eq) + ": the patch is not JSON (" + e.what() + ")");
+        }
+        Row r = bench.run("headline", "W", workload_w(n), {t.substr(0, eq), patch, 2}, exact, base.wall, best_of1);
+        bench.add(r);
+        headline.push_back(r);
     }
 
     // --- SciPy, when installed, with the baseline and the default at the same grid. ---

@@ -176,3 +176,49 @@ TEST_CASE("cauchy_green_field: masked points are NaN, degenerate points flagged 
     }
     CHECK_THROWS_AS(cauchy_green_field(grid, std::vector<double>(4), mask, 1.0), Error);
 }
+
+TEST_CASE("cauchy_green_into: only the fields asked for, at an offset, equal to the whole computation") {
+    // Random gradients (some masked, one NaN, one identity) computed whole and then as the tail of a larger field
+    // that keeps only ftle and lambda2 (the memory tiles' FTLE-only case: no lambda1, no eigenvectors).
+    std::mt19937_64 rng(7);
+    std::uniform_real_distribution<double> u(-3.0, 3.0);
+    const std::size_t count = 200, first = 50;
+    std::vector<double> dF(4 * count);
+    for (double &v : dF) v = u(rng);
+    std::vector<std::uint8_t> mask(count, 0);
+    for (std::size_t p = 0; p < count; p += 17) mask[p] = mask_left_bounds;
+    dF[4 * 5] = std::numeric_limits<double>::quiet_NaN();
+    for (int q = 0; q < 4; ++q) dF[4 * 6 + q] = (q == 0 || q == 3) ? 1.0 : 0.0;
+    Grid grid;
+    grid.nx = count;
+    grid.ny = 1;
+    const CauchyGreenField whole = cauchy_green_field(grid, dF, mask, 2.0);
+
+    CauchyGreenField part;
+    part.mask.assign(first + count, 0);
+    part.ftle.assign(first + count, -1.0);
+    part.lambda2.assign(first + count, -1.0);
+    const std::uint64_t degenerate =
+        cauchy_green_into(part, first, count, dF.data(), mask.data(), nullptr, nullptr, 2.0);
+    CHECK(degenerate == whole.degenerate_count);
+    CHECK(part.lambda1.empty());
+    CHECK(part.xi1_x.empty());
+    for (std::size_t p = 0; p < first; ++p) CHECK(part.ftle[p] == -1.0); // points before `first` untouched
+    for (std::size_t p = 0; p < count; ++p) {
+        CAPTURE(p);
+        CHECK(part.mask[first + p] == whole.mask[p]);
+        if (std::isnan(whole.ftle[p])) {
+            CHECK(std::isnan(part.ftle[first + p]));
+            CHECK(std::isnan(part.lambda2[first + p]));
+        } else {
+            CHECK(part.ftle[first + p] == whole.ftle[p]);
+            CHECK(part.lambda2[first + p] == whole.lambda2[p]);
+        }
+    }
+    CHECK(std::isnan(part.ftle[first + 5]));
+    CHECK(part.mask[first + 5] == mask_non_finite);
+    CHECK(part.mask[first + 6] == mask_degenerate);
+    CHECK_THROWS_AS(cauchy_green_into(part, first + 1, count, dF.data(), mask.data(), nullptr, nullptr, 2.0), Error);
+    part.xi2_x.assign(3, 0.0); // neither empty nor the grid's size
+    CHECK_THROWS_AS(cauchy_green_into(part, 0, count, dF.data(), mask.data(), nullptr, nullptr, 2.0), Error);
+}

@@ -29,6 +29,11 @@ CauchyGreenPoint cauchy_green_at(double f11, double f12, double f21, double f22,
 
 CauchyGreenPoint cauchy_green_at(double f11, double f12, double f21, double f22, double abs_duration, int exponent,
                                  double log_abs_det) {
+    return cauchy_green_at(f11, f12, f21, f22, abs_duration, exponent, log_abs_det, CauchyGreenParts{});
+}
+
+CauchyGreenPoint cauchy_green_at(double f11, double f12, double f21, double f22, double abs_duration, int exponent,
+                                 double log_abs_det, CauchyGreenParts parts) {
     constexpr double nan = std::numeric_limits<double>::quiet_NaN();
     constexpr double ln2 = 0.69314718055994530942;
     CauchyGreenPoint p;
@@ -59,7 +64,9 @@ CauchyGreenPoint cauchy_green_at(double f11, double f12, double f21, double f22,
 
     p.lambda2 = std::ldexp(mu2, 2 * e); // exact scaling; +Inf beyond the double range, where the FTLE stays finite
     const double log_lambda2 = 2.0 * e * ln2 + std::log(mu2);
-    if (std::isfinite(log_abs_det)) {
+    if (!parts.lambda1) {
+        p.lambda1 = nan;
+    } else if (std::isfinite(log_abs_det)) {
         // Liouville's det DF (variational equations): exact for area-preserving flows, and free of the cancellation
         // that loses det G once lambda2 exceeds ~1/eps.
         p.lambda1 = std::exp(2.0 * log_abs_det - log_lambda2);
@@ -73,7 +80,7 @@ CauchyGreenPoint cauchy_green_at(double f11, double f12, double f21, double f22,
         const double m = std::ldexp(std::abs(det_g), -kd);
         p.lambda1 = std::ldexp(m * m / mu2, 2 * (kd + e));
     }
-    p.lambda1 = std::min(p.lambda1, p.lambda2); // rounding must not reorder a (near) double root
+    if (parts.lambda1) p.lambda1 = std::min(p.lambda1, p.lambda2); // rounding must not reorder a (near) double root
     p.ftle = abs_duration > 0.0 ? log_lambda2 / (2.0 * abs_duration) : 0.0;
 
     // lambda2 - lambda1 = 4^E (mu2 - mu1) = 4^E 2 r, without the subtraction.
@@ -85,6 +92,7 @@ CauchyGreenPoint cauchy_green_at(double f11, double f12, double f21, double f22,
         p.xi2_y = 1.0;
         return p;
     }
+    if (!parts.eigenvectors) return p;
     // Two (parallel) eigenvectors of mu2: (c12, mu2 - c11) and (mu2 - c22, c12). mu2 - c11 = r - half_diff and
     // mu2 - c22 = r + half_diff; whichever would cancel is computed as c12^2 / (the other), since
     // (r - half_diff)(r + half_diff) = c12^2. Take the longer vector: it is the better conditioned.
@@ -138,35 +146,62 @@ CauchyGreenField cauchy_green_field(const Grid &grid, const std::vector<double> 
     for (auto *v : {&field.lambda1, &field.lambda2, &field.ftle, &field.xi1_x, &field.xi1_y, &field.xi2_x,
                     &field.xi2_y})
         v->assign(count, nan);
+    field.degenerate_count =
+        cauchy_green_into(field, 0, count, dF.data(), mask.data(), dF_exponent.empty() ? nullptr : dF_exponent.data(),
+                          log_det.empty() ? nullptr : log_det.data(), abs_duration);
+    return field;
+}
+
+std::uint64_t cauchy_green_into(CauchyGreenField &out, std::size_t first, std::size_t count, const double *dF,
+                                const std::uint8_t *mask, const std::int32_t *dF_exponent, const double *log_det,
+                                double abs_duration) {
+    constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+    const std::size_t size = out.mask.size();
+    if (first + count > size)
+        throw Error("cauchy_green_into: points " + std::to_string(first) + " .. " + std::to_string(first + count) +
+                    " beyond the field's " + std::to_string(size));
+    // A field is wanted when it has the grid's size; anything else must be empty.
+    const auto wanted = [&](std::vector<double> &v, const char *name) -> double * {
+        if (!v.empty() && v.size() != size)
+            throw Error(std::string("cauchy_green_into: ") + name + " has " + std::to_string(v.size()) +
+                        " values for " + std::to_string(size) + " points");
+        return v.empty() ? nullptr : v.data() + first;
+    };
+    double *lambda1 = wanted(out.lambda1, "lambda1"), *lambda2 = wanted(out.lambda2, "lambda2"),
+           *ftle = wanted(out.ftle, "ftle"), *xi1_x = wanted(out.xi1_x, "xi1_x"), *xi1_y = wanted(out.xi1_y, "xi1_y"),
+           *xi2_x = wanted(out.xi2_x, "xi2_x"), *xi2_y = wanted(out.xi2_y, "xi2_y");
+    std::uint8_t *out_mask = out.mask.data() + first;
+    const CauchyGreenParts parts{lambda1 != nullptr, xi1_x || xi1_y || xi2_x || xi2_y};
     std::uint64_t degenerate = 0;
 
 #pragma omp parallel for schedule(static) reduction(+ : degenerate)
     for (long long i = 0; i < static_cast<long long>(count); ++i) {
         const std::size_t p = static_cast<std::size_t>(i);
-        if (mask[p] & mask_trajectory_bits) continue;
-        const double *f = dF.data() + 4 * p;
-        const CauchyGreenPoint c =
-            cauchy_green_at(f[0], f[1], f[2], f[3], abs_duration, dF_exponent.empty() ? 0 : dF_exponent[p],
-                            log_det.empty() ? std::numeric_limits<double>::quiet_NaN() : log_det[p]);
-        if (!std::isfinite(c.ftle)) {
+        out_mask[p] = mask[p];
+        CauchyGreenPoint c;
+        if (!(mask[p] & mask_trajectory_bits)) {
+            const double *f = dF + 4 * p;
+            c = cauchy_green_at(f[0], f[1], f[2], f[3], abs_duration, dF_exponent ? dF_exponent[p] : 0,
+                                log_det ? log_det[p] : nan, parts);
             // An unmasked but unusable gradient (NaN/Inf from upstream): flag it rather than pass NaN on.
-            field.mask[p] |= mask_non_finite;
-            continue;
+            if (!std::isfinite(c.ftle)) out_mask[p] |= mask_non_finite;
+            else if (c.degenerate) {
+                out_mask[p] |= mask_degenerate;
+                ++degenerate;
+            }
         }
-        field.lambda1[p] = c.lambda1;
-        field.lambda2[p] = c.lambda2;
-        field.ftle[p] = c.ftle;
-        field.xi1_x[p] = c.xi1_x;
-        field.xi1_y[p] = c.xi1_y;
-        field.xi2_x[p] = c.xi2_x;
-        field.xi2_y[p] = c.xi2_y;
-        if (c.degenerate) {
-            field.mask[p] |= mask_degenerate;
-            ++degenerate;
+        if (mask[p] & mask_trajectory_bits || !std::isfinite(c.ftle)) {
+            c.lambda1 = c.lambda2 = c.ftle = c.xi1_x = c.xi1_y = c.xi2_x = c.xi2_y = nan;
         }
+        if (lambda1) lambda1[p] = c.lambda1;
+        if (lambda2) lambda2[p] = c.lambda2;
+        if (ftle) ftle[p] = c.ftle;
+        if (xi1_x) xi1_x[p] = c.xi1_x;
+        if (xi1_y) xi1_y[p] = c.xi1_y;
+        if (xi2_x) xi2_x[p] = c.xi2_x;
+        if (xi2_y) xi2_y[p] = c.xi2_y;
     }
-    field.degenerate_count = degenerate;
-    return field;
+    return degenerate;
 }
 
 }  // namespace geobarrier

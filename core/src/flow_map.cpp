@@ -1258,7 +1258,7 @@ std::size_t points_per_batch(const IntegratorSettings &settings, GradientMethod 
 GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, const StartFn &start, double t0,
                                double t1, const IntegratorSettings &settings, GradientMethod gradient,
                                double offset_x, double offset_y, bool want_positions,
-                               const std::optional<Bounds> &bounds, const ProgressFn &progress) {
+                               const std::optional<Bounds> &bounds, const ProgressFn &progress, GridFlowMap reuse) {
     const bool variational = gradient == GradientMethod::variational;
     validate(dynamics, t0, t1, settings, variational);
     if (gradient == GradientMethod::auxiliary_grid &&
@@ -1266,8 +1266,16 @@ GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, cons
         throw ConfigError("/cauchy_green/offset", std::to_string(offset_x) + ", " + std::to_string(offset_y) +
                                                       " are not positive offsets");
     const bool positions = want_positions || gradient == GradientMethod::none;
-    GridFlowMap out;
+    GridFlowMap out = std::move(reuse);
+    out.grid = Grid{};
+    out.stats = IntegratorStats{};
+    // assign() and clear() keep the buffers' capacity.
     out.mask.assign(count, 0);
+    out.flow_x.clear();
+    out.flow_y.clear();
+    out.dF.clear();
+    out.dF_exponent.clear();
+    out.log_det.clear();
     if (positions) {
         out.flow_x.assign(count, nan_value);
         out.flow_y.assign(count, nan_value);

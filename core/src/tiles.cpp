@@ -109,6 +109,8 @@ GridFields compute_grid_fields(const Dynamics &dynamics, const Grid &grid, doubl
     out.rows_per_tile = tile_rows(grid, settings, plan);
     const double offset_x = plan.aux_offset * grid.dx(), offset_y = plan.aux_offset * grid.dy();
 
+    // One tile's buffers, reused by the next tile: fresh ones would cost page faults, serially, at every tile.
+    GridFlowMap tile;
     for (std::size_t row = 0; row < grid.ny; row += out.rows_per_tile) {
         const std::size_t rows = std::min(out.rows_per_tile, grid.ny - row);
         const std::size_t first = row * nx, points = rows * nx;
@@ -124,8 +126,8 @@ GridFields compute_grid_fields(const Dynamics &dynamics, const Grid &grid, doubl
             tile_progress = [&](std::size_t done, std::size_t total) {
                 progress(first + (total > 0 ? points * done / total : points), count);
             };
-        GridFlowMap tile = flow_map_at_points(dynamics, points, start, t0, t1, settings, gradient, offset_x, offset_y,
-                                              plan.positions, bounds, tile_progress);
+        tile = flow_map_at_points(dynamics, points, start, t0, t1, settings, gradient, offset_x, offset_y,
+                                  plan.positions, bounds, tile_progress, std::move(tile));
         out.flow.stats.add(tile.stats);
         std::copy(tile.mask.begin(), tile.mask.end(), out.flow.mask.begin() + static_cast<std::ptrdiff_t>(first));
         if (plan.positions) {
@@ -135,18 +137,11 @@ GridFields compute_grid_fields(const Dynamics &dynamics, const Grid &grid, doubl
                       out.flow.flow_y.begin() + static_cast<std::ptrdiff_t>(first));
         }
         if (!plan.cauchy_green) continue;
-        Grid tile_grid = grid; // only its point count matters to the pointwise Cauchy–Green tensor
-        tile_grid.ny = rows;
-        CauchyGreenField cg =
-            cauchy_green_field(tile_grid, tile.dF, tile.mask, abs_duration, tile.dF_exponent, tile.log_det);
-        tile = GridFlowMap{}; // free the tile's gradient before the next one
-        out.cg.degenerate_count += cg.degenerate_count;
-        std::copy(cg.mask.begin(), cg.mask.end(), out.cg.mask.begin() + static_cast<std::ptrdiff_t>(first));
-        for (const auto &name : plan.keep) {
-            const std::vector<double> &from = cauchy_green_member(cg, name);
-            std::copy(from.begin(), from.end(),
-                      cauchy_green_member(out.cg, name).begin() + static_cast<std::ptrdiff_t>(first));
-        }
+        // Straight into the whole-grid fields, only those kept (the others are empty in out.cg).
+        out.cg.degenerate_count += cauchy_green_into(
+            out.cg, first, points, tile.dF.data(), tile.mask.data(),
+            tile.dF_exponent.empty() ? nullptr : tile.dF_exponent.data(),
+            tile.log_det.empty() ? nullptr : tile.log_det.data(), abs_duration);
     }
     if (std::none_of(out.flow.mask.begin(), out.flow.mask.end(), [](std::uint8_t m) { return m == 0; }))
         throw NumericalError("every one of the " + std::to_string(count) + " grid points was masked: " +

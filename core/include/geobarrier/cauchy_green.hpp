@@ -33,6 +33,16 @@ CauchyGreenPoint cauchy_green_at(double f11, double f12, double f21, double f22,
 CauchyGreenPoint cauchy_green_at(double f11, double f12, double f21, double f22, double abs_duration, int exponent,
                                  double log_abs_det);
 
+// What a Cauchy–Green computation must deliver: leaving out lambda1 saves an exp, the eigenvectors three hypot calls
+// and two divisions per point (an FTLE-only run spends most of its Cauchy–Green time there). Left out values are
+// unspecified; `degenerate` is always set.
+struct CauchyGreenParts {
+    bool lambda1 = true;
+    bool eigenvectors = true;
+};
+CauchyGreenPoint cauchy_green_at(double f11, double f12, double f21, double f22, double abs_duration, int exponent,
+                                 double log_abs_det, CauchyGreenParts parts);
+
 struct CauchyGreenField {
     Grid grid;
     std::vector<double> lambda1, lambda2, ftle, xi1_x, xi1_y, xi2_x, xi2_y; // NaN where masked
@@ -49,6 +59,15 @@ CauchyGreenField cauchy_green_field(const Grid &grid, const std::vector<double> 
 CauchyGreenField cauchy_green_field(const Grid &grid, const std::vector<double> &dF,
                                     const std::vector<std::uint8_t> &mask, double abs_duration,
                                     const std::vector<std::int32_t> &dF_exponent, const std::vector<double> &log_det);
+
+// The gradients of `count` consecutive points (dF 4 per point, their mask, exponents and log-determinants, either of
+// the last two possibly empty), starting at point `first` of `out`'s grid, into those points of `out`: its mask (with
+// mask_non_finite and mask_degenerate added) and each of its seven fields that already has the grid's size; fields
+// left empty are neither computed nor touched. Returns the number of degenerate points. The memory tiles
+// (tiles.hpp) fill the whole-grid result this way, computing only the fields an experiment keeps.
+std::uint64_t cauchy_green_into(CauchyGreenField &out, std::size_t first, std::size_t count, const double *dF,
+                                const std::uint8_t *mask, const std::int32_t *dF_exponent, const double *log_det,
+                                double abs_duration);
 
 }  // namespace geobarrier
 

@@ -152,11 +152,13 @@ using StartFn = std::function<void(std::size_t k, double &x, double &y)>;
 // offset_x = aux_offset dx and offset_y = aux_offset dy; over the points [first, first + count) of that order, with
 // `first` a multiple of points_per_batch, it gives the same numbers for those points bit for bit (the memory tiles of
 // the runner rest on this). The result's `grid` is left default; flow_x/flow_y hold the positions when asked for (or
-// gradient none). Unlike compute_grid_flow_map, every point masked is a result here, not an error.
+// gradient none). Unlike compute_grid_flow_map, every point masked is a result here, not an error. `reuse` lends its
+// buffers to the result (a previous result, say): repeated calls then allocate, and fault in, no new memory.
 GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, const StartFn &start, double t0,
                                double t1, const IntegratorSettings &settings, GradientMethod gradient,
                                double offset_x, double offset_y, bool want_positions,
-                               const std::optional<Bounds> &bounds = std::nullopt, const ProgressFn &progress = {});
+                               const std::optional<Bounds> &bounds = std::nullopt, const ProgressFn &progress = {},
+                               GridFlowMap reuse = {});
 
 // Points per lockstep batch of flow_map_at_points (see there): the alignment of bit-identical tiles.
 std::size_t points_per_batch(const IntegratorSettings &settings, GradientMethod gradient, bool want_positions);

@@ -514,20 +514,21 @@ class BatchIntegrator {
         m_since_renormalise = 0;
         const std::size_t n = m_ctx.n;
         const double *f11 = m_x.data() + comp_f11 * n, *f12 = f11 + n, *f21 = f12 + n, *f22 = f21 + n;
-        m_lane_max.resize(n);
-        double *lane_max = m_lane_max.data();
-#pragma omp simd
-        for (std::size_t k = 0; k < n; ++k)
-            lane_max[k] =
-                std::max(std::max(std::abs(f11[k]), std::abs(f12[k])), std::max(std::abs(f21[k]), std::abs(f22[k])));
+        const auto lane_max = [&](std::size_t k) {
+            return std::max(std::max(std::abs(f11[k]), std::abs(f12[k])), std::max(std::abs(f21[k]), std::abs(f22[k])));
+        };
         const double high = std::ldexp(1.0, renormalise_exponent), low = renormalise_low;
-        bool any = false;
-        for (std::size_t k = 0; k < n; ++k) any |= lane_max[k] > high || (lane_max[k] < low && lane_max[k] > 0.0);
+        int any = 0;
+        for (std::size_t k = 0; k < n; ++k) {
+            const double big = lane_max(k);
+            any |= (big > high) | ((big < low) & (big > 0.0));
+        }
         if (!any) return;
         for (std::size_t k = 0; k < n; ++k) {
-            if (m_ctx.mask[k] != 0 || !(lane_max[k] > high || (lane_max[k] < low && lane_max[k] > 0.0))) continue;
-            if (!std::isfinite(lane_max[k])) continue; // left to the non-finite screening
-            const int e = std::ilogb(lane_max[k]);
+            const double big = lane_max(k);
+            if (m_ctx.mask[k] != 0 || !(big > high || (big < low && big > 0.0))) continue;
+            if (!std::isfinite(big)) continue; // left to the non-finite screening
+            const int e = std::ilogb(big);
             for (std::size_t c = comp_f11; c < comp_f11 + 4; ++c) {
                 m_x[c * n + k] = std::ldexp(m_x[c * n + k], -e);
                 if (dxdt) (*dxdt)[c * n + k] = std::ldexp((*dxdt)[c * n + k], -e);
@@ -606,9 +607,21 @@ class BatchIntegrator {
     }
 
     // After an accepted step: blown-up lanes and lanes outside the bounds box are frozen.
+    // One branch-free, vectorisable pass finds whether any lane needs it; lanes are visited only then (frozen lanes
+    // keep a state from before they left, so they rarely send us down the slow path, which skips them).
     void check_after_step(State *dxdt) {
         const std::size_t n = m_ctx.n;
-        const double *x = m_x.data(), *y = x + n;
+        const double *x = m_x.data(), *y = x + n, *limit = m_limit.data();
+        int any = 0;
+        if (m_bounds) {
+            const Bounds &b = *m_bounds;
+            for (std::size_t k = 0; k < n; ++k)
+                any |= (std::abs(x[k]) > limit[k]) | (std::abs(y[k]) > limit[k]) |
+                       !((x[k] >= b.x_min) & (x[k] <= b.x_max) & (y[k] >= b.y_min) & (y[k] <= b.y_max));
+        } else {
+            for (std::size_t k = 0; k < n; ++k) any |= (std::abs(x[k]) > limit[k]) | (std::abs(y[k]) > limit[k]);
+        }
+        if (!any) return;
         for (std::size_t k = 0; k < n; ++k) {
             if (m_ctx.mask[k] != 0) continue;
             if (std::abs(x[k]) > m_limit[k] || std::abs(y[k]) > m_limit[k]) {
@@ -997,7 +1010,6 @@ class BatchIntegrator {
     std::vector<std::uint8_t> m_bad;
     std::vector<std::int32_t> m_exponent;     // variational: DF = 2^m_exponent[k] * (the state's DF block)
     std::vector<std::uint8_t> m_renormalised; // lanes rescaled at least once
-    std::vector<double> m_lane_max;
     unsigned m_since_renormalise = 0;
     std::vector<double> m_forcing;            // fused steps: forcing at each step's stage times (stage_forcing)
     std::vector<std::uint8_t> m_forcing_known; // per step: m_forcing holds its values

@@ -595,15 +595,15 @@ class BatchIntegrator {
         m_ctx.clear_invalid();
     }
 
-    // True when some entry of v is NaN or Inf: v * 0 is 0 for finite entries and NaN otherwise, and a NaN survives
-    // the sum. One vectorisable pass, no branches.
+    // True when some entry of v is NaN or Inf (|v| <= DBL_MAX fails for both). One vectorisable pass, no branches;
+    // an OR of comparisons, not a floating-point sum, so that the reduction is no chain of dependent additions.
     static bool has_non_finite(const State &v) {
-        double probe = 0.0;
+        constexpr double largest = std::numeric_limits<double>::max();
+        int bad = 0;
         const double *p = v.data();
         const std::size_t size = v.size();
-#pragma omp simd reduction(+ : probe)
-        for (std::size_t i = 0; i < size; ++i) probe += p[i] * 0.0;
-        return probe != probe;
+        for (std::size_t i = 0; i < size; ++i) bad |= !(std::abs(p[i]) <= largest);
+        return bad != 0;
     }
 
     // After an accepted step: blown-up lanes and lanes outside the bounds box are frozen.

@@ -369,7 +369,7 @@ void stage_state(double *__restrict y, const double *__restrict x, const double 
     static_assert(Tab::a[I].count > 0, "stage 0 is the derivative at the step's start");
 #pragma omp simd
     for (std::size_t q = 0; q < stride; ++q)
-        y[q] = detail::mul_add(h, detail::row_sum(Tab::a[I], [&](int j) { return k[j * stride + q]; }), x[q]);
+        y[q] = detail::row_step(Tab::a[I], h, x[q], [&](int j) { return k[j * stride + q]; });
 }
 
 // x_new = x + h sum_j b_j k_j.
@@ -378,7 +378,7 @@ void new_state(double *__restrict x_new, const double *__restrict x, const doubl
                double h) {
 #pragma omp simd
     for (std::size_t q = 0; q < stride; ++q)
-        x_new[q] = detail::mul_add(h, detail::row_sum(Tab::b, [&](int j) { return k[j * stride + q]; }), x[q]);
+        x_new[q] = detail::row_step(Tab::b, h, x[q], [&](int j) { return k[j * stride + q]; });
 }
 
 // The local error estimate per component: h sum_j e_j k_j, or for DOP853 Hairer's combination of its 5th- and

@@ -371,8 +371,7 @@ template <class T, class Tab, bool Variational> struct FusedStep {
                                                      const double (*k)[C], double *y) {
 #pragma GCC unroll 16
         for (unsigned q = 0; q < C; ++q)
-            y[q] = geobarrier::detail::mul_add(h, geobarrier::detail::row_sum(row, [&](int j) { return k[j][q]; }),
-                                               x[q]);
+            y[q] = geobarrier::detail::row_step(row, h, x[q], [&](int j) { return k[j][q]; });
     }
 
     template <int I>

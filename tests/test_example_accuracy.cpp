@@ -30,8 +30,8 @@ TEST_CASE("the same experiment with the default gradient and tolerances") {
     j.erase("integrator");
     j.erase("cauchy_green");
     const auto e = geobarrier::test::ftle_error_against_reference(j, json::object(), 3000);
-    // The standard preset (dop853, fixed steps of at most 0.36): measured max 4.7e-4, mean 2.3e-6 at these points
-    // (at N = 1000 against the exact field: max 0.018, mean 2.0e-6).
-    CHECK(e.max < 2e-3);
-    CHECK(e.mean < 1e-5);
+    // The standard preset (dop853, fixed steps of at most 0.33): measured max 2.0e-4, mean 9.8e-7 at these points
+    // (at N = 1000 against the exact field: interior max 0.0085, mean 8.3e-7).
+    CHECK(e.max < 1e-3);
+    CHECK(e.mean < 5e-6);
 }

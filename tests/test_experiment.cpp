@@ -96,11 +96,11 @@ TEST_CASE("a minimal experiment parses with documented defaults") {
     CHECK(e.grid.nx == 21);
     CHECK(e.grid.ny == 13);
     CHECK(e.t1 == doctest::Approx(2 * M_PI));
-    // The standard quality preset: dop853 in fixed steps of at most 0.36 (docs/experiment-format.md).
+    // The standard quality preset: dop853 in fixed steps of at most 0.33 (docs/experiment-format.md).
     CHECK(e.quality == "standard");
     CHECK(e.integrator.method == "dop853");
     CHECK_FALSE(e.integrator.adaptive);
-    CHECK(e.integrator.step == 0.36);
+    CHECK(e.integrator.step == 0.33);
     CHECK(e.gradient_method == "auto");
     CHECK(e.wants("ftle"));
     CHECK_FALSE(e.wants("flow_map"));
@@ -289,12 +289,12 @@ TEST_CASE("an extractor plugin gets its fields, advects with the host and report
 
 TEST_CASE("FTLE of the paper's first example agrees with an independent rkf78 1e-12 computation") {
     using geobarrier::test::ftle_error_against_reference;
-    // The defaults (variational equations, the standard preset: dop853 in fixed steps of at most 0.36). Measured
-    // here: max 9.3e-5, mean 1.0e-6 (at N = 1000 against the exact field: max 0.018, mean 2.0e-6; the issue's bar is
-    // interior max 0.05, mean 1e-4).
+    // The defaults (variational equations, the standard preset: dop853 in fixed steps of at most 0.33). Measured
+    // here: max 4.1e-5, mean 4.6e-7 (against the exact field, interior max 0.0059 / 0.0085 / 0.022 and mean 8.4e-7
+    // at N = 700 / 1000 / 1400; the issue's bar is interior max 0.05, mean 1e-4).
     const auto defaults = ftle_error_against_reference(example_block(), json::object());
-    CHECK(defaults.max < 5e-4);
-    CHECK(defaults.mean < 5e-6);
+    CHECK(defaults.max < 2e-4);
+    CHECK(defaults.mean < 2.5e-6);
     // The auxiliary grid at offset 1e-4 of the spacing with (nearly) exact
     // integration isolates the finite-difference error floor: at the most
     // stretched points a centred difference over d = 6.7e-7 is no longer

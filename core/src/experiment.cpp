@@ -104,7 +104,7 @@ IntegratorSettings quality_preset(const std::string &quality) {
         s.atol = 1e-8;
     } else if (quality == "standard") {
         s.adaptive = false;
-        s.step = 0.36;
+        s.step = 0.33;
         s.rtol = 1e-8;
         s.atol = 1e-10;
     } else if (quality == "publication") {

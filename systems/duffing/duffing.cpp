@@ -33,10 +33,9 @@ struct Duffing {
         const double *__restrict f = b.f;
         double *__restrict dx = dxdt;
         double *__restrict dy = dxdt + b.ld;
-        const double alpha = m_alpha, beta = m_beta, delta = m_delta;
         for (std::size_t k = 0; k < b.n; ++k) {
             dx[k] = y[k];
-            dy[k] = alpha * x[k] - beta * x[k] * x[k] * x[k] - delta * y[k] + f[k];
+            dy[k] = acceleration(x[k], y[k], f[k]);
         }
     }
 
@@ -47,12 +46,11 @@ struct Duffing {
         double *__restrict j01 = jac + b.ld;
         double *__restrict j10 = jac + 2 * b.ld;
         double *__restrict j11 = jac + 3 * b.ld;
-        const double alpha = m_alpha, beta3 = 3.0 * m_beta, delta = m_delta;
         for (std::size_t k = 0; k < b.n; ++k) {
             j00[k] = 0.0;
             j01[k] = 1.0;
-            j10[k] = alpha - beta3 * x[k] * x[k];
-            j11[k] = -delta;
+            j10[k] = stiffness(x[k]);
+            j11[k] = -m_delta;
         }
     }
 
@@ -60,14 +58,22 @@ struct Duffing {
     // gb_system_vtable.advance): the same expressions as rhs() and jacobian(), so both paths agree to the last bit.
     void field(double, const double *s, double f, double *dsdt) const {
         dsdt[0] = s[1];
-        dsdt[1] = m_alpha * s[0] - m_beta * s[0] * s[0] * s[0] - m_delta * s[1] + f;
+        dsdt[1] = acceleration(s[0], s[1], f);
     }
     void field_jacobian(double, const double *s, double, double *jac) const {
         jac[0] = 0.0;
         jac[1] = 1.0;
-        jac[2] = m_alpha - 3.0 * m_beta * s[0] * s[0];
+        jac[2] = stiffness(s[0]);
         jac[3] = -m_delta;
     }
+
+    // y' = x (alpha - beta x^2) - delta y + f and d(y')/dx = alpha - 3 beta x^2, with explicit multiply-adds: 5 and 2
+    // instructions where the CPU has FMA (the fused dop853 step on W spends about a tenth of its time here).
+    double acceleration(double x, double y, double f) const {
+        using geobarrier::sdk::mul_add;
+        return mul_add(-m_delta, y, mul_add(x, mul_add(-m_beta, x * x, m_alpha), f));
+    }
+    double stiffness(double x) const { return geobarrier::sdk::mul_add(-3.0 * m_beta, x * x, m_alpha); }
 
     // Trace of the Jacobian: -delta everywhere (Liouville: area shrinks as exp(-delta t)).
     void divergence(const Batch &b, double *div) const {

@@ -57,6 +57,10 @@
 
 namespace geobarrier::sdk {
 
+// a * b + c, one fused instruction where the CPU has FMA (the build never fuses on its own): for a system's per-lane
+// field, whose floating-point instructions bound the fused step's speed (rk_tableaux.hpp).
+using geobarrier::detail::mul_add;
+
 // ------------------------------------------------------------ parameters
 
 constexpr gb_param_spec real_param(const char *name, double default_value, double min_value, double max_value,

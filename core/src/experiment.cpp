@@ -108,8 +108,8 @@ IntegratorSettings quality_preset(const std::string &quality) {
         s.rtol = 1e-8;
         s.atol = 1e-10;
     } else if (quality == "publication") {
-        // Twice standard's steps: FTLE error 4e-9 mean, 4e-5 max on W. (Adaptive dop853 reaches 2.5e-3 max at
-        // rtol = atol = 1e-6 for 2.6x the time of this.)
+        // About twice standard's steps: FTLE error 4e-9 mean, 4e-5 max on W. (Adaptive dop853 reaches 2.5e-3 max
+        // at rtol = atol = 1e-6 for 2.6x the time of this.)
         s.adaptive = false;
         s.step = 0.18;
         s.rtol = 1e-10;

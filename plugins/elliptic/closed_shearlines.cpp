@@ -62,6 +62,15 @@ double otsu_threshold(const std::vector<double> &values) {
     return lo + (best_bin + 1) * (hi - lo) / bins;
 }
 
+double island_ftle_threshold(const CauchyGreenField &cg, double given) {
+    if (given > 0.0) return given;
+    std::vector<double> ftle_values;
+    ftle_values.reserve(cg.grid.size());
+    for (std::size_t p = 0; p < cg.grid.size(); ++p)
+        if (!(cg.mask[p] & mask_trajectory_bits) && std::isfinite(cg.ftle[p])) ftle_values.push_back(cg.ftle[p]);
+    return otsu_threshold(ftle_values);
+}
+
 std::vector<Candidate> find_candidates(const CauchyGreenField &cg, const CandidateSettings &settings,
                                        CandidateReport *report) {
     const Grid &g = cg.grid;
@@ -75,11 +84,7 @@ std::vector<Candidate> find_candidates(const CauchyGreenField &cg, const Candida
         if (s.anisotropy < settings.max_anisotropy) resolved.push_back(s);
     r.resolved = resolved.size();
 
-    std::vector<double> ftle_values;
-    ftle_values.reserve(g.size());
-    for (std::size_t p = 0; p < g.size(); ++p)
-        if (!(cg.mask[p] & mask_trajectory_bits) && std::isfinite(cg.ftle[p])) ftle_values.push_back(cg.ftle[p]);
-    r.ftle_threshold = settings.ftle_threshold > 0.0 ? settings.ftle_threshold : otsu_threshold(ftle_values);
+    r.ftle_threshold = island_ftle_threshold(cg, settings.ftle_threshold);
 
     // Centres: index +1 points, and mutually nearest wedge pairs.
     std::vector<Candidate> centres;

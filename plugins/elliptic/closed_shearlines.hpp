@@ -60,6 +60,9 @@ std::vector<Candidate> find_candidates(const CauchyGreenField &cg, const Candida
 
 // Otsu's threshold of the finite values (the split maximising the between-class variance, 256 bins).
 double otsu_threshold(const std::vector<double> &values);
+// The FTLE above which an elliptic island ends: `given` when positive, else Otsu's split of the grid's FTLE values
+// (points whose trajectory left the data or the box excluded).
+double island_ftle_threshold(const CauchyGreenField &cg, double given);
 
 struct ReturnMapSettings {
     std::size_t launch_points = 500;  // the paper's 500

@@ -77,6 +77,7 @@ struct Found {
     std::size_t candidate = 0;
     ClosedShearline orbit;
     double length = 0.0, area = 0.0, mean_deviation = 0.0, max_deviation = 0.0, coverage = 0.0;
+    double max_ftle = 0.0, mean_ftle = 0.0;
     bool kept = false;
     std::size_t island = 0;
     bool outermost = false;
@@ -130,6 +131,10 @@ struct Elliptic {
         string_param("conservative", "auto", "auto|yes|no",
                      "whether arclength and area conservation is expected: auto = decided from det DF = "
                      "sqrt(lambda1 lambda2) on the grid (Liouville: the system's divergence over [t0, t1])"),
+        bool_param(
+            "ftle_filter", true,
+            "keep only closed shearlines whose arclength-mean FTLE is below the island threshold (ftle_threshold "
+            "or Otsu): barriers on the regular side of the chaotic layer, whatever the grid resolution"),
         bool_param("extrapolate_gap", true,
                    "compare the Richardson-extrapolated return gap (field at h and 2h) with resolution_gap, not the "
                    "gap on the grid, whose O(h^2) interpolation error grows towards the island's edge"),
@@ -147,8 +152,8 @@ struct Elliptic {
           m_poincare_points(static_cast<std::size_t>(p.integer("poincare_points"))),
           m_plot_shearlines(static_cast<std::size_t>(p.integer("plot_shearlines"))), m_line_rtol(p.real("line_rtol")),
           m_resolution_gap(p.real("resolution_gap")), m_barrier_spacing(p.real("barrier_spacing")),
-          m_extrapolate_gap(p.flag("extrapolate_gap")), m_conservative(p.string("conservative")),
-          m_lambda(p.real("lambda")) {}
+          m_extrapolate_gap(p.flag("extrapolate_gap")), m_ftle_filter(p.flag("ftle_filter")),
+          m_conservative(p.string("conservative")), m_lambda(p.real("lambda")) {}
 
     void extract(const sdk::Host &host, const gb_extract_input &in) const;
 
@@ -162,7 +167,7 @@ struct Elliptic {
     double m_poincare_period;
     std::size_t m_poincare_iterates, m_poincare_points, m_plot_shearlines;
     double m_line_rtol, m_resolution_gap, m_barrier_spacing;
-    bool m_extrapolate_gap;
+    bool m_extrapolate_gap, m_ftle_filter;
     std::string m_conservative;
     double m_lambda;
 };
@@ -221,6 +226,10 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
                       "low-FTLE island); give sections by hand with the \"sections\" parameter, or refine the grid");
     }
     const double t_candidates = seconds_since(t_start);
+    // The island threshold also bounds the barriers (step 6): the one the search used, or the same rule's value.
+    const double island_threshold =
+        m_sections.empty() ? report.ftle_threshold : island_ftle_threshold(cg, m_ftle_threshold);
+    std::size_t dropped_ftle = 0;
 
     // Step 2-3: return maps, fixed points, closed shearlines.
     std::vector<int> signs;
@@ -262,8 +271,16 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
                 f.mean_deviation = st.finite_points ? st.mean : std::numeric_limits<double>::quiet_NaN();
                 f.max_deviation = st.max;
                 f.coverage = f.length > 0.0 ? st.covered_length / f.length : 0.0;
+                const CurveStats ft = curve_statistics(
+                    orbit.xy, sample_along(grid, cg.ftle, cg.mask, orbit.xy, mask_trajectory_bits), true);
+                f.max_ftle = ft.max;
+                f.mean_ftle = ft.mean;
                 f.kept =
                     lambda_lines || (f.coverage >= min_deviation_coverage && f.mean_deviation < m_max_mean_deviation);
+                // On the chaotic side of the island threshold on average: past the regular region's edge (step 6).
+                const bool chaotic_side = m_ftle_filter && !(f.mean_ftle < island_threshold);
+                dropped_ftle += f.kept && chaotic_side ? 1 : 0;
+                f.kept = f.kept && !chaotic_side;
                 kept_here += f.kept ? 1 : 0;
                 double cx = 0.0, cy = 0.0;
                 const std::size_t np = orbit.xy.size() / 2;
@@ -283,6 +300,7 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
                      {"enclosed_area", f.area},
                      {"mean_geodesic_deviation",
                       std::isfinite(f.mean_deviation) ? json(f.mean_deviation) : json(nullptr)},
+                     {"mean_ftle", std::isfinite(f.mean_ftle) ? json(f.mean_ftle) : json(nullptr)},
                      {"kept", f.kept}});
                 f.orbit = std::move(orbit);
                 found.push_back(std::move(f));
@@ -319,6 +337,9 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
         }
     }
     const double t_search = seconds_since(t_start) - t_candidates;
+    if (dropped_ftle)
+        host.info(std::to_string(dropped_ftle) + " closed shearline(s) with <d_g> < " + fmt(m_max_mean_deviation) +
+                  " dropped: arclength-mean FTLE above the island threshold " + fmt(island_threshold));
 
     // Step 4: selection. Closed shearlines of one region and family are nested; walking outwards-in, one is
     // reported when its equivalent radius sqrt(area / pi) lies barrier_spacing * (the outermost's) inside the last
@@ -417,6 +438,8 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
             metrics.emplace_back("max_geodesic_deviation", f.max_deviation);
         }
         if (std::isfinite(f.orbit.extrapolated_gap)) metrics.emplace_back("extrapolated_gap", f.orbit.extrapolated_gap);
+        if (std::isfinite(f.max_ftle)) metrics.emplace_back("max_ftle", f.max_ftle);
+        if (std::isfinite(f.mean_ftle)) metrics.emplace_back("mean_ftle", f.mean_ftle);
         const bool advect = m_advect == "all" || (m_advect == "outermost" && f.outermost);
         if (advect) {
             const AdvectedCurve a = advect_curve(f.orbit.xy, true, advect_to_t1);
@@ -469,7 +492,8 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
         in.output_dir ? std::filesystem::path(in.output_dir) : std::filesystem::path();
     if (!out_dir.empty()) {
         json doc = {{"regions", sections_json},
-                    {"ftle_threshold", report.ftle_threshold},
+                    {"ftle_threshold", island_threshold},
+                    {"ftle_filter", m_ftle_filter},
                     {"area_preserving", conservative},
                     {"log_det_dF", {{"median", area.median}, {"q99", area.q99}, {"max", area.max}}}};
         json sing = json::array();

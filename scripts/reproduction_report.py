@@ -388,6 +388,34 @@ def elliptic_summary(run):
     return sorted(rows, key=lambda row: row["centre_x"])  # left island first, whatever the extractor's numbering
 
 
+def curve_centre_x(barrier):
+    pts = polyline_points(barrier)
+    return sum(p[0] for p in pts) / len(pts)
+
+
+def follow_barrier(reference, run, reach=0.04, stride=4):
+    """The elliptic barrier of `run` of the same family and island (side of x = 0) as `reference` whose curve is
+    nearest to it: least symmetric Hausdorff distance, measured from every `stride`-th vertex of each curve. Returns
+    (barrier, distance), or (None, None) when no curve lies within `reach` of it everywhere."""
+    ref = polyline_points(reference)
+    ref_buckets = curve_buckets([ref], 0.5 * reach, closed=True)
+    side = curve_centre_x(reference) > 0
+    best, best_d = None, None
+    for b in run.barriers:
+        if b.get("kind") != "elliptic" or b.get("family") != reference.get("family") or \
+                (curve_centre_x(b) > 0) != side:
+            continue
+        pts = polyline_points(b)
+        d = max(ref_buckets.distance(x, y, reach=2) for x, y in pts[::stride])
+        if d > reach:
+            continue
+        own = curve_buckets([pts], 0.5 * reach, closed=True)
+        d = max(d, max(own.distance(x, y, reach=2) for x, y in ref[::stride]))
+        if d <= reach and (best_d is None or d < best_d):
+            best, best_d = b, d
+    return best, best_d
+
+
 def poincare_agreement(run, stride=5):
     """For iterates of barrier points (origin barrier<k>): median and 95th-percentile distance to barrier k,
     relative to its diameter."""
@@ -560,38 +588,59 @@ def main():
         for b, a in sorted(agree.items()):
             g.text(f"| {b} | {fmt(a['diameter'], 3)} | {pct(a['median'])} | {pct(a['p95'])} |")
         g.text()
-        g.text("The ⟨d_g⟩ convergence table (paper's subfigure captions) for one elliptic barrier per island as the "
-               "integration time grows:")
+        g.text("The ⟨d_g⟩ convergence table (paper's subfigure captions), like for like: the paper follows one "
+               "barrier as T grows, so we follow one too. In each island it is the outermost barrier at 8π; at 10π "
+               "and 12π it is the closed shearline of the same island and family whose curve is nearest to it "
+               "(symmetric Hausdorff distance, given in grid spacings h; none when no closed shearline lies within "
+               "0.04 of it everywhere: the 10π and 12π runs keep every closed shearline, `barrier_spacing` 0). "
+               "⟨d_g⟩ is the arclength-weighted mean of the pointwise `d_g^η` along the closed curve at t0; the "
+               "drift is the 20-iterate Poincaré drift of the curve (median, % of its size).")
         g.text()
-        g.text("| T | paper ⟨d_g⟩ | ours: outermost barrier, per island (left, right) | ours: least ⟨d_g⟩, per island "
-               "(left, right) |")
-        g.text("|---|---|---|---|")
-        series = {}  # island side (-1 left, +1 right) -> least <d_g> per T
+        g.text("| T | paper ⟨d_g⟩ | ours, left island: ⟨d_g⟩ (distance, drift) | ours, right island: ⟨d_g⟩ (distance, "
+               "drift) | outermost at this T: ⟨d_g⟩ (left, right) |")
+        g.text("|---|---|---|---|---|")
+        followed = {}  # island side (-1 left, +1 right) -> <d_g> of the followed barrier per T (None: lost)
+        reference = elliptic_summary(k if k.ok else v)
         for label, name, paper in (("8π", "duffing-kam" if k.ok else "paper-periodic-kam-validation", "0.5991"),
                                    ("10π", "duffing-kam-10pi", "0.3889"), ("12π", "duffing-kam-12pi", "0.2355")):
             rr = run[name]
-            if rr.ok:
-                rows = elliptic_summary(rr)
-                for x in rows:
-                    series.setdefault(1 if x["centre_x"] > 0 else -1, []).append(x["min_dg"])
-                g.text(f"| {label} | {paper} | " + ", ".join(fmt(x["outer_dg"]) for x in rows) + " | " +
-                       ", ".join(fmt(x["min_dg"]) for x in rows) + " |")
-            else:
-                g.text(f"| {label} | {paper} | not run (`experiments/{name}.json`) | |")
+            if not rr.ok:
+                g.text(f"| {label} | {paper} | not run (`experiments/{name}.json`) | | |")
+                continue
+            grid = experiment(rr).get("grid", {})
+            h = min((grid["x"][1] - grid["x"][0]) / (grid["n"][0] - 1),
+                    (grid["y"][1] - grid["y"][0]) / (grid["n"][1] - 1))
+            cells = []
+            for ref in reference:
+                b, d = follow_barrier(ref["outer"], rr)
+                side = 1 if ref["centre_x"] > 0 else -1
+                followed.setdefault(side, []).append(b.get("mean_geodesic_deviation") if b else None)
+                if b is None:
+                    cells.append("none within 0.04")
+                else:
+                    drift = b.get("poincare_drift_median")
+                    cells.append(f"{fmt(b.get('mean_geodesic_deviation'), 3)} ({d / h:.1f} h, {pct(drift, 2)})")
+            g.text(f"| {label} | {paper} | " + " | ".join(cells) + " | " +
+                   ", ".join(fmt(x["outer_dg"], 3) for x in elliptic_summary(rr)) + " |")
         g.text()
         verdicts = []
-        for side, values in sorted(series.items()):
-            if len(values) == 3:
+        for side, values in sorted(followed.items()):
+            name = "left" if side < 0 else "right"
+            if len(values) < 3:
+                continue
+            if any(x is None for x in values):
+                verdicts.append(f"{name} island: the barrier is lost at some T (no closed shearline near it)")
+            else:
                 falling = all(b < a for a, b in zip(values, values[1:]))
-                verdicts.append(f"{'left' if side < 0 else 'right'} island: "
-                                f"{'decreases' if falling else 'does not decrease'} with T")
+                verdicts.append(f"{name} island: ⟨d_g⟩ {'decreases' if falling else 'does not decrease'} with T")
         if verdicts:
-            g.text("The paper's ⟨d_g⟩ falls from 0.60 to 0.24 for the one barrier it follows. Ours, least ⟨d_g⟩ per "
-                   "island: " + "; ".join(verdicts) + ". The numbers are not the paper's for three reasons: the "
-                   "paper follows one barrier converging onto one KAM curve, we list the outermost and the least "
-                   "deviating ones the extractor found at each T (which need not be the same curve); we evaluate "
-                   "eq. `dg_shr` in its general form with grid derivatives of our own fields (docs/extractors.md); "
-                   f"and our grid is {grid_text(source)} over the paper's box, not 1000 × 1000.")
+            g.text("The paper's ⟨d_g⟩ falls from 0.60 to 0.24 for the barrier it follows. Ours: " + "; ".join(verdicts) +
+                   ". Why ours need not fall, and why the values differ from the paper's, is discussed in "
+                   "docs/extractors.md (elliptic, convergence study): the closed-shearline band moves with T (at "
+                   "10π the left island's band ends inside the 8π barrier), the 8π barrier of the right island already "
+                   "has a small ⟨d_g⟩ in the general form of eq. `dg_shr` we evaluate, and d_g is built from grid "
+                   f"derivatives of λ and ξ that lose accuracy next to the chaotic layer as T grows; our grid is "
+                   f"{grid_text(source)} over the paper's box, not 1000 × 1000.")
             g.text()
         timings.append(("poincare-shearline-ex1", v, "median drift " + ", ".join(pct(a["median"]) for a in agree.values())))
 

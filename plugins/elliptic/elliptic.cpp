@@ -72,6 +72,41 @@ std::string fmt(double v, int digits = 4) {
     return s.str();
 }
 
+// <d_g^eta±> along a closed curve from exact Cauchy–Green tensors instead of the grid's: at every vertex, DF on a
+// 3 x 3 patch `spacing` apart (host advection with the experiment's integrator), the patch's tensor and shear fields
+// (the grid's own formulas: shear_fields, centred differences), d_g at the centre; arclength-weighted mean. Removes
+// the grid's O(h^2) derivative error and the bilinear interpolation, which grow with T next to the chaotic layer.
+double exact_mean_deviation(const sdk::Host &host, const gb_extract_input &in, const std::vector<double> &xy,
+                            int sign, double spacing, ShearDeviationForm form) {
+    const std::size_t n = xy.size() / 2;
+    constexpr std::size_t side = 3, per_vertex = side * side;
+    std::vector<double> patch_points(2 * per_vertex * n);
+    for (std::size_t k = 0; k < n; ++k)
+        for (std::size_t q = 0; q < per_vertex; ++q) {
+            patch_points[2 * (k * per_vertex + q)] = xy[2 * k] + spacing * (static_cast<double>(q % side) - 1.0);
+            patch_points[2 * (k * per_vertex + q) + 1] = xy[2 * k + 1] + spacing * (static_cast<double>(q / side) - 1.0);
+        }
+    std::vector<double> moved, dF;
+    std::vector<std::uint8_t> mask;
+    host.advect(patch_points, in.t0, in.t1, moved, mask, &dF);
+    std::vector<double> values(n, std::numeric_limits<double>::quiet_NaN());
+    for (std::size_t k = 0; k < n; ++k) {
+        Grid patch;
+        patch.nx = patch.ny = side;
+        patch.x_min = xy[2 * k] - spacing;
+        patch.x_max = xy[2 * k] + spacing;
+        patch.y_min = xy[2 * k + 1] - spacing;
+        patch.y_max = xy[2 * k + 1] + spacing;
+        const std::vector<double> patch_dF(dF.begin() + 4 * k * per_vertex, dF.begin() + 4 * (k + 1) * per_vertex);
+        const std::vector<std::uint8_t> patch_mask(mask.begin() + k * per_vertex, mask.begin() + (k + 1) * per_vertex);
+        const CauchyGreenField cg = cauchy_green_field(patch, patch_dF, patch_mask, std::abs(in.t1 - in.t0));
+        const ShearFields shear = shear_fields(cg, form);
+        values[k] = (sign > 0 ? shear.deviation_plus : shear.deviation_minus)[per_vertex / 2];
+    }
+    const CurveStats st = curve_statistics(xy, values, true);
+    return st.finite_points ? st.mean : std::numeric_limits<double>::quiet_NaN();
+}
+
 // One closed shearline found, with what is measured on it.
 struct Found {
     std::size_t candidate = 0;
@@ -135,6 +170,10 @@ struct Elliptic {
             "ftle_filter", true,
             "keep only closed shearlines whose arclength-mean FTLE is below the island threshold (ftle_threshold "
             "or Otsu): barriers on the regular side of the chaotic layer, whatever the grid resolution"),
+        real_param("exact_deviation_spacing", 0.0, 0.0, 1.0, "grid spacings",
+                   "0: off; > 0: also report each barrier's <d_g> from exact Cauchy-Green tensors on 3 x 3 patches "
+                   "this many grid spacings apart around its vertices (mean_geodesic_deviation_exact; selection "
+                   "still uses the grid's)"),
         bool_param("extrapolate_gap", true,
                    "compare the Richardson-extrapolated return gap (field at h and 2h) with resolution_gap, not the "
                    "gap on the grid, whose O(h^2) interpolation error grows towards the island's edge"),
@@ -153,7 +192,8 @@ struct Elliptic {
           m_plot_shearlines(static_cast<std::size_t>(p.integer("plot_shearlines"))), m_line_rtol(p.real("line_rtol")),
           m_resolution_gap(p.real("resolution_gap")), m_barrier_spacing(p.real("barrier_spacing")),
           m_extrapolate_gap(p.flag("extrapolate_gap")), m_ftle_filter(p.flag("ftle_filter")),
-          m_conservative(p.string("conservative")), m_lambda(p.real("lambda")) {}
+          m_conservative(p.string("conservative")), m_lambda(p.real("lambda")),
+          m_exact_deviation_spacing(p.real("exact_deviation_spacing")) {}
 
     void extract(const sdk::Host &host, const gb_extract_input &in) const;
 
@@ -169,7 +209,7 @@ struct Elliptic {
     double m_line_rtol, m_resolution_gap, m_barrier_spacing;
     bool m_extrapolate_gap, m_ftle_filter;
     std::string m_conservative;
-    double m_lambda;
+    double m_lambda, m_exact_deviation_spacing;
 };
 
 void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const {
@@ -438,6 +478,13 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
             metrics.emplace_back("max_geodesic_deviation", f.max_deviation);
         }
         if (std::isfinite(f.orbit.extrapolated_gap)) metrics.emplace_back("extrapolated_gap", f.orbit.extrapolated_gap);
+        if (!lambda_lines && m_exact_deviation_spacing > 0.0)
+            metrics.emplace_back(
+                "mean_geodesic_deviation_exact",
+                exact_mean_deviation(host, in, f.orbit.xy, f.orbit.sign,
+                                     m_exact_deviation_spacing * std::min(grid.dx(), grid.dy()),
+                                     m_area_preserving ? ShearDeviationForm::area_preserving
+                                                       : ShearDeviationForm::general));
         if (std::isfinite(f.max_ftle)) metrics.emplace_back("max_ftle", f.max_ftle);
         if (std::isfinite(f.mean_ftle)) metrics.emplace_back("mean_ftle", f.mean_ftle);
         const bool advect = m_advect == "all" || (m_advect == "outermost" && f.outermost);

@@ -40,9 +40,9 @@ GEOBARRIER_ALWAYS_INLINE double mul_add(double a, double b, double c) {
 #endif
 }
 
-// sum over the row's terms of weight * value(stage), in term order, as a chain of mul_add: the one sum of the core's
-// kernel (flow_map.cpp) and of the SDK's fused step (sdk.hpp). Rows are compile-time constants, so after inlining
-// the loop unrolls with the zero coefficients already left out.
+// sum over the row's terms of weight * value(stage), in term order, as a chain of mul_add (the embedded error
+// estimates of flow_map.cpp; stage and step states use row_step below). Rows are compile-time constants, so after
+// inlining the loop unrolls with the zero coefficients already left out.
 template <class Value> GEOBARRIER_ALWAYS_INLINE double row_sum(const RkRow &row, Value value) {
     double s = row.terms[0].weight * value(row.terms[0].stage);
 #pragma GCC unroll 16

@@ -696,8 +696,9 @@ int main(int argc, char **argv) {
             // map is an order of magnitude faster and the extraction stands out.
             json with_defaults = base_experiment;
             with_defaults.erase("integrator");
+            using Labelled = std::pair<const char *, const json &>;
             for (const auto &[label, experiment] :
-                 {std::pair<const char *, const json &>{"as written", base_experiment}, {"default integrator", with_defaults}}) {
+                 {Labelled{"as written", base_experiment}, Labelled{"default integrator", with_defaults}}) {
                 Row r = bench.run("extraction", name, experiment, {label, json::object(), 2}, {});
                 bench.add(r);
                 extraction_rows.push_back(r);

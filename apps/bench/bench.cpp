@@ -797,10 +797,11 @@ int main(int argc, char **argv) {
     }
     if (!scaling_rows.empty()) {
         md << "## Scaling in the number of grid points\n\nThe default on 2 threads (best of five runs below N = 1000, of "
-              "two from there). Time per point should not depend "
-              "on N (linear within 15%); the flow-map stage leaves out the process start-up and the output, which "
-              "weigh on small grids. The errors at N = 700 and 1400 check that the default's accuracy is no accident "
-              "of the headline grid: the interior max comes from one or two points on razor-thin FTLE ridges.\n\n| N | points | wall (s) | flow map (s) | µs per point (wall) | µs per point "
+              "two from there). Time per point should not depend on N (linear within 15%); the flow-map stage leaves "
+              "out the process start-up and the output, which weigh on small grids. The errors at N = 700 and 1400 "
+              "check that the default's accuracy is no accident of the headline grid: the interior max comes from "
+              "one or two points on razor-thin FTLE ridges.\n\n"
+              "| N | points | wall (s) | flow map (s) | µs per point (wall) | µs per point "
               "(flow map) | flow map per point / N = 1000's | peak RSS (MiB) | mean err | interior max |\n"
               "|---|---|---|---|---|---|---|---|---|---|\n";
         double reference = nan_value;

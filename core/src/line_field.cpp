@@ -206,8 +206,8 @@ LineField::LineField(const Grid &grid, std::vector<double> vx, std::vector<doubl
             m_vy[p] /= norm;
         }
     }
-    m_dx = grid.dx();
-    m_dy = grid.dy();
+    m_inv_dx = 1.0 / grid.dx();
+    m_inv_dy = 1.0 / grid.dy();
     m_v.resize(2 * n);
     for (std::size_t p = 0; p < n; ++p) {
         m_v[2 * p] = m_vx[p];
@@ -242,7 +242,7 @@ LineField LineField::from_cauchy_green(const CauchyGreenField &cg, int which, do
 inline bool LineField::locate(double x, double y, std::size_t &i, std::size_t &j, double &u, double &v) const {
     const Grid &g = m_grid;
     if (m_cell.empty() || !(x >= g.x_min && x <= g.x_max && y >= g.y_min && y <= g.y_max)) return false;
-    const double fx = (x - g.x_min) / m_dx, fy = (y - g.y_min) / m_dy;
+    const double fx = (x - g.x_min) * m_inv_dx, fy = (y - g.y_min) * m_inv_dy;
     j = std::min(static_cast<std::size_t>(fx), g.nx - 2);
     i = std::min(static_cast<std::size_t>(fy), g.ny - 2);
     u = fx - static_cast<double>(j);

@@ -90,7 +90,9 @@ class LineField {
 
   private:
     Grid m_grid;
-    double m_dx = 1.0, m_dy = 1.0; // the grid's spacing, computed once (evaluate runs millions of times)
+    // The grid's inverse spacing, computed once: evaluate runs millions of times, each tensor-line stage waits on
+    // the one before, and a multiplication has a quarter of a division's latency.
+    double m_inv_dx = 1.0, m_inv_dy = 1.0;
     std::vector<double> m_vx, m_vy;
     std::vector<double> m_v; // the same vectors interleaved (x, y), so that a cell's corners share cache lines
     std::vector<std::uint8_t> m_state; // 0 ok, 1 masked, 2 undefined

@@ -437,9 +437,10 @@ double distance_to_curve(const std::vector<double> &c, double x, double y) {
         const double ax = c[2 * i], ay = c[2 * i + 1], bx = c[2 * j], by = c[2 * j + 1];
         const double ux = bx - ax, uy = by - ay, uu = ux * ux + uy * uy;
         const double t = uu > 0.0 ? std::clamp(((x - ax) * ux + (y - ay) * uy) / uu, 0.0, 1.0) : 0.0;
-        best = std::min(best, std::hypot(x - ax - t * ux, y - ay - t * uy));
+        const double ex = x - ax - t * ux, ey = y - ay - t * uy;
+        best = std::min(best, ex * ex + ey * ey); // squared: one sqrt at the end, not a hypot per segment
     }
-    return best;
+    return std::sqrt(best);
 }
 
 double curve_distance(const std::vector<double> &a, const std::vector<double> &b, std::size_t stride) {
@@ -454,11 +455,13 @@ double curve_distance(const std::vector<double> &a, const std::vector<double> &b
 
 double curve_diameter(const std::vector<double> &c, std::size_t stride) {
     stride = std::max<std::size_t>(stride, 1);
-    double d = 0.0;
+    double d2 = 0.0; // squared: one sqrt at the end
     for (std::size_t i = 0; 2 * i + 1 < c.size(); i += stride)
-        for (std::size_t j = i + stride; 2 * j + 1 < c.size(); j += stride)
-            d = std::max(d, std::hypot(c[2 * i] - c[2 * j], c[2 * i + 1] - c[2 * j + 1]));
-    return d;
+        for (std::size_t j = i + stride; 2 * j + 1 < c.size(); j += stride) {
+            const double ex = c[2 * i] - c[2 * j], ey = c[2 * i + 1] - c[2 * j + 1];
+            d2 = std::max(d2, ex * ex + ey * ey);
+        }
+    return std::sqrt(d2);
 }
 
 } // namespace geobarrier::elliptic

@@ -508,9 +508,13 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
             for (std::size_t it = 0; it < m_poincare_iterates; ++it) {
                 host.advect(cur, in.t0, in.t0 + m_poincare_period, next, mask);
                 cur.swap(next);
-                for (std::size_t k = 0; k < drift.size(); ++k)
+                // Points x curve vertices per iterate: the check's largest serial cost before it ran in parallel.
+#pragma omp parallel for schedule(static)
+                for (long long kk = 0; kk < static_cast<long long>(drift.size()); ++kk) {
+                    const std::size_t k = static_cast<std::size_t>(kk);
                     drift[k] = mask[k] ? std::numeric_limits<double>::infinity()
                                        : std::max(drift[k], distance_to_curve(f.orbit.xy, cur[2 * k], cur[2 * k + 1]));
+                }
             }
             std::vector<double> sorted = drift;
             std::sort(sorted.begin(), sorted.end());

@@ -440,21 +440,6 @@ TEST_CASE("forced Duffing at twice the resolution: the outermost barriers still 
 
 namespace {
 
-// Symmetric Hausdorff distance between two closed polylines (vertices only; they are dense).
-double hausdorff(const std::vector<double> &a, const std::vector<double> &b) {
-    const auto one_way = [](const std::vector<double> &from, const std::vector<double> &to) {
-        double worst = 0.0;
-        for (std::size_t i = 0; i < from.size(); i += 2) {
-            double best = HUGE_VAL;
-            for (std::size_t j = 0; j < to.size(); j += 2)
-                best = std::min(best, std::hypot(from[i] - to[j], from[i + 1] - to[j + 1]));
-            worst = std::max(worst, best);
-        }
-        return worst;
-    };
-    return std::max(one_way(a, b), one_way(b, a));
-}
-
 double centre_x(const std::vector<double> &xy) {
     double sum = 0.0;
     for (std::size_t i = 0; i < xy.size(); i += 2) sum += xy[i];
@@ -498,7 +483,7 @@ TEST_CASE("convergence (paper figure poincare-shearline-ex1): the right island's
         for (const json &b : runs[t]) {
             const std::vector<double> xy = points_of(b);
             if (b["family"] != (*reference)["family"] || centre_x(xy) <= 0) continue;
-            const double d = hausdorff(ref_xy, xy);
+            const double d = curve_distance(ref_xy, xy); // symmetric Hausdorff distance
             if (d < nearest) {
                 nearest = d;
                 value = b["mean_geodesic_deviation_exact"].get<double>();

@@ -32,9 +32,21 @@ void setup_logging(bool quiet, bool verbose) {
     spdlog::set_level(quiet ? spdlog::level::warn : verbose ? spdlog::level::debug : spdlog::level::info);
 }
 
+// Every input error names the file: the parser's own errors do ("exp.json:3:7: ..."), and those found later, in
+// the plugins' parameters or while running, carry only the JSON path ("/system/params/omega0: ..."), so the
+// experiment's file name goes in front of them here.
+template <class Step> auto naming_the_file(const fs::path &file, Step &&step) -> decltype(step()) {
+    try {
+        return step();
+    } catch (const ConfigError &e) {
+        if (e.json_path().empty() || e.json_path()[0] != '/') throw;
+        throw ConfigError(file.string() + ": " + e.json_path(), std::string(e.what()).substr(e.json_path().size() + 2));
+    }
+}
+
 int command_run(const fs::path &file, const std::optional<fs::path> &out, int threads, bool quiet) {
     const Experiment experiment = load_experiment(file);
-    const ResolvedExperiment resolved = resolve_experiment(experiment);
+    const ResolvedExperiment resolved = naming_the_file(file, [&] { return resolve_experiment(experiment); });
     for (const auto &w : resolved.registry.warnings()) spdlog::debug("{}", w);
     spdlog::info("{}: {} + {} on a {} x {} grid, t = {} to {}", file.string(), resolved.system.info().name,
                  resolved.forcing.info().name, experiment.grid.nx, experiment.grid.ny, experiment.t0, experiment.t1);
@@ -42,7 +54,7 @@ int command_run(const fs::path &file, const std::optional<fs::path> &out, int th
     options.output_dir = out;
     options.threads = threads;
     options.quiet = quiet;
-    const RunSummary summary = run_experiment(resolved, options);
+    const RunSummary summary = naming_the_file(file, [&] { return run_experiment(resolved, options); });
     if (!quiet) {
         std::cout << "wrote " << summary.files.size() << " files to " << summary.output_dir.string() << ":\n";
         for (const auto &f : summary.files) std::cout << "  " << f.string() << "\n";
@@ -52,7 +64,7 @@ int command_run(const fs::path &file, const std::optional<fs::path> &out, int th
 
 int command_validate(const fs::path &file) {
     const Experiment experiment = load_experiment(file);
-    const ResolvedExperiment resolved = resolve_experiment(experiment);
+    const ResolvedExperiment resolved = naming_the_file(file, [&] { return resolve_experiment(experiment); });
     std::cout << file.string() << ": valid (" << resolved.system.info().name << " + " << resolved.forcing.info().name
               << ", " << experiment.grid.nx << " x " << experiment.grid.ny << " grid, products:";
     for (const auto &p : experiment.products) std::cout << " " << p;
@@ -60,7 +72,8 @@ int command_validate(const fs::path &file) {
     const nlohmann::json validation = validation_to_json(experiment.validation, experiment.t0, experiment.t1);
     for (const auto &item : validation.items()) std::cout << " validation:" << item.key();
     std::cout << ")\n";
-    for (const auto &w : experiment.warnings) std::cout << "warning: " << w << "\n"; // e.g. a clamped rtol
+    // Warnings on stderr (e.g. a clamped rtol): stdout holds only the verdict.
+    for (const auto &w : experiment.warnings) std::cerr << "geobarrier: warning: " << file.string() << ": " << w << "\n";
     return 0;
 }
 
@@ -108,7 +121,7 @@ int command_plugins(bool as_json, const std::vector<std::string> &extra) {
         }
         if (!any) std::cout << "  (none)\n";
     }
-    for (const auto &w : registry.warnings()) std::cout << "note: " << w << "\n";
+    for (const auto &w : registry.warnings()) std::cerr << "geobarrier: warning: " << w << "\n";
     return 0;
 }
 
@@ -235,6 +248,64 @@ int command_check_plugin(const CheckPluginOptions &o) {
     return ok ? 0 : exit_failure;
 }
 
+// A command line CLI11 refused: one line naming the word it could not use, with a did-you-mean, for exit code 2.
+// A misspelt subcommand ("rnu") or option ("--quite") is looked up among those that exist; anything else keeps
+// CLI11's own message. Negative numbers ("--t-min -5") are values, not options.
+std::string command_line_error(const CLI::App &app, const CLI::ParseError &error, int argc, char **argv) {
+    const auto names_of = [](const std::vector<const CLI::App *> &apps) {
+        std::vector<std::string> names;
+        for (const CLI::App *a : apps) names.push_back(a->get_name());
+        return names;
+    };
+    const auto option_names = [](const CLI::App &a) {
+        std::vector<std::string> names;
+        for (const CLI::Option *o : a.get_options()) {
+            for (const auto &l : o->get_lnames()) names.push_back("--" + l);
+            for (const auto &n : o->get_snames()) names.push_back("-" + n);
+        }
+        return names;
+    };
+    const auto is_number = [](const std::string &word) {
+        char *end = nullptr;
+        std::strtod(word.c_str(), &end);
+        return !word.empty() && end == word.c_str() + word.size();
+    };
+    const std::vector<std::string> commands = names_of(app.get_subcommands([](const CLI::App *) { return true; }));
+    const CLI::App *command = nullptr;
+    for (int i = 1; i < argc && !command; ++i) {
+        const std::string word = argv[i];
+        if (word.empty() || word[0] == '-') continue;
+        if (std::find(commands.begin(), commands.end(), word) == commands.end()) {
+            std::string message = "'" + word + "' is not a geobarrier command";
+            const std::string hint = did_you_mean(word, commands);
+            if (!hint.empty()) message += "; did you mean '" + hint + "'?";
+            std::string list;
+            for (const auto &c : commands) list += (list.empty() ? "" : ", ") + c;
+            return message + " (commands: " + list + ")";
+        }
+        command = app.get_subcommand(word);
+    }
+    std::vector<std::string> known = option_names(app);
+    if (command) {
+        const std::vector<std::string> own = option_names(*command);
+        known.insert(known.end(), own.begin(), own.end());
+    }
+    for (int i = 1; i < argc; ++i) {
+        const std::string word = std::string(argv[i]).substr(0, std::string(argv[i]).find('='));
+        if (word.size() < 2 || word[0] != '-' || is_number(word) || word == "--") continue;
+        if (std::find(known.begin(), known.end(), word) != known.end()) continue;
+        const std::string where = command ? "geobarrier " + command->get_name() : std::string("geobarrier");
+        std::string message = "unknown option '" + word + "' for " + where;
+        const std::string hint = did_you_mean(word, known);
+        if (!hint.empty()) message += "; did you mean '" + hint + "'?";
+        return message + " (see " + where + " --help)";
+    }
+    std::string message = error.what();
+    std::replace(message.begin(), message.end(), '\n', ' ');
+    return message + " (see " + (command ? "geobarrier " + command->get_name() : std::string("geobarrier")) +
+           " --help)";
+}
+
 }  // namespace
 
 int main(int argc, char **argv) {
@@ -281,7 +352,9 @@ int main(int argc, char **argv) {
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError &e) {
-        return app.exit(e);
+        if (e.get_exit_code() == 0) return app.exit(e); // --help, --version
+        std::cerr << "geobarrier: error: " << command_line_error(app, e, argc, argv) << "\n";
+        return exit_bad_input;
     }
     setup_logging(quiet, verbose);
     install_signal_handlers(); // SIGINT/SIGTERM stop a run cleanly, exit code 128 + signal (cancel.hpp)

@@ -133,6 +133,16 @@ TEST_CASE("plugins finds the built-in plugins with no environment variable") {
     for (const char *n : {"duffing", "cosine", "chaotic-map", "none", "linear-saddle"})
         CHECK_MESSAGE(std::find(names.begin(), names.end(), n) != names.end(), n);
     CHECK(std::find(names.begin(), names.end(), "rigid-rotation") == names.end());
+    // JSON has no infinity: an unbounded side of a parameter's range is null, never a string.
+    std::size_t unbounded = 0;
+    for (const auto &p : j["plugins"])
+        for (const auto &q : p["params"])
+            for (const char *side : {"min", "max"})
+                if (q.contains(side)) {
+                    CHECK_MESSAGE((q[side].is_number() || q[side].is_null()), p["name"], q["name"], side);
+                    unbounded += q[side].is_null();
+                }
+    CHECK(unbounded > 0);
     const Result text = run("plugins");
     CHECK(contains(text.output, "duffing"));
     CHECK(contains(text.output, "alpha"));

@@ -362,7 +362,8 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
                                {"gradient_method", to_string(gradient)},
                                {"experiment", r.resolved.dump()}};
             const fs::path file = out / "fields.nc";
-            write_fields_netcdf(file, e.grid, variables, mask, attributes);
+            write_fields_netcdf(file, e.grid, variables, mask, attributes,
+                                {r.system.info().state_names, r.system.info().state_units});
             summary.files.push_back(file);
         }
         if (e.plots && r.need_cauchy_green) {

@@ -192,8 +192,47 @@ TEST_CASE("run writes the outputs to --out, which overrides output.dir") {
     CHECK_FALSE(fs::exists(tmp / "should-be-overridden"));
     const json m = json::parse(std::ifstream(out / "manifest.json"));
     CHECK(m["threads"] == 2);
+    // Provenance: when, where, which build, which plugin files byte for byte (as sha256sum hashes them), and that
+    // Duffing's fused step integrated every batch of the default preset's fixed dop853 steps.
+    const json &p = m["provenance"];
+    CHECK(p["created"].get<std::string>().size() == 20); // 2026-01-31T12:00:00Z
+    CHECK(p["created"].get<std::string>().back() == 'Z');
+    CHECK_FALSE(p["host"]["cpu"].get<std::string>().empty());
+    CHECK(p["host"]["instruction_sets"]["compiled_for"].is_array());
+    CHECK_FALSE(p["build"]["commit"].get<std::string>().empty());
+    CHECK(contains(p["build"]["flags"].get<std::string>(), "-O"));
+    REQUIRE(p["plugin_files"].size() == 2);
+    for (const json &f : p["plugin_files"]) {
+        FILE *pipe = ::popen(("sha256sum " + f["file"].get<std::string>()).c_str(), "r");
+        REQUIRE(pipe != nullptr);
+        std::array<char, 65> digest{};
+        REQUIRE(std::fgets(digest.data(), digest.size(), pipe) != nullptr);
+        ::pclose(pipe);
+        CHECK(f["sha256"] == std::string(digest.data()));
+    }
+    CHECK(p["fused_step"]["plugin_has_one"] == true);
+    CHECK(p["fused_step"]["ran"] == true);
+    CHECK(p["fused_step"]["batches"] == m["integrator_stats"]["batches"]);
+    CHECK(p["extractor_files"] == json::array());
     // No temporary files are left behind.
     for (const auto &e : fs::directory_iterator(out)) CHECK_MESSAGE(e.path().filename().string()[0] != '.', e.path());
     fs::remove_all(tmp);
 }
 
+TEST_CASE("the manifest's provenance lists the files the extractors wrote themselves") {
+    const fs::path tmp = scratch();
+    json j = tiny_experiment();
+    j["grid"]["n"] = {41, 31};
+    j["time"]["t1"] = 6;
+    j["extractors"] = {{{"plugin", "hyperbolic"}}};
+    const fs::path out = tmp / "out";
+    const Result r = run("run " + write_experiment(tmp, "extract.json", j).string() + " --out " + out.string() +
+                         " --quiet");
+    REQUIRE(r.status == 0);
+    const json m = json::parse(std::ifstream(out / "manifest.json"));
+    const json listed = m["provenance"]["extractor_files"];
+    CHECK(listed == json{"barriers.png", "strainlines.png"}); // the hyperbolic extractor's pictures
+    for (const auto &name : listed) CHECK_MESSAGE(fs::exists(out / name.get<std::string>()), name);
+    for (const auto &name : m["files"]) CHECK(std::find(listed.begin(), listed.end(), name) == listed.end());
+    fs::remove_all(tmp);
+}

@@ -2,6 +2,7 @@
 // extractors need (and no others), then writes fields.nc, pictures,
 // barriers.json and, last, manifest.json into the output folder.
 #include "progress.hpp"
+#include "provenance.hpp"
 
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/cauchy_green.hpp>
@@ -386,6 +387,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
         throw IoError(staging.final_names(e.what()) + storage_hint(out)); // a full disk shows up as "HDF error"
     }
 
+    manifest["provenance"] = detail::run_provenance(r, manifest, summary.files, out);
     manifest["stages"] = stages;
     manifest["warnings"] = warnings;
     manifest["wall_seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count();

@@ -60,6 +60,14 @@ std::mutex &load_mutex() {
     return m;
 }
 
+// PluginRegistry::find is const but may add a plugin loaded from a path; this lock makes concurrent calls safe (a
+// library embedded in Python may resolve experiments from several threads). One lock for every registry: find is
+// cheap next to what follows it.
+std::mutex &registry_mutex() {
+    static std::mutex m;
+    return m;
+}
+
 std::string text_or_empty(const char *s) { return s ? std::string(s) : std::string(); }
 
 std::vector<std::string> split(const std::string &s, char sep) {
@@ -668,10 +676,11 @@ std::vector<Barrier> Extractor::extract(const gb_extract_input &input, const Ext
 // ------------------------------------------------------------ registry
 
 fs::path PluginRegistry::builtin_folder() {
-    // The program lives in <prefix>/bin; plugins in <prefix>/lib/geobarrier/plugins,
-    // in the build tree and in an install alike.
-    const fs::path exe = boost::dll::program_location().parent_path().string();
-    return exe.parent_path() / "lib" / "geobarrier" / "plugins";
+    // This library lives in <prefix>/lib, plugins in <prefix>/lib/geobarrier/plugins, in the build tree and in an
+    // install alike. Found from the library, not the program, so that a host program anywhere (python3, the tests
+    // in build/tests) finds the same plugins as the geobarrier program in <prefix>/bin.
+    const fs::path library = boost::dll::this_line_location().string(); // as the loader found it: "lib/x/../.."
+    return (library.parent_path() / "geobarrier" / "plugins").lexically_normal();
 }
 
 std::vector<fs::path> PluginRegistry::default_folders(const std::vector<fs::path> &extra) {
@@ -721,6 +730,7 @@ void PluginRegistry::add_library(const fs::path &file, bool strict) const {
 }
 
 const PluginHandle &PluginRegistry::find(PluginKind kind, const std::string &name, const std::string &json_path) const {
+    std::lock_guard<std::mutex> lock(registry_mutex());
     const bool is_path = name.find('/') != std::string::npos || fs::path(name).extension() == ".so";
     if (is_path) {
         const fs::path file = fs::absolute(name);

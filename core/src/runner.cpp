@@ -18,6 +18,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -79,6 +80,29 @@ FieldDoc field_doc(const std::string &name) {
     };
     const auto it = docs.find(name);
     return it == docs.end() ? FieldDoc{"", "1"} : it->second;
+}
+
+// The OpenMP thread count of a run, set for the calling thread and restored when the run ends, so that a program
+// embedding the library (the Python module, a sweep) keeps its own setting.
+class ScopedThreadCount {
+  public:
+    explicit ScopedThreadCount(int threads) : m_saved(omp_get_max_threads()) {
+        if (threads > 0) omp_set_num_threads(threads);
+    }
+    ~ScopedThreadCount() { omp_set_num_threads(m_saved); }
+    ScopedThreadCount(const ScopedThreadCount &) = delete;
+    ScopedThreadCount &operator=(const ScopedThreadCount &) = delete;
+
+  private:
+    int m_saved;
+};
+
+// Where a run that writes no files (RunOptions::write_files = false) lets extractors and validation products put
+// theirs: a fresh folder under the system's temporary folder, removed with the staging folder (never published).
+fs::path private_scratch_folder() {
+    static std::atomic<unsigned> counter{0};
+    return fs::temp_directory_path() /
+           ("geobarrier-in-memory-" + std::to_string(static_cast<long>(::getpid())) + "-" + std::to_string(counter++));
 }
 
 }  // namespace
@@ -156,11 +180,15 @@ class OutputStaging {
 RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options) {
     const Experiment &e = r.experiment;
     const auto run_start = std::chrono::steady_clock::now();
-    if (options.threads > 0) omp_set_num_threads(options.threads);
+    const ScopedThreadCount thread_count(options.threads);
+    const auto report = [&options](const std::string &stage, std::size_t done, std::size_t total) {
+        if (options.progress) options.progress(stage, done, total);
+    };
+    const bool plots = e.plots && options.write_files;
 
     RunSummary summary;
-    summary.output_dir = options.output_dir ? *options.output_dir : e.output_dir;
-    OutputStaging staging(summary.output_dir);
+    if (options.write_files) summary.output_dir = options.output_dir ? *options.output_dir : e.output_dir;
+    OutputStaging staging(options.write_files ? summary.output_dir : private_scratch_folder());
     const fs::path out = staging.dir(); // every file goes here first; published at the end
 
     json manifest;
@@ -201,9 +229,11 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
         StageTimer timer(stages, "flow map"); // with the Cauchy–Green fields, tile by tile
         detail::ProgressBar bar("flow map", !options.quiet);
         const Dynamics dynamics{&r.system, &r.forcing};
-        GridFields computed =
-            compute_grid_fields(dynamics, e.grid, e.t0, e.t1, e.integrator, e.bounds, plan,
-                                [&bar](std::size_t done, std::size_t total) { bar.update(done, total); });
+        GridFields computed = compute_grid_fields(dynamics, e.grid, e.t0, e.t1, e.integrator, e.bounds, plan,
+                                                  [&](std::size_t done, std::size_t total) {
+                                                      bar.update(done, total);
+                                                      report("flow map", done, total);
+                                                  });
         bar.finish();
         flow = std::move(computed.flow);
         cg = std::move(computed.cg);
@@ -286,6 +316,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     };
     for (const Extractor &x : r.extractors) {
         throw_if_cancelled("before extractor '" + x.info().name + "'");
+        report("extractor " + x.info().name, 0, 1);
         StageTimer timer(stages, "extractor " + x.info().name);
         std::vector<gb_field> inputs;
         for (const auto &name : x.required_fields()) inputs.push_back({name.c_str(), fields.at(name)->data()});
@@ -301,7 +332,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
         const gb_extract_input input{e.grid.x_min, e.grid.x_max, e.grid.y_min, e.grid.y_max,
                                      e.grid.nx,    e.grid.ny,    e.t0,         e.t1,
                                      mask.data(),  static_cast<std::uint32_t>(inputs.size()),
-                                     inputs.data(), out_text.c_str(), e.plots ? 1 : 0, name_ptrs, unit_ptrs};
+                                     inputs.data(), out_text.c_str(), plots ? 1 : 0, name_ptrs, unit_ptrs};
         for (const Barrier &b : x.extract(input, services)) {
             json points = json::array();
             for (std::size_t k = 0; k + 1 < b.xy.size(); k += 2) points.push_back({b.xy[k], b.xy[k + 1]});
@@ -317,6 +348,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     // those the experiment's "validation" object asks for; they write their own files.
     if (!e.validation.empty()) {
         throw_if_cancelled("before the validation products");
+        report("validation", 0, 1);
         StageTimer timer(stages, "validation");
         ValidationInput input;
         input.dynamics = Dynamics{&r.system, &r.forcing};
@@ -325,7 +357,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
         input.t0 = e.t0;
         input.t1 = e.t1;
         input.barriers = &found;
-        input.plots = e.plots;
+        input.plots = plots;
         input.title = r.system.info().name + " + " + r.forcing.info().name;
         const ValidationOutput v = run_validation(e.validation, input, out);
         summary.files.insert(summary.files.end(), v.files.begin(), v.files.end());
@@ -336,9 +368,9 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     // Stage 4: files. Each is written atomically; the manifest comes last, so a
     // folder with a manifest is a finished run.
     throw_if_cancelled("before writing the output files");
+    std::vector<FieldVariable> variables;
     try {
         StageTimer timer(stages, "output");
-        std::vector<FieldVariable> variables;
         for (const auto &product : known_products()) {
             if (!e.wants(product.name)) continue;
             for (const char *name : product.variables) {
@@ -362,12 +394,15 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
                                {"t1", e.t1},
                                {"gradient_method", to_string(gradient)},
                                {"experiment", r.resolved.dump()}};
-            const fs::path file = out / "fields.nc";
-            write_fields_netcdf(file, e.grid, variables, mask, attributes,
-                                {r.system.info().state_names, r.system.info().state_units});
-            summary.files.push_back(file);
+            if (options.keep_results) summary.field_attributes = attributes;
+            if (options.write_files) {
+                const fs::path file = out / "fields.nc";
+                write_fields_netcdf(file, e.grid, variables, mask, attributes,
+                                    {r.system.info().state_names, r.system.info().state_units});
+                summary.files.push_back(file);
+            }
         }
-        if (e.plots && r.need_cauchy_green) {
+        if (plots && r.need_cauchy_green) {
             FieldPlot plot;
             plot.title = "FTLE, " + r.system.info().name + " + " + r.forcing.info().name + ", t = " +
                          fmt::format("{:g}", e.t0) + " to " + fmt::format("{:g}", e.t1);
@@ -378,7 +413,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
             plot_field_png(file, e.grid, cg.ftle, mask, plot);
             summary.files.push_back(file);
         }
-        if (!r.extractors.empty()) {
+        if (options.write_files && !r.extractors.empty()) {
             const fs::path file = out / "barriers.json";
             write_text_file(file, json{{"barriers", barriers}}.dump(1) + "\n");
             summary.files.push_back(file);
@@ -388,13 +423,26 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     }
 
     manifest["provenance"] = detail::run_provenance(r, manifest, summary.files, out);
+    if (options.keep_results) {
+        summary.grid = e.grid;
+        summary.mask = mask;
+        summary.barriers = barriers;
+        for (const FieldVariable &v : variables)
+            summary.fields.push_back({v.name, v.long_name, v.units, v.masked_by, *v.values});
+    }
+    if (!options.write_files) summary.files.clear(); // the validation products' files went to the private folder
+
     manifest["stages"] = stages;
     manifest["warnings"] = warnings;
     manifest["wall_seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count();
     json files = json::array();
     for (const auto &f : summary.files) files.push_back(f.filename().string());
-    files.push_back("manifest.json");
+    if (options.write_files) files.push_back("manifest.json");
     manifest["files"] = files;
+    if (!options.write_files) {
+        summary.manifest = manifest;
+        return summary; // the staging folder's destructor removes the private folder
+    }
     const fs::path manifest_file = out / "manifest.json";
     throw_if_cancelled("before writing manifest.json");
     try {

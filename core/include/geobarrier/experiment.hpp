@@ -11,7 +11,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -100,14 +102,35 @@ ResolvedExperiment resolve_experiment(const Experiment &experiment);
 
 struct RunOptions {
     std::optional<std::filesystem::path> output_dir; // overrides output.dir
-    int threads = 0;                                 // 0 = OpenMP's default
+    int threads = 0;                                 // 0 = OpenMP's default (for this run only: restored afterwards)
     bool quiet = false;                              // no progress bar, warnings only
+    // For programs that embed the library (the Python module). write_files = false: nothing is written and no
+    // picture is drawn (the output folder is not touched; extractors and validation products write into a private
+    // temporary folder that is removed). keep_results: RunSummary also holds the fields, the mask and the barriers.
+    bool write_files = true;
+    bool keep_results = false;
+    // Called as a stage advances ("flow map": done/total grid rows; other stages: 0/1 when they start); possibly from
+    // worker threads, one call at a time. Cancellation stays cancel.hpp's request_cancel.
+    std::function<void(const std::string &stage, std::size_t done, std::size_t total)> progress;
+};
+
+// One variable of fields.nc, kept in memory (RunOptions::keep_results): shape (ny, nx), row index = y.
+struct FieldResult {
+    std::string name, long_name, units;
+    std::uint8_t masked_by = 0; // fields.nc holds _FillValue where (mask & masked_by) != 0 or the value is not finite
+    std::vector<double> values;
 };
 
 struct RunSummary {
-    std::filesystem::path output_dir;
+    std::filesystem::path output_dir;         // empty when nothing was written
     std::vector<std::filesystem::path> files; // everything written
     nlohmann::json manifest;
+    // keep_results only: what fields.nc and barriers.json hold.
+    Grid grid;
+    std::vector<FieldResult> fields;
+    std::vector<std::uint8_t> mask;
+    nlohmann::json field_attributes; // fields.nc's global attributes
+    nlohmann::json barriers = nlohmann::json::array();
 };
 
 RunSummary run_experiment(const ResolvedExperiment &experiment, const RunOptions &options);

@@ -232,7 +232,8 @@ class PluginRegistry {
 
     // Folders searched by default, in order: `extra` (e.g. the experiment's
     // plugin_paths), GEOBARRIER_PLUGIN_PATH (':'-separated), then the plugins
-    // installed or built beside the running program (<exe>/../lib/geobarrier/plugins).
+    // installed or built beside the core library (<prefix>/lib/geobarrier/plugins for <prefix>/lib/libgeobarrier.so:
+    // the same folder for the geobarrier program, the tests and the Python module).
     static std::vector<std::filesystem::path> default_folders(const std::vector<std::filesystem::path> &extra = {});
     static std::filesystem::path builtin_folder();
 
@@ -243,6 +244,7 @@ class PluginRegistry {
     // Finds a plugin by kind and name, or loads it from a file when `name` is
     // a path (contains '/' or ends in ".so"). Unknown names are ConfigErrors at
     // json_path listing what exists, with a "did you mean" hint.
+    // Safe to call from several threads at once.
     const PluginHandle &find(PluginKind kind, const std::string &name, const std::string &json_path) const;
 
   private:

@@ -1,0 +1,169 @@
+"""geobarrier from Python: run experiments on the C++ core and get NumPy arrays or xarray Datasets back.
+
+    import geobarrier
+    r = geobarrier.run("experiments/demo.json")     # or a dict in the experiment format
+    r.fields.ftle                                     # xarray.DataArray (ny, nx), as in fields.nc
+    r.barriers[0].points                              # (n, 2) array
+    r.manifest["integrator_stats"]
+
+docs/python.md is the guide; docs/experiment-format.md describes experiments.
+"""
+
+import json
+import os
+import signal
+import threading
+
+from . import _fields
+from ._errors import ConfigError, Error, IoError, NumericalError, PluginError
+from ._geobarrier import version as __version__
+from . import _geobarrier as _native
+from ._progress import ProgressLine
+
+__all__ = ["run", "validate", "plugins", "set_log_level", "Result", "Barrier", "Error", "ConfigError",
+           "PluginError", "NumericalError", "IoError", "ProgressLine"]
+
+
+class Barrier:
+    """One barrier an extractor found: ``points`` is an (n, 2) array of (x, y); ``kind`` (e.g. "elliptic"),
+    ``closed``, ``extractor``; ``attributes`` holds everything else barriers.json records for it (metrics such as
+    "length", extractor attributes), also readable as ``barrier["length"]``."""
+
+    def __init__(self, record):
+        import numpy as np
+
+        record = dict(record)
+        self.kind = record.pop("kind")
+        self.closed = bool(record.pop("closed"))
+        self.extractor = record.pop("extractor")
+        self.points = np.asarray(record.pop("points"), dtype=float).reshape(-1, 2)
+        self.attributes = record
+
+    def __getitem__(self, name):
+        return self.attributes[name]
+
+    def __repr__(self):
+        shape = "closed" if self.closed else "open"
+        return f"<geobarrier.Barrier {self.kind} ({self.extractor}), {shape}, {len(self.points)} points>"
+
+
+class Result:
+    """What run() returns: ``fields`` (an xarray.Dataset as fields.nc holds it, or geobarrier.Fields of NumPy arrays
+    without xarray), ``barriers`` (list of Barrier), ``manifest`` (dict, as manifest.json), ``warnings`` (the
+    manifest's), ``output_dir`` and ``files`` (what was written; empty when nothing was)."""
+
+    def __init__(self, native, use_xarray=True):
+        self.fields = _fields.build(native, use_xarray)
+        self.barriers = [Barrier(b) for b in json.loads(native["barriers"])]
+        self.manifest = json.loads(native["manifest"])
+        self.warnings = self.manifest.get("warnings", [])
+        self.output_dir = native["output_dir"] or None
+        self.files = list(native["files"])
+
+    def __repr__(self):
+        names = [n for n in self.fields if n != "mask"] if not hasattr(self.fields, "data_vars") else [
+            n for n in self.fields.data_vars if n != "mask"]
+        return f"<geobarrier.Result fields: {', '.join(names) or 'none'}; {len(self.barriers)} barriers>"
+
+
+def _json_default(value):
+    # NumPy scalars and arrays in an experiment dict (a sweep's np.linspace values) are plain JSON numbers.
+    if hasattr(value, "tolist"):
+        return value.tolist()
+    raise TypeError(f"{type(value).__name__} is not valid in an experiment (numbers, strings, lists, dicts)")
+
+
+def _experiment_text(experiment):
+    """(text, file) for the native module: a dict becomes JSON text; a path is read by the core ("" text)."""
+    if isinstance(experiment, (str, os.PathLike)):
+        return "", os.fspath(experiment)
+    if not isinstance(experiment, dict):
+        raise TypeError(f"an experiment is a dict or a path to a JSON file, not {type(experiment).__name__}")
+    try:
+        return json.dumps(experiment, allow_nan=False, default=_json_default), ""
+    except ValueError as e:  # NaN or infinity: JSON has neither
+        raise ConfigError(f"/: {e} (JSON has no NaN or infinity)", "/") from None
+
+
+def _flow_map_only(text, file):
+    """The experiment reduced to its flow map: products ["flow_map"], no extractors, no validation products."""
+    if not text:
+        with open(file, encoding="utf-8", errors="replace") as f:
+            text = f.read()
+    try:
+        experiment = json.loads(text)
+    except ValueError:
+        return text, file  # the core reports where the JSON is malformed
+    if isinstance(experiment, dict):
+        experiment["products"] = ["flow_map"]
+        experiment.pop("extractors", None)
+        experiment.pop("validation", None)
+        text = json.dumps(experiment)
+    return text, file
+
+
+def run(experiment, out=None, *, write=None, threads=0, progress=False, flow_map=False, xarray=True):
+    """Runs an experiment (a dict in the experiment format, or a path to an experiment file) and returns a Result.
+
+    out       write the usual output folder (fields.nc, pictures, barriers.json, manifest.json) here;
+    write     True: write it to `out`, or to the experiment's output.dir; default: only when `out` is given;
+              a run that writes nothing draws no pictures and leaves every folder as it was;
+    threads   worker threads (0: OpenMP's default, all cores); the setting is the run's own;
+    progress  True: a progress line on stderr (terminals and notebooks); or a callable(stage, done, total);
+    flow_map  True: compute the flow map alone (products ["flow_map"], no extractors, no validation products):
+              result.fields.flow_x and .flow_y are F(x0, y0) at t1;
+    xarray    False: NumPy arrays (geobarrier.Fields) even when xarray is installed.
+
+    The GIL is released while the core computes. Ctrl-C (a notebook's "interrupt kernel") stops the run and raises
+    KeyboardInterrupt; no file of the run is left in the output folder. Bad input raises ConfigError (``e.path``
+    is the JSON path); a failed computation raises another geobarrier.Error.
+    """
+    text, file = _experiment_text(experiment)
+    if flow_map:
+        text, file = _flow_map_only(text, file)
+    if write is None:
+        write = out is not None
+    elif not write and out is not None:
+        raise ValueError("out names an output folder but write=False")
+    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 0:
+        raise ValueError(f"threads must be a non-negative integer, not {threads!r}")
+    line = ProgressLine() if progress is True else None
+    callback = line if line is not None else (progress if callable(progress) else None)
+    if progress not in (False, None, True) and not callable(progress):
+        raise TypeError("progress is True, False or a callable(stage, done, total)")
+    # Ctrl-C is the core's to handle only where Python would raise KeyboardInterrupt for it: in the main thread,
+    # with Python's default handler in place.
+    handle_interrupt = (threading.current_thread() is threading.main_thread()
+                        and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+    try:
+        native = _native.run(text, file, None if out is None else os.fspath(out), bool(write), threads, callback,
+                             handle_interrupt)
+    finally:
+        if line is not None:
+            line.close()
+    return Result(native, xarray)
+
+
+def validate(experiment):
+    """Checks an experiment completely (structure, values, plugins and their parameters) and computes nothing.
+    Returns a summary dict (system, forcing, grid, products, extractors, validation, warnings, and the experiment
+    with every default filled in as "resolved"); raises ConfigError for bad input."""
+    text, file = _experiment_text(experiment)
+    return json.loads(_native.validate(text, file))
+
+
+def plugins(plugin_paths=()):
+    """The plugins found (in `plugin_paths` first, then GEOBARRIER_PLUGIN_PATH, then the built-in ones), each a dict
+    with kind, name, version, doc, file and "params": the schema (name, type, default, min, max, unit, doc)."""
+    found = json.loads(_native.plugins([os.fspath(p) for p in plugin_paths]))["plugins"]
+    for plugin in found:
+        for param in plugin.get("params", []):
+            for key in ("min", "max"):
+                if param.get(key) in ("inf", "-inf"):
+                    param[key] = float(param[key])
+    return found
+
+
+def set_log_level(level):
+    """The core's log level on stderr: "debug", "info", "warning" (the default in Python), "error" or "off"."""
+    _native.set_log_level(level)

@@ -3,6 +3,7 @@
 #include <geobarrier/conformance.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
+#include <geobarrier/mpi.hpp>
 #include <geobarrier/plugin.hpp>
 #include <geobarrier/sweep.hpp>
 
@@ -274,6 +275,8 @@ int command_check_plugin(const CheckPluginOptions &o) {
 }  // namespace
 
 int main(int argc, char **argv) {
+    // MPI only when launched by mpirun (docs/cluster.md); started directly, the program is one process as ever.
+    mpi::Session mpi_session(argc, argv);
     CLI::App app{"geobarrier: invariant manifolds, attractors and generalized KAM tori of forced mechanical systems\n"
                  "from the geometry of the finite-time flow map."};
     app.set_version_flag("--version", std::string("geobarrier ") + GEOBARRIER_VERSION);
@@ -330,6 +333,9 @@ int main(int argc, char **argv) {
     } catch (const CLI::ParseError &e) {
         return app.exit(e);
     }
+    // Under mpirun, `run` shares its flow map's tiles among the ranks (a sweep shares whole members); rank 0 reports.
+    mpi::share_tiles(static_cast<bool>(*run));
+    if (mpi::rank() != 0) quiet = true;
     setup_logging(quiet, verbose);
     install_signal_handlers(); // SIGINT/SIGTERM stop a run cleanly, exit code 128 + signal (cancel.hpp)
     // Every error is one line on stderr, whatever a plugin's message holds.
@@ -343,6 +349,7 @@ int main(int argc, char **argv) {
         std::cout.flush();
         std::cerr.flush();
         std::fflush(nullptr);
+        mpi::end_before_exit(code, code == exit_bad_input); // bad input: every rank read the same file and stops alike
         std::_Exit(code);
         return code;
     };
@@ -364,7 +371,7 @@ int main(int argc, char **argv) {
     } catch (const Cancelled &e) {
         return interrupted(e.signal(), e.what());
     } catch (const ConfigError &e) {
-        std::cerr << "geobarrier: error: " << one_line(e.what()) << "\n";
+        if (mpi::rank() == 0) std::cerr << "geobarrier: error: " << one_line(e.what()) << "\n";
         return fail(exit_bad_input);
     } catch (const std::bad_alloc &) {
         std::cerr << "geobarrier: error: out of memory (try a smaller grid)\n";

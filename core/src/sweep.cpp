@@ -3,6 +3,7 @@
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
+#include <geobarrier/mpi.hpp>
 #include <geobarrier/output.hpp>
 #include <geobarrier/sweep.hpp>
 
@@ -666,6 +667,63 @@ std::vector<fs::path> write_summary(const Sweep &s, const fs::path &out, const s
     return files;
 }
 
+// Under mpirun: each rank takes members from the shared queue and runs them in its own process (an MPI process
+// should not fork), then rank 0 collects every rank's outcomes. After SIGINT/SIGTERM a rank drains the queue without
+// running more members.
+void run_members_on_ranks(const Sweep &s, const fs::path &out, std::vector<std::size_t> pending, int threads,
+                          bool quiet, std::vector<SweepMemberResult> &results) {
+    // Rank 0's list of the members to run is everyone's: a rank that looked later could see members finished since.
+    std::vector<std::uint64_t> shared(pending.begin(), pending.end());
+    if (mpi::rank() == 0)
+        for (int to = 1; to < mpi::size(); ++to) mpi::send_vector(to, shared);
+    else
+        shared = mpi::receive_vector<std::uint64_t>(0);
+    pending.assign(shared.begin(), shared.end());
+    json mine = json::array();
+    {
+        mpi::WorkQueue queue(pending.size());
+        while (const auto next = queue.next()) {
+            if (cancel_requested()) continue;
+            const std::size_t k = pending[*next];
+            const SweepMember &m = s.members[k];
+            const fs::path log = out / "logs" / (m.name + ".log");
+            if (!quiet) spdlog::info("{} ({}): started on rank {}", m.name, describe_member(s, m), mpi::rank());
+            const auto start = std::chrono::steady_clock::now();
+            omp_set_num_threads(threads);
+            const int code = run_member_here(s, m, out / m.name, log, threads);
+            const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            json outcome = {{"member", k}, {"code", code}, {"wall_seconds", seconds}};
+            if (code != member_ok && !(code > 128 && cancel_requested())) {
+                outcome["message"] = "exit " + std::to_string(code) + ": " + last_line(log);
+                spdlog::error("{} ({}) failed on rank {}, {} (log: {})", m.name, describe_member(s, m), mpi::rank(),
+                              outcome["message"].get<std::string>(), log.string());
+            } else if (code == member_ok && !quiet) {
+                spdlog::info("{} ({}): done in {:.1f} s", m.name, describe_member(s, m), seconds);
+            }
+            mine.push_back(outcome);
+        }
+    }
+    const auto record = [&](const json &outcomes) {
+        for (const json &o : outcomes) {
+            SweepMemberResult &r = results.at(o.at("member").get<std::size_t>());
+            const int code = o.at("code").get<int>();
+            r.wall_seconds = o.at("wall_seconds").get<double>();
+            r.status = code == member_ok ? "done" : o.contains("message") ? "failed" : "interrupted";
+            r.message = o.value("message", "");
+        }
+    };
+    if (mpi::rank() != 0) {
+        const std::string text = mine.dump();
+        mpi::send_vector(0, std::vector<char>(text.begin(), text.end()));
+        return;
+    }
+    record(mine);
+    for (int from = 1; from < mpi::size(); ++from) {
+        const std::vector<char> text = mpi::receive_vector<char>(from);
+        record(json::parse(text.begin(), text.end()));
+    }
+}
+
 } // namespace
 
 SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
@@ -690,6 +748,15 @@ SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
         }
     }
 
+    if (mpi::size() > 1) {
+        // One member at a time per rank, with the rank's threads (mpirun's binding decides how many cores).
+        const int threads = options.threads > 0 ? options.threads : s.threads > 0 ? s.threads : omp_get_max_threads();
+        if (!options.quiet && mpi::rank() == 0 && !pending.empty())
+            spdlog::info("sweep: {} of {} members to run on {} MPI ranks, {} thread(s) each; logs in {}",
+                         pending.size(), s.members.size(), mpi::size(), threads, (out / "logs").string());
+        run_members_on_ranks(s, out, pending, threads, options.quiet, result.members);
+        pending.clear(); // the local loop below has nothing left to do
+    }
     const int cores = std::max(1, omp_get_num_procs());
     int processes = options.processes > 0 ? options.processes : s.processes > 0 ? s.processes : cores;
     processes = std::max(1, std::min<int>(processes, static_cast<int>(std::max<std::size_t>(pending.size(), 1))));
@@ -748,6 +815,7 @@ SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
         }
     }
     if (const int signal = cancel_requested()) {
+        if (mpi::rank() != 0) throw Cancelled(signal, "during the sweep");
         std::size_t complete = 0;
         for (const SweepMemberResult &r : result.members) complete += r.status == "done" || r.status == "reused";
         throw Cancelled(signal, "during the sweep: " + std::to_string(complete) + " of " +
@@ -755,6 +823,7 @@ SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
                                     ", the others left as they were; run the sweep again to resume");
     }
 
+    if (mpi::rank() != 0) return result; // rank 0 writes the summary
     for (std::size_t k = 0; k < s.members.size(); ++k) {
         SweepMemberResult &r = result.members[k];
         if (r.status == "failed") {

@@ -3,7 +3,9 @@
 #include <geobarrier/conformance.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
+#include <geobarrier/mpi.hpp>
 #include <geobarrier/plugin.hpp>
+#include <geobarrier/sweep.hpp>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
@@ -62,7 +64,42 @@ int command_run(const fs::path &file, const std::optional<fs::path> &out, int th
     return 0;
 }
 
+// A sweep file (docs/sweeps.md): checked as strictly as an experiment, every member included.
+int command_validate_sweep(const fs::path &file) {
+    const Sweep sweep = load_sweep(file);
+    check_sweep_members(sweep);
+    std::cout << file.string() << ": valid sweep (" << sweep.members.size() << " members over";
+    for (const auto &p : sweep.parameters) std::cout << " " << p.path << " (" << p.values.size() << " values)";
+    std::cout << ", " << sweep.combine << "; figures:";
+    for (const auto &f : sweep.figures) std::cout << " " << f;
+    std::cout << ")\n";
+    return 0;
+}
+
+int command_sweep(const fs::path &file, const SweepOptions &options) {
+    const Sweep sweep = load_sweep(file);
+    SweepResult result;
+    try {
+        result = run_sweep(sweep, options);
+    } catch (const Cancelled &e) { // finished members stay (each is whole), so not the run's message
+        std::cerr << "geobarrier: " << e.what() << "\n";
+        return 128 + e.signal();
+    }
+    if (result.files.empty()) return 0; // an MPI rank other than 0: rank 0 reports
+    if (!options.quiet) {
+        std::cout << "swept " << result.members.size() << " members into " << result.output_dir.string() << ":\n";
+        for (const auto &f : result.files) std::cout << "  " << f.string() << "\n";
+    }
+    if (result.failed == 0) return 0;
+    std::cerr << "geobarrier: error: " << result.failed << " of " << result.members.size() << " members failed:";
+    for (const auto &m : result.members)
+        if (m.status == "failed") std::cerr << " " << m.name << " (" << m.message << ");";
+    std::cerr << " the others are complete; see " << (result.output_dir / "summary.md").string() << "\n";
+    return exit_failure;
+}
+
 int command_validate(const fs::path &file) {
+    if (is_sweep_file(file)) return command_validate_sweep(file);
     const Experiment experiment = load_experiment(file);
     const ResolvedExperiment resolved = naming_the_file(file, [&] { return resolve_experiment(experiment); });
     std::cout << file.string() << ": valid (" << resolved.system.info().name << " + " << resolved.forcing.info().name
@@ -309,6 +346,8 @@ std::string command_line_error(const CLI::App &app, const CLI::ParseError &error
 }  // namespace
 
 int main(int argc, char **argv) {
+    // MPI only when launched by mpirun (docs/cluster.md); started directly, the program is one process as ever.
+    mpi::Session mpi_session(argc, argv);
     CLI::App app{"geobarrier: invariant manifolds, attractors and generalized KAM tori of forced mechanical systems\n"
                  "from the geometry of the finite-time flow map."};
     app.set_version_flag("--version", std::string("geobarrier ") + GEOBARRIER_VERSION);
@@ -328,6 +367,17 @@ int main(int argc, char **argv) {
     std::string validate_file;
     auto *validate = app.add_subcommand("validate", "Check an experiment file completely; compute nothing");
     validate->add_option("file", validate_file, "experiment JSON file")->required();
+
+    std::string sweep_file, sweep_out;
+    SweepOptions sweep_options;
+    auto *sweep = app.add_subcommand("sweep", "Run an experiment over lists or ranges of parameter values");
+    sweep->add_option("file", sweep_file, "sweep JSON file")->required();
+    sweep->add_option("--out", sweep_out, "output folder (overrides output.dir)");
+    sweep->add_option("--processes", sweep_options.processes, "members run at once (default: the sweep's, else cores)")
+        ->check(CLI::Range(1, 4096));
+    sweep->add_option("--threads", sweep_options.threads, "threads per member (default: cores / processes)")
+        ->check(CLI::Range(1, 1024));
+    sweep->add_flag("--quiet,-q", quiet, "warnings and errors only");
 
     bool as_json = false;
     std::vector<std::string> plugin_paths;
@@ -356,6 +406,9 @@ int main(int argc, char **argv) {
         std::cerr << "geobarrier: error: " << command_line_error(app, e, argc, argv) << "\n";
         return exit_bad_input;
     }
+    // Under mpirun, `run` shares its flow map's tiles among the ranks (a sweep shares whole members); rank 0 reports.
+    mpi::share_tiles(static_cast<bool>(*run));
+    if (mpi::rank() != 0) quiet = true;
     setup_logging(quiet, verbose);
     install_signal_handlers(); // SIGINT/SIGTERM stop a run cleanly, exit code 128 + signal (cancel.hpp)
     // Every error is one line on stderr, whatever a plugin's message holds.
@@ -369,6 +422,7 @@ int main(int argc, char **argv) {
         std::cout.flush();
         std::cerr.flush();
         std::fflush(nullptr);
+        mpi::end_before_exit(code, code == exit_bad_input); // bad input: every rank read the same file and stops alike
         std::_Exit(code);
         return code;
     };
@@ -380,12 +434,17 @@ int main(int argc, char **argv) {
     try {
         if (*run) return command_run(run_file, run_out.empty() ? std::nullopt : std::optional<fs::path>(run_out), threads, quiet);
         if (*validate) return command_validate(validate_file);
+        if (*sweep) {
+            if (!sweep_out.empty()) sweep_options.output_dir = sweep_out;
+            sweep_options.quiet = quiet;
+            return command_sweep(sweep_file, sweep_options);
+        }
         if (*plugins) return command_plugins(as_json, plugin_paths);
         if (*check) return command_check_plugin(check_options);
     } catch (const Cancelled &e) {
         return interrupted(e.signal(), e.what());
     } catch (const ConfigError &e) {
-        std::cerr << "geobarrier: error: " << one_line(e.what()) << "\n";
+        if (mpi::rank() == 0) std::cerr << "geobarrier: error: " << one_line(e.what()) << "\n";
         return fail(exit_bad_input);
     } catch (const std::bad_alloc &) {
         std::cerr << "geobarrier: error: out of memory (try a smaller grid)\n";

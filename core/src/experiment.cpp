@@ -318,8 +318,7 @@ std::string line_column(const std::string &text, std::size_t offset) {
 
 }  // namespace
 
-Experiment parse_experiment_text(const std::string &text, const fs::path &file) {
-    const std::string where = file.empty() ? std::string("<experiment>") : file.string();
+json parse_json_text(const std::string &text, const std::string &where) {
     const json::parser_callback_t depth_guard = [](int depth, json::parse_event_t, json &) {
         if (depth > max_json_depth) throw TooDeep{};
         return true;
@@ -347,6 +346,11 @@ Experiment parse_experiment_text(const std::string &text, const fs::path &file) 
         throw ConfigError(where, "JSON nested deeper than " + std::to_string(max_json_depth) +
                                      " levels; an experiment needs a few");
     }
+    return j;
+}
+
+Experiment parse_experiment_text(const std::string &text, const fs::path &file) {
+    const json j = parse_json_text(text, file.empty() ? std::string("<experiment>") : file.string());
     if (file.empty()) return parse_experiment(j, file);
     try {
         return parse_experiment(j, file);

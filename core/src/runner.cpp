@@ -9,6 +9,7 @@
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/line_field.hpp>
+#include <geobarrier/mpi.hpp>
 #include <geobarrier/output.hpp>
 #include <geobarrier/resources.hpp>
 #include <geobarrier/shear.hpp>
@@ -178,6 +179,8 @@ class OutputStaging {
 };
 
 RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options) {
+    // Under mpirun the ranks other than 0 only compute their share of the flow map's tiles (tiles.hpp).
+    if (mpi::sharing_tiles() && mpi::rank() != 0) return run_as_tile_worker(r, options);
     const Experiment &e = r.experiment;
     const auto run_start = std::chrono::steady_clock::now();
     const ScopedThreadCount thread_count(options.threads);
@@ -210,6 +213,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     for (const Extractor &x : r.extractors) plugins.push_back(plugin_summary(x.info()));
     manifest["plugins"] = plugins;
     manifest["threads"] = options.threads > 0 ? options.threads : omp_get_max_threads();
+    if (mpi::sharing_tiles()) manifest["mpi_ranks"] = mpi::size(); // threads is then per rank
     json stages = json::array();
     json warnings = json::array();
     for (const auto &w : r.registry.warnings()) warnings.push_back(w);

@@ -1,6 +1,7 @@
 // The geobarrier command-line program: run and validate experiments, list plugins.
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/conformance.hpp>
+#include <geobarrier/equations.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/mpi.hpp>
@@ -17,6 +18,7 @@
 #include <iostream>
 #include <map>
 #include <new>
+#include <optional>
 
 namespace fs = std::filesystem;
 using namespace geobarrier;
@@ -123,6 +125,8 @@ int command_plugins(bool as_json, const std::vector<std::string> &extra) {
         for (const auto &f : registry.folders()) j["folders"].push_back(f.string());
         j["plugins"] = nlohmann::json::array();
         for (const auto &h : registry.plugins()) j["plugins"].push_back(plugin_info_to_json(h.info));
+        // Systems of the core itself, not plugin files: their parameters are structured, not a plugin schema.
+        j["built_in"] = nlohmann::json::array({equations::schema()});
         j["warnings"] = registry.warnings();
         std::cout << j.dump(2) << "\n";
         return 0;
@@ -130,6 +134,14 @@ int command_plugins(bool as_json, const std::vector<std::string> &extra) {
     for (const PluginKind kind : {PluginKind::system, PluginKind::forcing, PluginKind::extractor}) {
         std::cout << to_string(kind) << "s:\n";
         bool any = false;
+        if (kind == PluginKind::system) {
+            any = true;
+            const nlohmann::json schema = equations::schema();
+            std::cout << "  " << equations::plugin_name << " (built in) - " << equations::doc() << "\n";
+            for (const auto &p : schema["params"])
+                std::cout << "      " << p["name"].get<std::string>() << " (" << p["type"].get<std::string>()
+                          << "): " << p["doc"].get<std::string>() << "\n";
+        }
         for (const auto &h : registry.plugins()) {
             if (h.info.kind != kind) continue;
             any = true;
@@ -197,16 +209,17 @@ int command_check_plugin(const CheckPluginOptions &o) {
         std::string label;
         std::vector<PluginHandle> handles;
         std::string load_error;
+        std::optional<nlohmann::json> params; // the target's own parameters (the equations' constants)
     };
     std::vector<Target> targets;
     std::vector<fs::path> folders(o.plugin_paths.begin(), o.plugin_paths.end());
     const PluginRegistry registry(PluginRegistry::default_folders(folders));
     if (o.all) {
         if (registry.plugins().empty()) throw ConfigError("--all", "no plugins found in the plugin folders");
-        for (const auto &h : registry.plugins()) targets.push_back({h.info.file.string(), {h}, ""});
+        for (const auto &h : registry.plugins()) targets.push_back({h.info.file.string(), {h}, "", std::nullopt});
     }
     for (const std::string &name : o.targets) {
-        Target t{name, {}, ""};
+        Target t{name, {}, "", std::nullopt};
         const bool is_file = name.find('/') != std::string::npos || fs::path(name).extension() == ".so";
         if (is_file) {
             try {
@@ -214,6 +227,16 @@ int command_check_plugin(const CheckPluginOptions &o) {
             } catch (const PluginError &e) {
                 t.load_error = e.what();
             }
+        } else if (name == equations::plugin_name) {
+            // The plugin generated from --params {"state": [...], "rhs": [...], "constants": {...}}, checked as the
+            // library declares itself (constants k0, k1, ... in the alphabetical order of their names), at their
+            // values.
+            const equations::Compiled compiled = equations::compile(given_params, "--params");
+            t.label = compiled.handle.info.file.string();
+            t.handles = load_plugin_library(compiled.handle.info.file);
+            t.params = nlohmann::json::object();
+            for (std::size_t i = 0; i < compiled.handle.info.params.size(); ++i)
+                (*t.params)["k" + std::to_string(i)] = compiled.values.value(i);
         } else {
             for (const auto &h : registry.plugins())
                 if (h.info.name == name) t.handles.push_back(h);
@@ -252,6 +275,7 @@ int command_check_plugin(const CheckPluginOptions &o) {
         for (const PluginHandle &h : t.handles) {
             std::vector<ConformanceCheck> checks;
             if (per_plugin) options.params = given_params.value(h.info.name, nlohmann::json::object());
+            if (t.params) options.params = *t.params;
             try {
                 checks = check_plugin(h, options);
             } catch (const Error &e) { // unusable options, e.g. a box of the wrong dimension
@@ -387,7 +411,9 @@ int main(int argc, char **argv) {
 
     CheckPluginOptions check_options;
     auto *check = app.add_subcommand("check-plugin", "Run the conformance checks on plugins; print a pass/fail table");
-    check->add_option("plugins", check_options.targets, "plugin files (.so), or names of plugins found in the folders");
+    check->add_option("plugins", check_options.targets,
+                      "plugin files (.so), or names of plugins found in the folders, or equations (the plugin "
+                      "generated from --params '{\"state\": [...], \"rhs\": [...], \"constants\": {...}}')");
     check->add_flag("--all", check_options.all, "check every plugin found in the plugin folders");
     check->add_option("--params", check_options.params,
                       "parameters as a JSON object, or {\"plugin\": {...}, ...} per plugin (default: the defaults)");

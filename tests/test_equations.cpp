@@ -13,6 +13,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -370,4 +371,18 @@ TEST_CASE(
                                            "[\"v\", \"-w*sin(x\"], \"constants\": {\"w\": 1}}'");
     CHECK(refused == 2);
     CHECK(contains(message, "--params/rhs/1, column 9: expected ')' to close the '(' at column 7"));
+}
+
+TEST_CASE("equations: a killed compile's temporary files are removed once they are an hour old") {
+    ScopedCache cache("stale");
+    fs::create_directories(cache.folder);
+    const fs::path stale = cache.folder / ".0123-99-0.cpp", recent = cache.folder / ".0123-99-1.cpp";
+    std::ofstream(stale) << "x";
+    std::ofstream(recent) << "x";
+    fs::last_write_time(stale, fs::file_time_type::clock::now() - std::chrono::hours(2));
+    ::setenv("GEOBARRIER_EQUATIONS_CXX", "/nonexistent/c++", 1); // the sweep runs before the compiler is started
+    CHECK_THROWS_AS(equations::compile(duffing_params(), "/system/params"), Error);
+    ::unsetenv("GEOBARRIER_EQUATIONS_CXX");
+    CHECK_FALSE(fs::exists(stale));
+    CHECK(fs::exists(recent)); // perhaps a compile running now
 }

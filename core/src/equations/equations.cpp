@@ -5,6 +5,7 @@
 #include "equations_toolchain.hpp" // configured by core/CMakeLists.txt
 #include "expression.hpp"
 
+#include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
 
 #include <boost/dll/runtime_symbol_info.hpp>
@@ -402,12 +403,27 @@ void write_atomically(const fs::path &file, const std::string &text, TemporaryFi
     fs::rename(temp, file);
 }
 
+// Removes the temporary files of compiles that were killed (SIGKILL, a power cut) once they are an hour old: a live
+// compile never takes that long, and the names (".<key>-<pid>-<n>.*") are never published.
+void remove_stale_temporaries(const fs::path &folder) {
+    std::error_code ec;
+    const auto now = fs::file_time_type::clock::now();
+    for (const auto &entry : fs::directory_iterator(folder, ec)) {
+        const std::string name = entry.path().filename().string();
+        std::error_code age_ec;
+        const auto written = entry.last_write_time(age_ec);
+        if (!name.empty() && name[0] == '.' && !age_ec && now - written > std::chrono::hours(1))
+            fs::remove(entry.path(), age_ec);
+    }
+}
+
 // Compiles the definition into <folder>/<key>.so. The library and its source are built under temporary names and
 // renamed into place last: a rename is atomic, so a concurrent run sees either no library or a whole one, and two
 // runs compiling the same equations each publish an identical file.
 double build(const Definition &d, const Toolchain &tc, const fs::path &folder, const std::string &key,
              const json &description) {
     const auto start = std::chrono::steady_clock::now();
+    remove_stale_temporaries(folder);
     TemporaryFiles temps;
     const std::string stem =
         (folder / ("." + key + "-" + std::to_string(::getpid()) + "-" + std::to_string(temp_counter++))).string();
@@ -421,6 +437,7 @@ double build(const Definition &d, const Toolchain &tc, const fs::path &folder, c
     std::vector<std::string> args = tc.flags;
     args.insert(args.end(), {"-I", tc.include_dir.string(), "-o", library.string(), source.string()});
     const int status = run_compiler(tc, args, log);
+    throw_if_cancelled("while compiling the equations"); // Ctrl-C stops the compiler too: not a compiler failure
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
         // Keep the log where the message says; the diagnostics are detail for a bug report, not the message.
         const fs::path kept = folder / (key + ".log");

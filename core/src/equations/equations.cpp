@@ -423,6 +423,9 @@ void remove_stale_temporaries(const fs::path &folder) {
 double build(const Definition &d, const Toolchain &tc, const fs::path &folder, const std::string &key,
              const json &description) {
     const auto start = std::chrono::steady_clock::now();
+    if (!fs::exists(tc.include_dir / "geobarrier" / "sdk.hpp"))
+        throw Error("cannot compile the equations system: geobarrier's plugin headers are not in " +
+                    tc.include_dir.string() + " (install them with the library: cmake --install)");
     remove_stale_temporaries(folder);
     TemporaryFiles temps;
     const std::string stem =

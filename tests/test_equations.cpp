@@ -13,6 +13,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -164,11 +165,12 @@ TEST_CASE("equations: the source is generated from the parsed trees, with the ex
     for (const char *name : {"position", "velocity", "damping"}) CHECK_MESSAGE(!contains(d.source, name), name);
     CHECK(d.uses_forcing);
     CHECK(contains(d.source, "dsdt[0] = s[1];"));
-    CHECK(contains(d.source, "dsdt[1] = (((s[0] - gb_ipow<3>(s[0])) - (k0 * s[1])) + (0x1.999999999999ap-4 * f));"));
+    CHECK(
+        contains(d.source, "dsdt[1] = gb_fma(0x1.999999999999ap-4, f, gb_fma(-k0, s[1], (s[0] - gb_ipow<3>(s[0]))));"));
     // d(x')/dx = 0 and d(x')/dy = 1 as literals; d(y')/dx = 1 - 3 x^2; d(y')/dy = -damping.
     CHECK(contains(d.source, "jac[0] = 0x0p+0;"));
     CHECK(contains(d.source, "jac[1] = 0x1p+0;"));
-    CHECK(contains(d.source, "jac[2] = (0x1p+0 - (0x1.8p+1 * gb_ipow<2>(s[0])));"));
+    CHECK(contains(d.source, "jac[2] = gb_fma(-0x1.8p+1, gb_ipow<2>(s[0]), 0x1p+0);"));
     CHECK(contains(d.source, "jac[3] = (-k0);"));
     CHECK(contains(d.source, "return (-k0);")); // the divergence: the trace
     // The same equations under other names and with other constant values are the same source (and cache entry).
@@ -369,4 +371,18 @@ TEST_CASE(
                                            "[\"v\", \"-w*sin(x\"], \"constants\": {\"w\": 1}}'");
     CHECK(refused == 2);
     CHECK(contains(message, "--params/rhs/1, column 9: expected ')' to close the '(' at column 7"));
+}
+
+TEST_CASE("equations: a killed compile's temporary files are removed once they are an hour old") {
+    ScopedCache cache("stale");
+    fs::create_directories(cache.folder);
+    const fs::path stale = cache.folder / ".0123-99-0.cpp", recent = cache.folder / ".0123-99-1.cpp";
+    std::ofstream(stale) << "x";
+    std::ofstream(recent) << "x";
+    fs::last_write_time(stale, fs::file_time_type::clock::now() - std::chrono::hours(2));
+    ::setenv("GEOBARRIER_EQUATIONS_CXX", "/nonexistent/c++", 1); // the sweep runs before the compiler is started
+    CHECK_THROWS_AS(equations::compile(duffing_params(), "/system/params"), Error);
+    ::unsetenv("GEOBARRIER_EQUATIONS_CXX");
+    CHECK_FALSE(fs::exists(stale));
+    CHECK(fs::exists(recent)); // perhaps a compile running now
 }

@@ -43,6 +43,7 @@ struct ProcessResult {
     int status = -1;
     double wall_seconds = 0;
     double peak_mib = 0; // the child's maximum resident set size
+    double user_seconds = 0; // the child's user CPU time (all its threads): steadier than wall time on a shared machine
     std::string output;
 };
 
@@ -77,6 +78,7 @@ ProcessResult run_process(std::vector<std::string> argv, const std::vector<std::
     r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
     r.peak_mib = usage.ru_maxrss / 1024.0;
+    r.user_seconds = usage.ru_utime.tv_sec + usage.ru_utime.tv_usec * 1e-6;
     if (timed) {
         std::ifstream in(rss);
         std::string line, last;
@@ -544,6 +546,132 @@ std::string load_average() {
 
 } // namespace
 
+// --- The equations system (docs/experiment-format.md, "Equations"): W with the oscillator written in the experiment,
+// against the built-in duffing plugin. Needs no reference or baseline. ---
+
+// W written as equations: "x - x^3 + f" as the paper writes it, or the built-in plugin's form with its parameters as
+// named constants (runtime values, as in the plugin, so no term folds away at compile time).
+json workload_w_equations(std::size_t n, bool with_constants) {
+    json w = workload_w(n);
+    json params = {{"state", {"x", "y"}}, {"rhs", {"y", "x - x^3 + f"}}};
+    if (with_constants) {
+        params["rhs"][1] = "alpha*x - beta*x^3 - delta*y + f";
+        params["constants"] = {{"alpha", 1}, {"beta", 1}, {"delta", 0}};
+    }
+    w["system"] = {{"plugin", "equations"}, {"params", params}};
+    return w;
+}
+
+// One system of the equations section, with its best times over the interleaved runs.
+struct EquationsVariant {
+    std::string label;
+    json experiment;
+    double flow_map = nan_value; // best wall time of the flow-map stage
+    double user = nan_value;     // best user CPU time of the whole run
+    double max_ftle_difference = nan_value; // against the built-in plugin's field
+};
+
+struct EquationsTiming {
+    std::size_t n = 0;
+    int repeat = 0;
+    double first_validate = nan_value, cached_validate = nan_value; // `validate`: compiling, then from the cache
+    std::vector<EquationsVariant> variants; // the built-in plugin first
+    std::string note;
+};
+
+// One `run` of an experiment for the equations section: the flow-map stage's wall time, the run's user CPU time and
+// the FTLE field.
+struct EquationsRun {
+    double flow_map = nan_value, user = nan_value;
+    std::vector<double> ftle;
+};
+EquationsRun run_for_equations(const Bench &bench, const json &experiment, const std::string &tag) {
+    const fs::path file = bench.out / ("equations-" + tag + ".json"), dir = bench.out / ("equations-" + tag);
+    std::ofstream(file) << experiment.dump(2);
+    fs::remove_all(dir);
+    const auto r = run_process({bench.program.string(), "run", file.string(), "--out", dir.string(), "--quiet",
+                                "--threads", "2"});
+    if (r.status != 0) throw std::runtime_error("equations section, " + tag + ": " + first_line(r.output));
+    EquationsRun out;
+    out.user = r.user_seconds;
+    const json manifest = json::parse(std::ifstream(dir / "manifest.json"));
+    for (const auto &stage : manifest["stages"])
+        if (stage["stage"] == "flow map") out.flow_map = stage["wall_seconds"].get<double>();
+    const std::size_t n = experiment["grid"]["n"][0].get<std::size_t>();
+    out.ftle = read_ftle_netcdf(dir / "fields.nc", n * n);
+    return out;
+}
+
+// The first compile (a cold `validate` against one from the cache, in a fresh cache folder), then the built-in and
+// the equations runs interleaved, `repeat` times each, best of each kept: load changes hit all alike.
+EquationsTiming equations_section(const Bench &bench, std::size_t n, int repeat) {
+    EquationsTiming timing;
+    timing.n = n;
+    timing.repeat = std::max(repeat, 1);
+    timing.variants = {{"built-in duffing", workload_w(n)},
+                       {"equations \"x - x^3 + f\"", workload_w_equations(n, false)},
+                       {"equations \"alpha*x - beta*x^3 - delta*y + f\", constants 1, 1, 0",
+                        workload_w_equations(n, true)}};
+    const fs::path cache = bench.out / "equations-cache";
+    fs::remove_all(cache);
+    ::setenv("GEOBARRIER_EQUATIONS_CACHE", cache.c_str(), 1);
+    std::cerr << "[equations] W " << n << " x " << n << ": first compile, then built-in and equations runs ...\n";
+    const fs::path file = bench.out / "equations-validate.json";
+    std::ofstream(file) << timing.variants[1].experiment.dump(2);
+    const auto cold = run_process({bench.program.string(), "validate", file.string()});
+    const auto warm = run_process({bench.program.string(), "validate", file.string()});
+    if (cold.status != 0 || warm.status != 0) {
+        timing.note = "failed: " + first_line(cold.output + warm.output);
+        ::unsetenv("GEOBARRIER_EQUATIONS_CACHE");
+        return timing;
+    }
+    timing.first_validate = cold.wall_seconds;
+    timing.cached_validate = warm.wall_seconds;
+    const auto best = [](double a, double b) { return std::isnan(a) ? b : std::min(a, b); };
+    for (int attempt = 0; attempt < timing.repeat; ++attempt) {
+        std::vector<double> builtin_ftle;
+        for (std::size_t v = 0; v < timing.variants.size(); ++v) {
+            EquationsVariant &variant = timing.variants[v];
+            const EquationsRun r = run_for_equations(bench, variant.experiment, std::to_string(v));
+            variant.flow_map = best(variant.flow_map, r.flow_map);
+            variant.user = best(variant.user, r.user);
+            if (v == 0) builtin_ftle = r.ftle;
+            double worst = 0.0;
+            for (std::size_t k = 0; k < r.ftle.size(); ++k)
+                worst = std::max(worst, std::abs(r.ftle[k] - builtin_ftle[k]));
+            variant.max_ftle_difference = worst;
+        }
+    }
+    ::unsetenv("GEOBARRIER_EQUATIONS_CACHE");
+    for (const EquationsVariant &v : timing.variants)
+        std::cerr << "  " << v.label << ": flow map " << fixed(v.flow_map, 2) << " s, user " << fixed(v.user, 2)
+                  << " s\n";
+    return timing;
+}
+
+void equations_markdown(std::ostream &md, const EquationsTiming &t) {
+    md << "## Equations written in the experiment\n\nW at N = " << t.n
+       << " with the oscillator written in the experiment (the `equations` system) against the built-in `duffing` "
+          "plugin, the default integrator, 2 threads, best of "
+       << t.repeat << " interleaved runs each.";
+    if (!t.note.empty()) {
+        md << " " << t.note << "\n\n";
+        return;
+    }
+    const EquationsVariant &builtin = t.variants.front();
+    md << "\n\n| system | flow map (s) | × built-in | user CPU of the run (s) | × built-in | max FTLE difference |\n"
+          "|---|---|---|---|---|---|\n";
+    for (const EquationsVariant &v : t.variants)
+        md << "| " << v.label << " | " << fixed(v.flow_map, 2) << " | " << fixed(v.flow_map / builtin.flow_map, 3)
+           << " | " << fixed(v.user, 2) << " | " << fixed(v.user / builtin.user, 3) << " | "
+           << sci(v.max_ftle_difference) << " |\n";
+    md << "\nFirst compile: `geobarrier validate` took " << fixed(t.first_validate, 2)
+       << " s with an empty cache and " << fixed(t.cached_validate, 2) << " s from the cache, so the compile costs "
+       << "about " << fixed(t.first_validate - t.cached_validate, 2) << " s, once. Without its constants the "
+       << "equations' Jacobian entry d(y')/dy is the literal 0 and y' has no alpha, beta, delta products, which "
+          "the built-in plugin computes at run time.\n\n";
+}
+
 int main(int argc, char **argv) {
     CLI::App app{"geobarrier-bench: speed and accuracy of the flow-map engine on workload W"};
     std::size_t n = 1000, memory_n = 4000, scipy_n = 0, extraction_n = 1000;
@@ -563,8 +691,8 @@ int main(int argc, char **argv) {
     app.add_option("--scipy-n", scipy_n, "grid of the SciPy comparison (default: --n; 300 with --quick)");
     app.add_option("--extraction-n", extraction_n, "grid points per direction of the extraction runs");
     app.add_option("--sections", sections_text,
-                   "comma-separated: headline,threads,scaling,memory,extraction,scipy,sweep,gyre (default: all but "
-                   "sweep and gyre with --quick, all without)");
+                   "comma-separated: headline,threads,scaling,memory,extraction,scipy,equations,sweep,gyre (default: "
+                   "all but sweep and gyre with --quick, all without)");
     app.add_option("--repeat", repeat,
                    "runs per configuration, the fastest kept (default: 2 for threads and scaling, 1 elsewhere)");
     app.add_option("--try", tries,
@@ -576,8 +704,9 @@ int main(int argc, char **argv) {
     std::set<std::string> sections;
     {
         std::string text = sections_text.empty()
-                               ? std::string(quick ? "headline,threads,scaling,memory,extraction,scipy"
-                                                   : "headline,threads,scaling,memory,extraction,scipy,sweep,gyre")
+                               ? std::string(quick ? "headline,threads,scaling,memory,extraction,scipy,equations"
+                                                   : "headline,threads,scaling,memory,extraction,scipy,equations,"
+                                                     "sweep,gyre")
                                : sections_text;
         std::istringstream in(text);
         for (std::string s; std::getline(in, s, ',');) sections.insert(s);
@@ -599,6 +728,18 @@ int main(int argc, char **argv) {
     const std::string load_before = load_average();
     const auto bench_start = std::chrono::steady_clock::now();
     std::ostringstream &md = bench.md;
+
+    // --- The equations system against the built-in plugin; alone, it needs neither the reference nor the baseline.
+    std::optional<EquationsTiming> equations_timing;
+    if (wants("equations")) {
+        equations_timing = equations_section(bench, n, best_of2);
+        if (sections.size() == 1) {
+            equations_markdown(md, *equations_timing);
+            std::ofstream(bench.out / "bench.md") << md.str();
+            std::cerr << "wrote " << (bench.out / "bench.md").string() << "\n";
+            return 0;
+        }
+    }
 
     // --- Headline: W at N, the baseline and the defaults, presets and paper settings, side by side. ---
     std::vector<double> exact = bench.exact_w(n, true);
@@ -860,6 +1001,7 @@ int main(int argc, char **argv) {
            << " grid, against its exact field (geobarrier, rkf78 at 1e-12 on the variational equations).\n\n";
         bench.table(gyre_rows);
     }
+    if (equations_timing) equations_markdown(md, *equations_timing);
     const fs::path picture = bench.out / "pareto.png";
     try {
         pareto_picture(picture, bench.rows, n);

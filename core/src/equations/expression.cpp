@@ -539,6 +539,10 @@ std::string hex_literal(double v) {
     const std::string digits(buf, r.ptr);
     return v < 0 || std::signbit(v) ? "(-0x" + digits + ")" : "0x" + digits;
 }
+// Every operand text is an atom (s[0], k1, a literal, a call) or parenthesised, so a leading '-' negates all of it.
+std::string fma_text(const std::string &a, const std::string &b, const std::string &c) {
+    return "gb_fma(" + a + ", " + b + ", " + c + ")";
+}
 bool small_integer(const Expr &e) {
     return e->kind == Kind::number && e->value == std::floor(e->value) && std::fabs(e->value) <= max_expanded_power;
 }
@@ -558,10 +562,19 @@ std::string cpp(const Expr &e) {
         return "f";
     case Kind::negate:
         return "(-" + cpp(e->args[0]) + ")";
-    case Kind::add:
-        return "(" + cpp(e->args[0]) + " + " + cpp(e->args[1]) + ")";
-    case Kind::subtract:
-        return "(" + cpp(e->args[0]) + " - " + cpp(e->args[1]) + ")";
+    case Kind::add: {
+        // a * b + c as one multiply-add (gb_fma: the SDK's mul_add, as hand-written fields use it).
+        const Expr &a = e->args[0], &b = e->args[1];
+        if (a->kind == Kind::multiply) return fma_text(cpp(a->args[0]), cpp(a->args[1]), cpp(b));
+        if (b->kind == Kind::multiply) return fma_text(cpp(b->args[0]), cpp(b->args[1]), cpp(a));
+        return "(" + cpp(a) + " + " + cpp(b) + ")";
+    }
+    case Kind::subtract: {
+        const Expr &a = e->args[0], &b = e->args[1];
+        if (b->kind == Kind::multiply) return fma_text("-" + cpp(b->args[0]), cpp(b->args[1]), cpp(a));
+        if (a->kind == Kind::multiply) return fma_text(cpp(a->args[0]), cpp(a->args[1]), "-" + cpp(b));
+        return "(" + cpp(a) + " - " + cpp(b) + ")";
+    }
     case Kind::multiply:
         return "(" + cpp(e->args[0]) + " * " + cpp(e->args[1]) + ")";
     case Kind::divide:

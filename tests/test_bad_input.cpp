@@ -124,6 +124,60 @@ void check_outcome(const Case &c, const fs::path &dir, const Outcome &o, const f
     CHECK_FALSE(has_core_file(dir));
 }
 
+// The equations system (docs/experiment-format.md, "Equations"), with its cache inside the output folder: the checks
+// that nothing is written there also see that nothing was compiled.
+Case equations_case(std::string name, json params, std::vector<std::string> message) {
+    Case c = json_case(
+        std::move(name), [params](json &j) { j["system"] = {{"plugin", "equations"}, {"params", params}}; }, 2,
+        std::move(message));
+    c.prefix = "GEOBARRIER_EQUATIONS_CACHE=out/equations-cache";
+    return c;
+}
+
+// base_experiment()'s Duffing with y' written as `acceleration`.
+json duffing_equations(const std::string &acceleration) {
+    return {{"state", {"x", "y"}}, {"rhs", {"y", acceleration}}, {"constants", {{"d", 0.1}}}};
+}
+
+std::vector<Case> equations_battery() {
+    std::vector<Case> cases;
+    auto add = [&](Case c) { cases.push_back(std::move(c)); };
+    add(equations_case("equations: unknown name, with a hint", duffing_equations("x - x^3 - dd*y + f"),
+                       {"/system/params/rhs/1, column 11: unknown name 'dd'; did you mean 'd'?"}));
+    add(equations_case("equations: an unclosed parenthesis", duffing_equations("(x - x^3 + f"),
+                       {"/system/params/rhs/1, column 13", "expected ')' to close the '(' at column 1"}));
+    add(equations_case("equations: a parenthesis too many", duffing_equations("x - x^3) + f"),
+                       {"/system/params/rhs/1, column 8", "unbalanced ')'"}));
+    add(equations_case("equations: code injection after a closing parenthesis",
+                       duffing_equations("x); system(\"touch pwned\""),
+                       {"rhs/1, column 3", "unexpected character ';'"}));
+    add(equations_case("equations: a preprocessor line", duffing_equations("#include <cstdlib>"),
+                       {"rhs/1, column 1", "unexpected character '#'"}));
+    add(equations_case("equations: a newline and a macro", duffing_equations("x\n#define y system"),
+                       {"rhs/1, column 2", "control character 0x0A"}));
+    add(equations_case("equations: a state name that is code", {{"state", {"x", "y); abort("}}, {"rhs", {"y", "x"}}},
+                       {"/system/params/state/1", "cannot be a name"}));
+    add(equations_case("equations: a very long expression", duffing_equations(std::string(3000, 'x')),
+                       {"/system/params/rhs/1", "characters long; at most 1000"}));
+    std::string product = "x";
+    while (product.size() < 990) product += "*x";
+    add(equations_case("equations: derivatives too large to compile", duffing_equations(product),
+                       {"/system/params/rhs/1", "too large to compile"}));
+    add(equations_case("equations: deeply nested",
+                       duffing_equations(std::string(200, '(') + "x" + std::string(200, ')')),
+                       {"rhs/1, column 33", "nested deeper than 32 levels"}));
+    add(equations_case("equations: non-ASCII (a Unicode minus sign)", duffing_equations("x \xe2\x88\x92 x^3"),
+                       {"rhs/1, column 3", "non-ASCII character (byte 0xE2)"}));
+    add(equations_case("equations: a function that is not in the list", duffing_equations("system(x)"),
+                       {"rhs/1, column 1", "'system' is not a function"}));
+    add(equations_case("equations: three state components", {{"state", {"x", "y", "z"}}, {"rhs", {"y", "x", "z"}}},
+                       {"/system/params/state", "give 2 state names"}));
+    add(equations_case("equations: a constant given as text", {{"state", {"x", "y"}}, {"rhs", {"y", "-d*x"}},
+                                                                {"constants", {{"d", "0.1"}}}},
+                       {"/system/params/constants/d", "is not a number"}));
+    return cases;
+}
+
 std::vector<Case> battery() {
     const std::string nan_lib = (bad_plugin_dir / "geobarrier-bad-input.so").string();
     const std::string throwing_entry = (bad_plugin_dir / "geobarrier-entry-throws.so").string();
@@ -351,6 +405,8 @@ std::vector<Case> battery() {
         c.prefix = "ulimit -f 2;";
         add(c);
     }
+    // ---- the equations system: expressions and names
+    for (Case &c : equations_battery()) add(std::move(c));
     return cases;
 }
 

@@ -1,4 +1,4 @@
-// Tests of the Cauchy–Green eigen-decomposition (paper eq. `cg`, DESIGN.md §4) on deformation gradients with
+// Tests of the Cauchy–Green eigen-decomposition (paper eq. `cg`) on deformation gradients with
 // closed-form answers, including the cases that break the naive formulas: lambda1/lambda2 = 1e-48, entries of 1e200.
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/errors.hpp>

@@ -20,9 +20,11 @@ struct Result {
     std::string output; // stdout and stderr together
 };
 
-// Runs the program with a shell, returns its exit status and output.
-Result run(const std::string &args, const std::string &env = "") {
-    const std::string command = env + " " + geobarrier::test::geobarrier_program().string() + " " + args + " 2>&1";
+// Runs the program with a shell, returns its exit status and output (by default stdout and stderr together;
+// `streams` "2>/dev/null" keeps stdout alone, "2>&1 >/dev/null" stderr alone).
+Result run(const std::string &args, const std::string &env = "", const std::string &streams = "2>&1") {
+    const std::string command =
+        env + " " + geobarrier::test::geobarrier_program().string() + " " + args + " " + streams;
     FILE *pipe = ::popen(command.c_str(), "r");
     REQUIRE(pipe != nullptr);
     std::string output;
@@ -64,7 +66,62 @@ TEST_CASE("--version and --help work") {
     CHECK(v.status == 0);
     CHECK(contains(v.output, "geobarrier"));
     CHECK(run("--help").status == 0);
-    CHECK(run("no-such-command").status != 0);
+    CHECK(run("run --help").status == 0);
+}
+
+TEST_CASE("command-line typos exit 2 with one line and a did-you-mean") {
+    struct Case {
+        const char *args, *expected;
+    };
+    for (const Case &c : {Case{"rnu exp.json", "'rnu' is not a geobarrier command; did you mean 'run'?"},
+                          Case{"valdiate exp.json", "did you mean 'validate'?"},
+                          Case{"no-such-command", "'no-such-command' is not a geobarrier command"},
+                          Case{"run exp.json --quite", "unknown option '--quite' for geobarrier run; did you mean "
+                                                       "'--quiet'?"},
+                          Case{"run exp.json --bogus", "unknown option '--bogus' for geobarrier run"},
+                          Case{"plugins --jsno", "did you mean '--json'?"},
+                          Case{"--verison", "did you mean '--version'?"},
+                          Case{"check-plugin duffing --t-min -5 --tmax 5", "did you mean '--t-max'?"},
+                          Case{"run exp.json --threads 0", "--threads"},
+                          Case{"", "subcommand"}}) {
+        const Result r = run(c.args);
+        CHECK_MESSAGE(r.status == 2, c.args);
+        CHECK_MESSAGE(contains(r.output, "geobarrier: error: "), c.args, r.output);
+        CHECK_MESSAGE(contains(r.output, c.expected), c.args, r.output);
+        CHECK_MESSAGE(std::count(r.output.begin(), r.output.end(), '\n') == 1, c.args, r.output);
+        CHECK_MESSAGE(run(c.args, "", "2>/dev/null").output.empty(), c.args); // nothing on stdout
+    }
+}
+
+TEST_CASE("warnings go to stderr; stdout holds only the result") {
+    const fs::path tmp = scratch();
+    json j = tiny_experiment();
+    j["integrator"] = {{"method", "dopri5"}, {"rtol", 1e-16}, {"atol", 1e-8}};
+    const fs::path file = write_experiment(tmp, "clamped.json", j);
+    const Result out = run("validate " + file.string(), "", "2>/dev/null");
+    const Result err = run("validate " + file.string(), "", "2>&1 >/dev/null");
+    CHECK(out.status == 0);
+    CHECK(contains(out.output, "valid"));
+    CHECK_FALSE(contains(out.output, "warning"));
+    CHECK(contains(err.output, "geobarrier: warning: " + file.string() + ": /integrator/rtol"));
+    fs::remove_all(tmp);
+}
+
+TEST_CASE("parameter errors name the experiment file as structural errors do") {
+    const fs::path tmp = scratch();
+    json j = tiny_experiment();
+    j["system"]["params"] = {{"alhpa", 1}};
+    const fs::path typo = write_experiment(tmp, "typo.json", j);
+    for (const std::string &args : {"validate " + typo.string(), "run " + typo.string() + " --quiet"}) {
+        const Result r = run(args);
+        CHECK(r.status == 2);
+        CHECK_MESSAGE(contains(r.output, typo.string() + ": /system/params"), r.output);
+    }
+    j["system"]["params"] = {{"alpha", "one"}};
+    const Result wrong_type = run("validate " + write_experiment(tmp, "type.json", j).string());
+    CHECK(wrong_type.status == 2);
+    CHECK_MESSAGE(contains(wrong_type.output, "type.json: /system/params/alpha"), wrong_type.output);
+    fs::remove_all(tmp);
 }
 
 TEST_CASE("plugins finds the built-in plugins with no environment variable") {
@@ -76,6 +133,16 @@ TEST_CASE("plugins finds the built-in plugins with no environment variable") {
     for (const char *n : {"duffing", "cosine", "chaotic-map", "none", "linear-saddle"})
         CHECK_MESSAGE(std::find(names.begin(), names.end(), n) != names.end(), n);
     CHECK(std::find(names.begin(), names.end(), "rigid-rotation") == names.end());
+    // JSON has no infinity: an unbounded side of a parameter's range is null, never a string.
+    std::size_t unbounded = 0;
+    for (const auto &p : j["plugins"])
+        for (const auto &q : p["params"])
+            for (const char *side : {"min", "max"})
+                if (q.contains(side)) {
+                    CHECK_MESSAGE((q[side].is_number() || q[side].is_null()), p["name"], q["name"], side);
+                    unbounded += q[side].is_null();
+                }
+    CHECK(unbounded > 0);
     const Result text = run("plugins");
     CHECK(contains(text.output, "duffing"));
     CHECK(contains(text.output, "alpha"));
@@ -125,7 +192,47 @@ TEST_CASE("run writes the outputs to --out, which overrides output.dir") {
     CHECK_FALSE(fs::exists(tmp / "should-be-overridden"));
     const json m = json::parse(std::ifstream(out / "manifest.json"));
     CHECK(m["threads"] == 2);
+    // Provenance: when, where, which build, which plugin files byte for byte (as sha256sum hashes them), and that
+    // Duffing's fused step integrated every batch of the default preset's fixed dop853 steps.
+    const json &p = m["provenance"];
+    CHECK(p["created"].get<std::string>().size() == 20); // 2026-01-31T12:00:00Z
+    CHECK(p["created"].get<std::string>().back() == 'Z');
+    CHECK_FALSE(p["host"]["cpu"].get<std::string>().empty());
+    CHECK(p["host"]["instruction_sets"]["compiled_for"].is_array());
+    CHECK_FALSE(p["build"]["commit"].get<std::string>().empty());
+    CHECK(contains(p["build"]["flags"].get<std::string>(), "-O"));
+    REQUIRE(p["plugin_files"].size() == 2);
+    for (const json &f : p["plugin_files"]) {
+        FILE *pipe = ::popen(("sha256sum " + f["file"].get<std::string>()).c_str(), "r");
+        REQUIRE(pipe != nullptr);
+        std::array<char, 65> digest{};
+        REQUIRE(std::fgets(digest.data(), digest.size(), pipe) != nullptr);
+        ::pclose(pipe);
+        CHECK(f["sha256"] == std::string(digest.data()));
+    }
+    CHECK(p["fused_step"]["plugin_has_one"] == true);
+    CHECK(p["fused_step"]["ran"] == true);
+    CHECK(p["fused_step"]["batches"] == m["integrator_stats"]["batches"]);
+    CHECK(p["extractor_files"] == json::array());
     // No temporary files are left behind.
     for (const auto &e : fs::directory_iterator(out)) CHECK_MESSAGE(e.path().filename().string()[0] != '.', e.path());
+    fs::remove_all(tmp);
+}
+
+TEST_CASE("the manifest's provenance lists the files the extractors wrote themselves") {
+    const fs::path tmp = scratch();
+    json j = tiny_experiment();
+    j["grid"]["n"] = {41, 31};
+    j["time"]["t1"] = 6;
+    j["extractors"] = {{{"plugin", "hyperbolic"}}};
+    const fs::path out = tmp / "out";
+    const Result r = run("run " + write_experiment(tmp, "extract.json", j).string() + " --out " + out.string() +
+                         " --quiet");
+    REQUIRE(r.status == 0);
+    const json m = json::parse(std::ifstream(out / "manifest.json"));
+    const json listed = m["provenance"]["extractor_files"];
+    CHECK(listed == json{"barriers.png", "strainlines.png"}); // the hyperbolic extractor's pictures
+    for (const auto &name : listed) CHECK_MESSAGE(fs::exists(out / name.get<std::string>()), name);
+    for (const auto &name : m["files"]) CHECK(std::find(listed.begin(), listed.end(), name) == listed.end());
     fs::remove_all(tmp);
 }

@@ -267,6 +267,52 @@ TEST_CASE("write_fields_netcdf: round trip of a 4 x 3 grid with two variables an
     nc_ok(nc_close(ncid));
 }
 
+TEST_CASE("cf_units: UDUNITS-2 strings pass; the model's own scales become \"1\" with their meaning")
+{
+    using geobarrier::cf_units;
+    for (const char *unit : {"rad", "1/s", "m s-1", "rad/s", "K"}) {
+        CAPTURE(unit);
+        CHECK(cf_units(unit).units == unit);
+        CHECK(cf_units(unit).meaning.empty());
+    }
+    for (const char *unit : {"", "1", "–"}) {
+        CHECK(cf_units(unit).units == "1");
+        CHECK(cf_units(unit).meaning.empty());
+    }
+    for (const char *unit : {"1/time", "state", "rad/time", "1/state", "length", "length^2/time"}) {
+        CAPTURE(unit);
+        CHECK(cf_units(unit).units == "1");
+        CHECK(cf_units(unit).meaning == std::string(unit) + " in the model's own units");
+    }
+    CHECK(cf_units("times").units == "times"); // a whole word only, not a prefix
+}
+
+TEST_CASE("write_fields_netcdf: coordinate units from the system's state units, model units explained")
+{
+    ScratchDir dir("netcdf-units");
+    const fs::path file = dir.path() / "fields.nc";
+    const Grid grid{-3.0, 3.0, -2.0, 2.0, 3, 2};
+    const std::vector<double> ftle(grid.size(), 0.5);
+    const std::vector<std::uint8_t> mask(grid.size(), 0);
+    geobarrier::write_fields_netcdf(file, grid, {{"ftle", "finite-time Lyapunov exponent", "1/time", &ftle}}, mask,
+                                    nlohmann::json::object(), {{"theta", "omega"}, {"rad", "rad/time"}});
+    int ncid = -1;
+    nc_ok(nc_open(file.c_str(), NC_NOWRITE, &ncid));
+    int var_x = -1, var_y = -1, var_ftle = -1;
+    nc_ok(nc_inq_varid(ncid, "x", &var_x));
+    nc_ok(nc_inq_varid(ncid, "y", &var_y));
+    nc_ok(nc_inq_varid(ncid, "ftle", &var_ftle));
+    CHECK(text_attribute(ncid, var_x, "units") == "rad");
+    CHECK(text_attribute(ncid, var_x, "long_name") == "theta of the initial condition");
+    CHECK(text_attribute(ncid, var_y, "units") == "1");
+    CHECK(text_attribute(ncid, var_y, "long_name") ==
+          "omega of the initial condition [rad/time in the model's own units]");
+    CHECK(text_attribute(ncid, var_ftle, "units") == "1");
+    CHECK(text_attribute(ncid, var_ftle, "long_name") ==
+          "finite-time Lyapunov exponent [1/time in the model's own units]");
+    nc_ok(nc_close(ncid));
+}
+
 TEST_CASE("write_fields_netcdf: bad arguments are refused before anything is written")
 {
     ScratchDir dir("netcdf-bad");

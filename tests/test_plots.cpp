@@ -1,10 +1,13 @@
-// x-y and 3-D pictures: PNGs of the requested width whose height follows the box's aspect, point markers over a
-// field, log axes, and bad arguments refused before anything is written.
+// x-y, field and 3-D pictures: PNGs of the requested width whose height follows the box's aspect, read back pixel by
+// pixel to check what they show (a field's colour ramp, lines drawn where their coordinates say), point markers over
+// a field, log axes, and bad arguments refused before anything is written.
 #include <geobarrier/errors.hpp>
 #include <geobarrier/output.hpp>
 
 #include <doctest/doctest.h>
+#include <png.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <fstream>
@@ -39,6 +42,62 @@ std::pair<std::uint32_t, std::uint32_t> png_size(const fs::path &file) {
     };
     return {be32(16), be32(20)};
 }
+
+// A picture read back as 8-bit RGB, row by row from the top.
+struct Image {
+    std::uint32_t width = 0, height = 0;
+    std::vector<std::uint8_t> rgb;
+    const std::uint8_t *at(std::uint32_t column, std::uint32_t row) const { return &rgb[3 * (row * width + column)]; }
+};
+
+Image read_png(const fs::path &file) {
+    png_image png{};
+    png.version = PNG_IMAGE_VERSION;
+    Image image;
+    REQUIRE_MESSAGE(png_image_begin_read_from_file(&png, file.c_str()) != 0, file);
+    png.format = PNG_FORMAT_RGB;
+    image.width = png.width;
+    image.height = png.height;
+    image.rgb.resize(PNG_IMAGE_SIZE(png));
+    REQUIRE_MESSAGE(png_image_finish_read(&png, nullptr, image.rgb.data(), 0, nullptr) != 0, file);
+    return image;
+}
+
+bool is_colour(const std::uint8_t *p, int r, int g, int b, int tolerance = 40) {
+    return std::abs(p[0] - r) <= tolerance && std::abs(p[1] - g) <= tolerance && std::abs(p[2] - b) <= tolerance;
+}
+
+// Rows and columns holding pixels of one colour: their range and mean, for finding a drawn line.
+struct Extent {
+    std::size_t count = 0;
+    double first_row = 1e9, last_row = -1, first_column = 1e9, last_column = -1, mean_row = 0, mean_column = 0;
+};
+Extent extent_of(const Image &image, int r, int g, int b, int tolerance = 40) {
+    Extent e;
+    for (std::uint32_t row = 0; row < image.height; ++row)
+        for (std::uint32_t column = 0; column < image.width; ++column) {
+            if (!is_colour(image.at(column, row), r, g, b, tolerance)) continue;
+            ++e.count;
+            e.first_row = std::min<double>(e.first_row, row);
+            e.last_row = std::max<double>(e.last_row, row);
+            e.first_column = std::min<double>(e.first_column, column);
+            e.last_column = std::max<double>(e.last_column, column);
+            e.mean_row += row;
+            e.mean_column += column;
+        }
+    if (e.count > 0) {
+        e.mean_row /= static_cast<double>(e.count);
+        e.mean_column /= static_cast<double>(e.count);
+    }
+    return e;
+}
+
+// Viridis and the other colour-map entries are saturated; white paper, black text and grey axes are not.
+bool colourful(const std::uint8_t *p) {
+    return std::max({p[0], p[1], p[2]}) - std::min({p[0], p[1], p[2]}) > 40;
+}
+
+double luminance(const std::uint8_t *p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; }
 
 PlotSeries circle(double cx, double cy, double rx, double ry, const std::string &label) {
     PlotSeries s;
@@ -184,5 +243,125 @@ TEST_CASE("plot_field_png: point markers over a field") {
     plot.curves[0].marker_px = 0.0;
     CHECK_THROWS_AS(plot_field_png(dir / "g.png", grid, values, std::vector<std::uint8_t>(grid.size(), 0), plot),
                     Error);
+    fs::remove_all(dir);
+}
+
+TEST_CASE("plot_xy_png: lines are drawn where their coordinates say") {
+    const fs::path dir = fresh_dir("geometry");
+    XYPlot plot;
+    plot.x_range = std::make_pair(-1.0, 1.0);
+    plot.y_range = std::make_pair(-1.0, 1.0);
+    plot.width_px = 800;
+    const auto line = [](std::vector<double> xy, const char *colour) {
+        PlotSeries s;
+        s.xy = std::move(xy);
+        s.color = colour;
+        s.width = 3;
+        return s;
+    };
+    // Three horizontal lines at y = 0.5, 0, -0.5 across the whole box, one vertical line at x = 0.5.
+    plot.series = {line({-1, 0.5, 1, 0.5}, "#0000ff"), line({-1, 0, 1, 0}, "#ff0000"),
+                   line({-1, -0.5, 1, -0.5}, "#00c000"), line({0.5, -1, 0.5, 1}, "#ff00ff")};
+    plot_xy_png(dir / "lines.png", plot);
+    const Image image = read_png(dir / "lines.png");
+    REQUIRE(image.width == 800u);
+    // A tight tolerance: the lines' own colour, not the blend of their anti-aliased edges with the paper.
+    const Extent blue = extent_of(image, 0, 0, 255, 20), red = extent_of(image, 255, 0, 0, 20),
+                 green = extent_of(image, 0, 192, 0, 20), magenta = extent_of(image, 255, 0, 255, 20);
+    REQUIRE(blue.count > 100);
+    REQUIRE(red.count > 100);
+    REQUIRE(green.count > 100);
+    REQUIRE(magenta.count > 100);
+    // Horizontal lines are thin bands, y up the page, equally spaced; they span the same columns (the box).
+    for (const Extent *e : {&blue, &red, &green}) CHECK(e->last_row - e->first_row <= 8);
+    CHECK(blue.mean_row < red.mean_row);
+    CHECK(red.mean_row < green.mean_row);
+    CHECK(std::abs((red.mean_row - blue.mean_row) - (green.mean_row - red.mean_row)) <= 2.0);
+    CHECK(std::abs(blue.first_column - green.first_column) <= 4.0);
+    CHECK(std::abs(blue.last_column - green.last_column) <= 4.0);
+    // The box spans most of the picture; the vertical line at x = 0.5 stands three quarters across it and runs
+    // from the y = -1 edge to the y = 1 edge: centred on y = 0 and reaching a gap (0.5 in y) beyond the lines at
+    // 0.5 and -0.5, less the frame drawn over its ends.
+    const double box_left = red.first_column, box_right = red.last_column;
+    CHECK(box_right - box_left > 0.6 * image.width);
+    CHECK(magenta.last_column - magenta.first_column <= 8);
+    CHECK(std::abs(magenta.mean_column - (box_left + 0.75 * (box_right - box_left))) <= 5.0);
+    const double gap = red.mean_row - blue.mean_row;
+    CHECK(std::abs(magenta.mean_row - red.mean_row) <= 3.0);
+    CHECK(magenta.first_row < blue.mean_row - 0.9 * gap);
+    CHECK(magenta.last_row > green.mean_row + 0.9 * gap);
+    fs::remove_all(dir);
+}
+
+TEST_CASE("plot_field_png: the field's colour ramp fills the box, masked points are grey, a curve lies on it") {
+    const fs::path dir = fresh_dir("field");
+    const Grid grid{0.0, 1.0, 0.0, 1.0, 60, 30};
+    std::vector<double> values(grid.size());
+    std::vector<std::uint8_t> mask(grid.size(), 0);
+    for (std::size_t i = 0; i < grid.ny; ++i)
+        for (std::size_t j = 0; j < grid.nx; ++j) {
+            values[i * grid.nx + j] = grid.x(j); // a ramp in x: viridis grows brighter from left to right
+            if (grid.y(i) > 0.8 && grid.x(j) < 0.2) mask[i * grid.nx + j] = mask_left_bounds; // top-left corner
+        }
+    FieldPlot plot;
+    plot.width_px = 900;
+    PlotCurve vertical;
+    vertical.xy = {0.5, 0.0, 0.5, 0.6};
+    vertical.color = "#ff0000";
+    vertical.width = 3;
+    plot.curves.push_back(vertical);
+    plot_field_png(dir / "ramp.png", grid, values, mask, plot);
+    const Image image = read_png(dir / "ramp.png");
+    REQUIRE(image.width == 900u);
+
+    // The field is the first run of columns holding colour-mapped pixels; the colour bar is a second one.
+    std::vector<std::size_t> per_column(image.width, 0);
+    for (std::uint32_t column = 0; column < image.width; ++column)
+        for (std::uint32_t row = 0; row < image.height; ++row)
+            per_column[column] += colourful(image.at(column, row)) && !is_colour(image.at(column, row), 255, 0, 0);
+    const std::size_t tall = image.height / 4;
+    std::uint32_t left = 0;
+    while (left < image.width && per_column[left] < tall) ++left;
+    std::uint32_t right = left;
+    while (right + 1 < image.width && per_column[right + 1] >= tall) ++right;
+    REQUIRE(left < image.width);
+    CHECK(right - left > image.width / 2);
+    std::uint32_t bar = right + 1;
+    while (bar < image.width && per_column[bar] < tall) ++bar;
+    CHECK(bar < image.width); // the colour bar
+
+    const Extent red = extent_of(image, 255, 0, 0, 60);
+    REQUIRE(red.count > 50);
+    // Along a row through the lower half of the box, the colour brightens steadily from dark to bright (away from
+    // the red curve and its anti-aliased edges).
+    std::uint32_t top = 0, bottom = image.height - 1;
+    const std::uint32_t middle_column = (left + right) / 2 - 10;
+    while (top < image.height && !colourful(image.at(middle_column, top))) ++top;
+    while (bottom > top && !colourful(image.at(middle_column, bottom))) --bottom;
+    const std::uint32_t row = top + 3 * (bottom - top) / 4;
+    double previous = -1, drops = 0;
+    for (std::uint32_t column = left + 2; column + 2 <= right; ++column) {
+        if (column + 4 >= red.first_column && column <= red.last_column + 4) continue;
+        const double l = luminance(image.at(column, row));
+        if (previous >= 0 && l < previous - 2) ++drops;
+        previous = l;
+    }
+    CHECK(drops == 0);
+    CHECK(luminance(image.at(right - 2, row)) - luminance(image.at(left + 2, row)) > 120);
+
+    // The masked top-left corner is light grey; the same corner at the bottom is not.
+    const std::uint32_t corner_column = left + (right - left) / 20;
+    CHECK(is_colour(image.at(corner_column, top + (bottom - top) / 20), 211, 211, 211, 6));
+    CHECK_FALSE(is_colour(image.at(corner_column, bottom - (bottom - top) / 20), 211, 211, 211, 6));
+
+    // The red curve x = 0.5, y from 0 to 0.6, where the box's scale puts those: the cells are centred on the grid
+    // points, so the box spans y from -dy/2 to 1 + dy/2, and x symmetrically about 0.5.
+    const double half_cell = 0.5 / static_cast<double>(grid.ny - 1);
+    const auto row_of = [&](double y) {
+        return bottom - (y + half_cell) / (1.0 + 2.0 * half_cell) * static_cast<double>(bottom - top);
+    };
+    CHECK(std::abs(red.mean_column - 0.5 * (left + right)) <= 3.0);
+    CHECK(std::abs(red.last_row - row_of(0.0)) <= 4.0);
+    CHECK(std::abs(red.first_row - row_of(0.6)) <= 4.0);
     fs::remove_all(dir);
 }

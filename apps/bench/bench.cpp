@@ -1,5 +1,5 @@
 // geobarrier-bench: the speed/accuracy trade of the flow-map engine on workload W (the paper's first example,
-// ../shared/peers/README.md) and on the double gyre, measured as whole processes side by side with the naive
+// apps/bench/baselines/README.md) and on the double gyre, measured as whole processes side by side with the naive
 // Boost.Odeint baseline (and SciPy when it is installed), against exact fields. Sections: the headline
 // configurations, threads, scaling in the number of grid points, memory on a large grid, the extraction stages, and
 // (full mode) the sweep over tolerance, stepper, gradient method, offset, block size and the double gyre. Writes
@@ -159,9 +159,9 @@ ErrorStats ftle_errors(const std::vector<double> &ftle, const std::vector<double
     return s;
 }
 
-// Workload W (../shared/peers/README.md): the peers' reference and baselines integrate exactly this.
+// Workload W (apps/bench/baselines/README.md): the reference and the baselines integrate exactly this.
 json workload_w(std::size_t n) {
-    return {{"description", "workload W (../shared/peers/README.md)"},
+    return {{"description", "workload W (apps/bench/baselines/README.md)"},
             {"system", {{"plugin", "duffing"}}},
             {"forcing", {{"plugin", "cosine"}, {"params", {{"amplitude", 0.08}}}}},
             {"grid", {{"x", {-1.8, 1.8}}, {"y", {-1.2, 1.2}}, {"n", {n, n}}}},
@@ -279,7 +279,7 @@ class Bench {
     std::ostringstream md;
 
     // The exact FTLE of W on an n x n grid: rkf78 at 1e-12 on state + variational equations
-    // (../shared/peers/reference.cpp), cached in the output folder.
+    // (apps/bench/baselines/exact_reference.cpp), cached in the output folder.
     std::vector<double> exact_w(std::size_t n, bool compute) {
         const fs::path dF_file = out / ("ref_N" + std::to_string(n) + "_DF.bin");
         if (!fs::exists(dF_file)) {
@@ -388,16 +388,16 @@ class Bench {
         return row;
     }
 
-    // The SciPy baseline (../shared/peers/scipy_baseline.py: one stacked solve_ivp RK45 at the paper's tolerances,
-    // auxiliary grid), run from a copy (the peers' folder may be read-only) with the reference folder as its data.
+    // The SciPy baseline (apps/bench/baselines/scipy_baseline.py: one stacked solve_ivp RK45 at the paper's
+    // tolerances, auxiliary grid), run from a copy (the source tree may be read-only) with the reference folder as its data.
     std::optional<Row> scipy(const std::string &section, std::size_t n, const std::vector<double> &exact) {
         // Debian's interpreter (python3-scipy), which a python3 earlier on PATH (pyenv, a venv) may hide.
         const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
         if (run_process({python, "-c", "import scipy"}).status != 0) return std::nullopt;
         const fs::path dir = out / "scipy";
         fs::create_directories(dir);
-        for (const char *f : {"scipy_baseline.py", "workload.py"})
-            fs::copy_file(m_peers_source / f, dir / f, fs::copy_options::overwrite_existing);
+        fs::copy_file(m_peers_source / "scipy_baseline.py", dir / "scipy_baseline.py",
+                      fs::copy_options::overwrite_existing);
         Row row;
         row.section = section;
         row.workload = "W";
@@ -430,7 +430,7 @@ class Bench {
                 row.err.max = e["max_abs_err"].get<double>();
                 row.err.interior_max = e["interior_max_abs_err"].get<double>();
                 row.err.missing = e["n_nonfinite"].get<std::size_t>();
-                row.note = "errors by workload.py, interior margin 1 point";
+                row.note = "errors by scipy_baseline.py, interior margin 1 point";
             }
         } catch (...) {
             row.note = "no result record";
@@ -555,7 +555,7 @@ int main(int argc, char **argv) {
     app.add_option("--n", n, "grid points per direction of the headline runs")->check(CLI::Range(10, 20000));
     app.add_option("--out", out_dir, "folder for bench.csv, bench.md, pareto.png, the cached exact fields and scratch");
     app.add_option("--peers", peers_dir, "folder with the built peers (reference, odeint_baseline)")->required();
-    app.add_option("--peers-source", peers_source, "folder with the peers' sources (scipy_baseline.py, workload.py)");
+    app.add_option("--peers-source", peers_source, "folder with the baselines' sources (scipy_baseline.py)");
     app.add_option("--program", program, "the geobarrier program")->required();
     app.add_option("--source", source, "the source tree (experiments/ for the extraction section)");
     app.add_option("--machine", machine, "one line describing the machine, for the report");
@@ -591,7 +591,7 @@ int main(int argc, char **argv) {
     bench.peers = fs::absolute(peers_dir);
     bench.program = fs::absolute(program);
     bench.source = fs::absolute(source);
-    bench.set_peers_source(peers_source.empty() ? bench.source / ".." / "shared" / "peers" : fs::path(peers_source));
+    bench.set_peers_source(peers_source.empty() ? bench.source / "apps" / "bench" / "baselines" : fs::path(peers_source));
     fs::create_directories(bench.out);
     bench.csv.open(bench.out / "bench.csv");
     bench.csv << "section,workload,name,nx,ny,threads,wall_seconds,flow_map_seconds,peak_mib,rhs_evaluations,steps,"

@@ -1,9 +1,12 @@
 // The geobarrier command-line program: run and validate experiments, list plugins.
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/conformance.hpp>
+#include <geobarrier/equations.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
+#include <geobarrier/mpi.hpp>
 #include <geobarrier/plugin.hpp>
+#include <geobarrier/sweep.hpp>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
@@ -15,6 +18,7 @@
 #include <iostream>
 #include <map>
 #include <new>
+#include <optional>
 
 namespace fs = std::filesystem;
 using namespace geobarrier;
@@ -32,9 +36,21 @@ void setup_logging(bool quiet, bool verbose) {
     spdlog::set_level(quiet ? spdlog::level::warn : verbose ? spdlog::level::debug : spdlog::level::info);
 }
 
+// Every input error names the file: the parser's own errors do ("exp.json:3:7: ..."), and those found later, in
+// the plugins' parameters or while running, carry only the JSON path ("/system/params/omega0: ..."), so the
+// experiment's file name goes in front of them here.
+template <class Step> auto naming_the_file(const fs::path &file, Step &&step) -> decltype(step()) {
+    try {
+        return step();
+    } catch (const ConfigError &e) {
+        if (e.json_path().empty() || e.json_path()[0] != '/') throw;
+        throw ConfigError(file.string() + ": " + e.json_path(), std::string(e.what()).substr(e.json_path().size() + 2));
+    }
+}
+
 int command_run(const fs::path &file, const std::optional<fs::path> &out, int threads, bool quiet) {
     const Experiment experiment = load_experiment(file);
-    const ResolvedExperiment resolved = resolve_experiment(experiment);
+    const ResolvedExperiment resolved = naming_the_file(file, [&] { return resolve_experiment(experiment); });
     for (const auto &w : resolved.registry.warnings()) spdlog::debug("{}", w);
     spdlog::info("{}: {} + {} on a {} x {} grid, t = {} to {}", file.string(), resolved.system.info().name,
                  resolved.forcing.info().name, experiment.grid.nx, experiment.grid.ny, experiment.t0, experiment.t1);
@@ -42,7 +58,7 @@ int command_run(const fs::path &file, const std::optional<fs::path> &out, int th
     options.output_dir = out;
     options.threads = threads;
     options.quiet = quiet;
-    const RunSummary summary = run_experiment(resolved, options);
+    const RunSummary summary = naming_the_file(file, [&] { return run_experiment(resolved, options); });
     if (!quiet) {
         std::cout << "wrote " << summary.files.size() << " files to " << summary.output_dir.string() << ":\n";
         for (const auto &f : summary.files) std::cout << "  " << f.string() << "\n";
@@ -50,9 +66,44 @@ int command_run(const fs::path &file, const std::optional<fs::path> &out, int th
     return 0;
 }
 
+// A sweep file (docs/sweeps.md): checked as strictly as an experiment, every member included.
+int command_validate_sweep(const fs::path &file) {
+    const Sweep sweep = load_sweep(file);
+    check_sweep_members(sweep);
+    std::cout << file.string() << ": valid sweep (" << sweep.members.size() << " members over";
+    for (const auto &p : sweep.parameters) std::cout << " " << p.path << " (" << p.values.size() << " values)";
+    std::cout << ", " << sweep.combine << "; figures:";
+    for (const auto &f : sweep.figures) std::cout << " " << f;
+    std::cout << ")\n";
+    return 0;
+}
+
+int command_sweep(const fs::path &file, const SweepOptions &options) {
+    const Sweep sweep = load_sweep(file);
+    SweepResult result;
+    try {
+        result = run_sweep(sweep, options);
+    } catch (const Cancelled &e) { // finished members stay (each is whole), so not the run's message
+        std::cerr << "geobarrier: " << e.what() << "\n";
+        return 128 + e.signal();
+    }
+    if (result.files.empty()) return 0; // an MPI rank other than 0: rank 0 reports
+    if (!options.quiet) {
+        std::cout << "swept " << result.members.size() << " members into " << result.output_dir.string() << ":\n";
+        for (const auto &f : result.files) std::cout << "  " << f.string() << "\n";
+    }
+    if (result.failed == 0) return 0;
+    std::cerr << "geobarrier: error: " << result.failed << " of " << result.members.size() << " members failed:";
+    for (const auto &m : result.members)
+        if (m.status == "failed") std::cerr << " " << m.name << " (" << m.message << ");";
+    std::cerr << " the others are complete; see " << (result.output_dir / "summary.md").string() << "\n";
+    return exit_failure;
+}
+
 int command_validate(const fs::path &file) {
+    if (is_sweep_file(file)) return command_validate_sweep(file);
     const Experiment experiment = load_experiment(file);
-    const ResolvedExperiment resolved = resolve_experiment(experiment);
+    const ResolvedExperiment resolved = naming_the_file(file, [&] { return resolve_experiment(experiment); });
     std::cout << file.string() << ": valid (" << resolved.system.info().name << " + " << resolved.forcing.info().name
               << ", " << experiment.grid.nx << " x " << experiment.grid.ny << " grid, products:";
     for (const auto &p : experiment.products) std::cout << " " << p;
@@ -60,7 +111,8 @@ int command_validate(const fs::path &file) {
     const nlohmann::json validation = validation_to_json(experiment.validation, experiment.t0, experiment.t1);
     for (const auto &item : validation.items()) std::cout << " validation:" << item.key();
     std::cout << ")\n";
-    for (const auto &w : experiment.warnings) std::cout << "warning: " << w << "\n"; // e.g. a clamped rtol
+    // Warnings on stderr (e.g. a clamped rtol): stdout holds only the verdict.
+    for (const auto &w : experiment.warnings) std::cerr << "geobarrier: warning: " << file.string() << ": " << w << "\n";
     return 0;
 }
 
@@ -73,6 +125,8 @@ int command_plugins(bool as_json, const std::vector<std::string> &extra) {
         for (const auto &f : registry.folders()) j["folders"].push_back(f.string());
         j["plugins"] = nlohmann::json::array();
         for (const auto &h : registry.plugins()) j["plugins"].push_back(plugin_info_to_json(h.info));
+        // Systems of the core itself, not plugin files: their parameters are structured, not a plugin schema.
+        j["built_in"] = nlohmann::json::array({equations::schema()});
         j["warnings"] = registry.warnings();
         std::cout << j.dump(2) << "\n";
         return 0;
@@ -80,6 +134,14 @@ int command_plugins(bool as_json, const std::vector<std::string> &extra) {
     for (const PluginKind kind : {PluginKind::system, PluginKind::forcing, PluginKind::extractor}) {
         std::cout << to_string(kind) << "s:\n";
         bool any = false;
+        if (kind == PluginKind::system) {
+            any = true;
+            const nlohmann::json schema = equations::schema();
+            std::cout << "  " << equations::plugin_name << " (built in) - " << equations::doc() << "\n";
+            for (const auto &p : schema["params"])
+                std::cout << "      " << p["name"].get<std::string>() << " (" << p["type"].get<std::string>()
+                          << "): " << p["doc"].get<std::string>() << "\n";
+        }
         for (const auto &h : registry.plugins()) {
             if (h.info.kind != kind) continue;
             any = true;
@@ -108,7 +170,7 @@ int command_plugins(bool as_json, const std::vector<std::string> &extra) {
         }
         if (!any) std::cout << "  (none)\n";
     }
-    for (const auto &w : registry.warnings()) std::cout << "note: " << w << "\n";
+    for (const auto &w : registry.warnings()) std::cerr << "geobarrier: warning: " << w << "\n";
     return 0;
 }
 
@@ -147,16 +209,17 @@ int command_check_plugin(const CheckPluginOptions &o) {
         std::string label;
         std::vector<PluginHandle> handles;
         std::string load_error;
+        std::optional<nlohmann::json> params; // the target's own parameters (the equations' constants)
     };
     std::vector<Target> targets;
     std::vector<fs::path> folders(o.plugin_paths.begin(), o.plugin_paths.end());
     const PluginRegistry registry(PluginRegistry::default_folders(folders));
     if (o.all) {
         if (registry.plugins().empty()) throw ConfigError("--all", "no plugins found in the plugin folders");
-        for (const auto &h : registry.plugins()) targets.push_back({h.info.file.string(), {h}, ""});
+        for (const auto &h : registry.plugins()) targets.push_back({h.info.file.string(), {h}, "", std::nullopt});
     }
     for (const std::string &name : o.targets) {
-        Target t{name, {}, ""};
+        Target t{name, {}, "", std::nullopt};
         const bool is_file = name.find('/') != std::string::npos || fs::path(name).extension() == ".so";
         if (is_file) {
             try {
@@ -164,6 +227,16 @@ int command_check_plugin(const CheckPluginOptions &o) {
             } catch (const PluginError &e) {
                 t.load_error = e.what();
             }
+        } else if (name == equations::plugin_name) {
+            // The plugin generated from --params {"state": [...], "rhs": [...], "constants": {...}}, checked as the
+            // library declares itself (constants k0, k1, ... in the alphabetical order of their names), at their
+            // values.
+            const equations::Compiled compiled = equations::compile(given_params, "--params");
+            t.label = compiled.handle.info.file.string();
+            t.handles = load_plugin_library(compiled.handle.info.file);
+            t.params = nlohmann::json::object();
+            for (std::size_t i = 0; i < compiled.handle.info.params.size(); ++i)
+                (*t.params)["k" + std::to_string(i)] = compiled.values.value(i);
         } else {
             for (const auto &h : registry.plugins())
                 if (h.info.name == name) t.handles.push_back(h);
@@ -202,6 +275,7 @@ int command_check_plugin(const CheckPluginOptions &o) {
         for (const PluginHandle &h : t.handles) {
             std::vector<ConformanceCheck> checks;
             if (per_plugin) options.params = given_params.value(h.info.name, nlohmann::json::object());
+            if (t.params) options.params = *t.params;
             try {
                 checks = check_plugin(h, options);
             } catch (const Error &e) { // unusable options, e.g. a box of the wrong dimension
@@ -235,9 +309,69 @@ int command_check_plugin(const CheckPluginOptions &o) {
     return ok ? 0 : exit_failure;
 }
 
+// A command line CLI11 refused: one line naming the word it could not use, with a did-you-mean, for exit code 2.
+// A misspelt subcommand ("rnu") or option ("--quite") is looked up among those that exist; anything else keeps
+// CLI11's own message. Negative numbers ("--t-min -5") are values, not options.
+std::string command_line_error(const CLI::App &app, const CLI::ParseError &error, int argc, char **argv) {
+    const auto names_of = [](const std::vector<const CLI::App *> &apps) {
+        std::vector<std::string> names;
+        for (const CLI::App *a : apps) names.push_back(a->get_name());
+        return names;
+    };
+    const auto option_names = [](const CLI::App &a) {
+        std::vector<std::string> names;
+        for (const CLI::Option *o : a.get_options()) {
+            for (const auto &l : o->get_lnames()) names.push_back("--" + l);
+            for (const auto &n : o->get_snames()) names.push_back("-" + n);
+        }
+        return names;
+    };
+    const auto is_number = [](const std::string &word) {
+        char *end = nullptr;
+        std::strtod(word.c_str(), &end);
+        return !word.empty() && end == word.c_str() + word.size();
+    };
+    const std::vector<std::string> commands = names_of(app.get_subcommands([](const CLI::App *) { return true; }));
+    const CLI::App *command = nullptr;
+    for (int i = 1; i < argc && !command; ++i) {
+        const std::string word = argv[i];
+        if (word.empty() || word[0] == '-') continue;
+        if (std::find(commands.begin(), commands.end(), word) == commands.end()) {
+            std::string message = "'" + word + "' is not a geobarrier command";
+            const std::string hint = did_you_mean(word, commands);
+            if (!hint.empty()) message += "; did you mean '" + hint + "'?";
+            std::string list;
+            for (const auto &c : commands) list += (list.empty() ? "" : ", ") + c;
+            return message + " (commands: " + list + ")";
+        }
+        command = app.get_subcommand(word);
+    }
+    std::vector<std::string> known = option_names(app);
+    if (command) {
+        const std::vector<std::string> own = option_names(*command);
+        known.insert(known.end(), own.begin(), own.end());
+    }
+    for (int i = 1; i < argc; ++i) {
+        const std::string word = std::string(argv[i]).substr(0, std::string(argv[i]).find('='));
+        if (word.size() < 2 || word[0] != '-' || is_number(word) || word == "--") continue;
+        if (std::find(known.begin(), known.end(), word) != known.end()) continue;
+        const std::string where = command ? "geobarrier " + command->get_name() : std::string("geobarrier");
+        std::string message = "unknown option '" + word + "' for " + where;
+        const std::string hint = did_you_mean(word, known);
+        if (!hint.empty()) message += "; did you mean '" + hint + "'?";
+        return message + " (see " + where + " --help)";
+    }
+    std::string message = error.what();
+    std::replace(message.begin(), message.end(), '\n', ' ');
+    return message + " (see " + (command ? "geobarrier " + command->get_name() : std::string("geobarrier")) +
+           " --help)";
+}
+
 }  // namespace
 
 int main(int argc, char **argv) {
+    // MPI only when launched by mpirun (docs/cluster.md); started directly, the program is one process as ever.
+    mpi::Session mpi_session(argc, argv);
     CLI::App app{"geobarrier: invariant manifolds, attractors and generalized KAM tori of forced mechanical systems\n"
                  "from the geometry of the finite-time flow map."};
     app.set_version_flag("--version", std::string("geobarrier ") + GEOBARRIER_VERSION);
@@ -258,6 +392,17 @@ int main(int argc, char **argv) {
     auto *validate = app.add_subcommand("validate", "Check an experiment file completely; compute nothing");
     validate->add_option("file", validate_file, "experiment JSON file")->required();
 
+    std::string sweep_file, sweep_out;
+    SweepOptions sweep_options;
+    auto *sweep = app.add_subcommand("sweep", "Run an experiment over lists or ranges of parameter values");
+    sweep->add_option("file", sweep_file, "sweep JSON file")->required();
+    sweep->add_option("--out", sweep_out, "output folder (overrides output.dir)");
+    sweep->add_option("--processes", sweep_options.processes, "members run at once (default: the sweep's, else cores)")
+        ->check(CLI::Range(1, 4096));
+    sweep->add_option("--threads", sweep_options.threads, "threads per member (default: cores / processes)")
+        ->check(CLI::Range(1, 1024));
+    sweep->add_flag("--quiet,-q", quiet, "warnings and errors only");
+
     bool as_json = false;
     std::vector<std::string> plugin_paths;
     auto *plugins = app.add_subcommand("plugins", "List the plugins found, with their parameter schemas");
@@ -266,7 +411,9 @@ int main(int argc, char **argv) {
 
     CheckPluginOptions check_options;
     auto *check = app.add_subcommand("check-plugin", "Run the conformance checks on plugins; print a pass/fail table");
-    check->add_option("plugins", check_options.targets, "plugin files (.so), or names of plugins found in the folders");
+    check->add_option("plugins", check_options.targets,
+                      "plugin files (.so), or names of plugins found in the folders, or equations (the plugin "
+                      "generated from --params '{\"state\": [...], \"rhs\": [...], \"constants\": {...}}')");
     check->add_flag("--all", check_options.all, "check every plugin found in the plugin folders");
     check->add_option("--params", check_options.params,
                       "parameters as a JSON object, or {\"plugin\": {...}, ...} per plugin (default: the defaults)");
@@ -281,8 +428,13 @@ int main(int argc, char **argv) {
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError &e) {
-        return app.exit(e);
+        if (e.get_exit_code() == 0) return app.exit(e); // --help, --version
+        std::cerr << "geobarrier: error: " << command_line_error(app, e, argc, argv) << "\n";
+        return exit_bad_input;
     }
+    // Under mpirun, `run` shares its flow map's tiles among the ranks (a sweep shares whole members); rank 0 reports.
+    mpi::share_tiles(static_cast<bool>(*run));
+    if (mpi::rank() != 0) quiet = true;
     setup_logging(quiet, verbose);
     install_signal_handlers(); // SIGINT/SIGTERM stop a run cleanly, exit code 128 + signal (cancel.hpp)
     // Every error is one line on stderr, whatever a plugin's message holds.
@@ -296,6 +448,7 @@ int main(int argc, char **argv) {
         std::cout.flush();
         std::cerr.flush();
         std::fflush(nullptr);
+        mpi::end_before_exit(code, code == exit_bad_input); // bad input: every rank read the same file and stops alike
         std::_Exit(code);
         return code;
     };
@@ -307,12 +460,17 @@ int main(int argc, char **argv) {
     try {
         if (*run) return command_run(run_file, run_out.empty() ? std::nullopt : std::optional<fs::path>(run_out), threads, quiet);
         if (*validate) return command_validate(validate_file);
+        if (*sweep) {
+            if (!sweep_out.empty()) sweep_options.output_dir = sweep_out;
+            sweep_options.quiet = quiet;
+            return command_sweep(sweep_file, sweep_options);
+        }
         if (*plugins) return command_plugins(as_json, plugin_paths);
         if (*check) return command_check_plugin(check_options);
     } catch (const Cancelled &e) {
         return interrupted(e.signal(), e.what());
     } catch (const ConfigError &e) {
-        std::cerr << "geobarrier: error: " << one_line(e.what()) << "\n";
+        if (mpi::rank() == 0) std::cerr << "geobarrier: error: " << one_line(e.what()) << "\n";
         return fail(exit_bad_input);
     } catch (const std::bad_alloc &) {
         std::cerr << "geobarrier: error: out of memory (try a smaller grid)\n";

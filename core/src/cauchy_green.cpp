@@ -1,6 +1,6 @@
 // The Cauchy–Green tensor C = DF^T DF (paper eq. `cg`) and its eigen-decomposition, computed without cancellation
-// or overflow (DESIGN.md §4), pointwise and over a grid, also for DF beyond the double range (renormalised
-// variational equations: DF = 2^e G) and with det DF from Liouville's formula.
+// or overflow (lambda1 = det(DF)^2 / lambda2, not the small root), pointwise and over a grid, also for DF beyond the
+// double range (renormalised variational equations: DF = 2^e G) and with det DF from Liouville's formula.
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/errors.hpp>
 

@@ -1,6 +1,7 @@
 // Reading and validating experiment files: structure and values first (each
 // error names the JSON path, the value and the rule), then the plugins and
 // their parameter schemas, then what the requested products need.
+#include <geobarrier/equations.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 
@@ -318,8 +319,7 @@ std::string line_column(const std::string &text, std::size_t offset) {
 
 }  // namespace
 
-Experiment parse_experiment_text(const std::string &text, const fs::path &file) {
-    const std::string where = file.empty() ? std::string("<experiment>") : file.string();
+json parse_json_text(const std::string &text, const std::string &where) {
     const json::parser_callback_t depth_guard = [](int depth, json::parse_event_t, json &) {
         if (depth > max_json_depth) throw TooDeep{};
         return true;
@@ -347,6 +347,11 @@ Experiment parse_experiment_text(const std::string &text, const fs::path &file) 
         throw ConfigError(where, "JSON nested deeper than " + std::to_string(max_json_depth) +
                                      " levels; an experiment needs a few");
     }
+    return j;
+}
+
+Experiment parse_experiment_text(const std::string &text, const fs::path &file) {
+    const json j = parse_json_text(text, file.empty() ? std::string("<experiment>") : file.string());
     if (file.empty()) return parse_experiment(j, file);
     try {
         return parse_experiment(j, file);
@@ -403,9 +408,20 @@ ResolvedExperiment resolve_experiment(const Experiment &experiment) {
     };
     json resolved = e.source;
 
-    auto [sys_handle, sys_values] = create(PluginKind::system, e.system);
-    r.system = System(*sys_handle, sys_values);
-    resolved["system"] = {{"plugin", sys_handle->info.name}, {"params", params_to_json(sys_handle->info, sys_values)}};
+    if (e.system.plugin == equations::plugin_name) {
+        // Written in the experiment: compiled (or found in the cache) and loaded like any plugin (equations.hpp).
+        const equations::Compiled compiled = equations::compile(e.system.params, e.system.json_path + "/params");
+        r.system = System(compiled.handle, compiled.values);
+        json params = e.system.params;
+        params["constants"] = params_to_json(compiled.handle.info, compiled.values);
+        resolved["system"] = {{"plugin", equations::plugin_name}, {"params", params}, {"compiled", compiled.record}};
+    } else {
+        auto [sys_handle, sys_values] = create(PluginKind::system, e.system);
+        r.system = System(*sys_handle, sys_values);
+        resolved["system"] = {{"plugin", sys_handle->info.name},
+                              {"params", params_to_json(sys_handle->info, sys_values)}};
+    }
+    const std::string &system_name = r.system.info().name;
 
     // A composite forcing's terms are created first and handed to it (plugin.hpp, Forcing): the core evaluates
     // them, plugins never call each other. `echo` receives the resolved tree for the manifest.
@@ -476,12 +492,11 @@ ResolvedExperiment resolve_experiment(const Experiment &experiment) {
             r.gradient = parse_gradient_method(e.gradient_method);
         if (r.gradient == GradientMethod::variational && !r.system.has_jacobian())
             throw ConfigError("/cauchy_green/method", "\"variational\" needs the system's Jacobian, and system '" +
-                                                          sys_handle->info.name +
-                                                          "' provides none; use \"auxiliary-grid\"");
+                                                          system_name + "' provides none; use \"auxiliary-grid\"");
     }
     if (e.integrator.method == "rosenbrock4" && !r.system.has_jacobian())
         throw ConfigError("/integrator/method", "\"rosenbrock4\" needs the system's Jacobian, and system '" +
-                                                    sys_handle->info.name + "' provides none; use \"dopri5\"");
+                                                    system_name + "' provides none; use \"dopri5\"");
     // Refuse up front a grid the machine cannot hold (the estimate of the tiled run errs on the high side).
     check_memory(estimate_run_memory(e.grid, e.integrator, plan_fields(r)), available_memory(), e.grid);
     resolved["grid"] = {{"x", {e.grid.x_min, e.grid.x_max}},

@@ -1,11 +1,13 @@
-// fields.nc: the fields on the grid G0 as a CF-style NetCDF-4 file (coordinates x, y; one (y, x) variable per
-// field with _FillValue where masked; a `mask` flag variable saying why), written atomically.
+// fields.nc: the fields on the grid G0 as a CF-1.8 NetCDF-4 file (coordinates x, y with the system's state units;
+// one (y, x) variable per field with _FillValue where masked; a `mask` flag variable saying why; UDUNITS-2 unit
+// strings), written atomically.
 #include <geobarrier/errors.hpp>
 #include <geobarrier/output.hpp>
 
 #include <netcdf.h>
 
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <set>
 #include <string>
@@ -88,6 +90,26 @@ void put_global_attributes(int ncid, const nlohmann::json &attributes, const NcC
         put_text(ncid, NC_GLOBAL, "Conventions", "CF-1.8", check);
 }
 
+// The long name with what a nondimensional unit stands for, e.g. "FTLE [1/time in the model's units]".
+std::string documented_long_name(const std::string &long_name, const CfUnits &units)
+{
+    return units.meaning.empty() ? long_name : long_name + " [" + units.meaning + "]";
+}
+
+// A coordinate variable (x or y) of the initial conditions, with the system's name and unit for that component.
+void put_coordinate(int ncid, int varid, std::size_t component, const StateAxes &axes, const NcChecker &check)
+{
+    const char *const axis_names[] = {"x", "y"};
+    const char *const axis_letters[] = {"X", "Y"};
+    const std::string state_name =
+        component < axes.names.size() && !axes.names[component].empty() ? axes.names[component] : axis_names[component];
+    const CfUnits units = cf_units(component < axes.units.size() ? axes.units[component] : "");
+    put_text(ncid, varid, "long_name",
+             documented_long_name(state_name + " of the initial condition", units), check);
+    put_text(ncid, varid, "units", units.units, check);
+    put_text(ncid, varid, "axis", axis_letters[component], check);
+}
+
 void check_arguments(const Grid &grid, const std::vector<FieldVariable> &variables,
                      const std::vector<std::uint8_t> &mask)
 {
@@ -112,9 +134,31 @@ void check_arguments(const Grid &grid, const std::vector<FieldVariable> &variabl
 
 }  // namespace
 
+// UDUNITS-2 (the unit library CF names) knows SI units and their products and powers ("rad", "m s-1", "1/s"). The
+// plugins' units may also name the model's own scales: "time" and "length" of a nondimensional model, "state" for a
+// state component. No unit system defines those, so CF's answer applies: dimensionless "1", and the meaning in words.
+CfUnits cf_units(const std::string &unit)
+{
+    if (unit.empty() || unit == "1" || unit == "-" || unit == "–")
+        return {"1", ""};
+    static const std::set<std::string> model_scales{"time", "length", "state", "model"};
+    std::string word;
+    for (std::size_t i = 0; i <= unit.size(); ++i) {
+        const char c = i < unit.size() ? unit[i] : ' ';
+        if (std::isalpha(static_cast<unsigned char>(c)) || c == '_') {
+            word += c;
+            continue;
+        }
+        if (model_scales.count(word))
+            return {"1", unit + " in the model's own units"};
+        word.clear();
+    }
+    return {unit, ""};
+}
+
 void write_fields_netcdf(const std::filesystem::path &file, const Grid &grid,
                          const std::vector<FieldVariable> &variables, const std::vector<std::uint8_t> &mask,
-                         const nlohmann::json &global_attributes)
+                         const nlohmann::json &global_attributes, const StateAxes &axes)
 {
     check_arguments(grid, variables, mask);
     const NcChecker check(file);
@@ -131,12 +175,8 @@ void write_fields_netcdf(const std::filesystem::path &file, const Grid &grid,
         int var_x = -1, var_y = -1;
         check(nc_def_var(ncid, "x", NC_DOUBLE, 1, &dim_x, &var_x), "cannot define the variable x");
         check(nc_def_var(ncid, "y", NC_DOUBLE, 1, &dim_y, &var_y), "cannot define the variable y");
-        put_text(ncid, var_x, "long_name", "x of the initial condition", check);
-        put_text(ncid, var_x, "units", "1", check);
-        put_text(ncid, var_x, "axis", "X", check);
-        put_text(ncid, var_y, "long_name", "y of the initial condition", check);
-        put_text(ncid, var_y, "units", "1", check);
-        put_text(ncid, var_y, "axis", "Y", check);
+        put_coordinate(ncid, var_x, 0, axes, check);
+        put_coordinate(ncid, var_y, 1, axes, check);
 
         const double fill = NC_FILL_DOUBLE;
         std::vector<int> var_ids;
@@ -147,8 +187,11 @@ void write_fields_netcdf(const std::filesystem::path &file, const Grid &grid,
             // Not compressed: the low bits of a computed double field are noise that deflate cannot squeeze (level 1
             // with shuffle saved 20% of the size of W's FTLE at N = 1000 and took 0.12 s, 17% of the whole run).
             check(nc_def_var_fill(ncid, id, 0, &fill), what);
-            put_text(ncid, id, "long_name", variable.long_name.empty() ? variable.name : variable.long_name, check);
-            put_text(ncid, id, "units", variable.units.empty() ? "1" : variable.units, check);
+            const CfUnits units = cf_units(variable.units);
+            put_text(ncid, id, "long_name",
+                     documented_long_name(variable.long_name.empty() ? variable.name : variable.long_name, units),
+                     check);
+            put_text(ncid, id, "units", units.units, check);
             var_ids.push_back(id);
         }
 

@@ -446,6 +446,7 @@ class BatchIntegrator {
             // rk4 has no error estimate: always fixed steps.
             const bool adaptive = m_settings.adaptive && m_method != Method::rk4;
             const bool fused = !adaptive && try_fused(); // the plugin's fused step took every step
+            stats.fused_batches += fused ? 1 : 0;
             if (!fused) switch (m_method) {
             case Method::dop853: run_lockstep<detail::Dop853Tableau>(adaptive); break;
             case Method::dopri5: run_lockstep<detail::Dopri5Tableau>(adaptive); break;
@@ -1157,6 +1158,7 @@ void IntegratorStats::add(const IntegratorStats &other) {
     masked_step_limit += other.masked_step_limit;
     masked_invalid_state += other.masked_invalid_state;
     renormalised += other.renormalised;
+    fused_batches += other.fused_batches;
     wall_seconds += other.wall_seconds;
 }
 
@@ -1172,6 +1174,7 @@ nlohmann::json IntegratorStats::to_json() const {
                           {"masked_step_limit", masked_step_limit},
                           {"masked_invalid_state", masked_invalid_state},
                           {"renormalised", renormalised},
+                          {"fused_batches", fused_batches},
                           {"wall_seconds", wall_seconds}};
 }
 

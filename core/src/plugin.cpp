@@ -407,8 +407,9 @@ nlohmann::json plugin_info_to_json(const PluginInfo &info) {
     j["abi"] = std::to_string(info.abi_major) + "." + std::to_string(info.abi_minor);
     if (!info.core_version.empty()) j["core_version"] = info.core_version;
     j["thread_safety"] = info.thread_safety == GB_THREAD_SAFE_CONCURRENT ? "concurrent" : "per-instance";
+    // JSON has no infinity: an unbounded side of a range is null (docs/plugins.md, "plugins --json").
     auto json_number = [](double v) -> nlohmann::json {
-        if (std::isinf(v)) return v > 0 ? "inf" : "-inf";
+        if (std::isinf(v)) return nullptr;
         return v;
     };
     nlohmann::json params = nlohmann::json::array();

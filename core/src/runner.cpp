@@ -2,12 +2,14 @@
 // extractors need (and no others), then writes fields.nc, pictures,
 // barriers.json and, last, manifest.json into the output folder.
 #include "progress.hpp"
+#include "provenance.hpp"
 
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/line_field.hpp>
+#include <geobarrier/mpi.hpp>
 #include <geobarrier/output.hpp>
 #include <geobarrier/resources.hpp>
 #include <geobarrier/shear.hpp>
@@ -177,6 +179,8 @@ class OutputStaging {
 };
 
 RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options) {
+    // Under mpirun the ranks other than 0 only compute their share of the flow map's tiles (tiles.hpp).
+    if (mpi::sharing_tiles() && mpi::rank() != 0) return run_as_tile_worker(r, options);
     const Experiment &e = r.experiment;
     const auto run_start = std::chrono::steady_clock::now();
     const ScopedThreadCount thread_count(options.threads);
@@ -209,6 +213,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     for (const Extractor &x : r.extractors) plugins.push_back(plugin_summary(x.info()));
     manifest["plugins"] = plugins;
     manifest["threads"] = options.threads > 0 ? options.threads : omp_get_max_threads();
+    if (mpi::sharing_tiles()) manifest["mpi_ranks"] = mpi::size(); // threads is then per rank
     json stages = json::array();
     json warnings = json::array();
     for (const auto &w : r.registry.warnings()) warnings.push_back(w);
@@ -396,7 +401,8 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
             if (options.keep_results) summary.field_attributes = attributes;
             if (options.write_files) {
                 const fs::path file = out / "fields.nc";
-                write_fields_netcdf(file, e.grid, variables, mask, attributes);
+                write_fields_netcdf(file, e.grid, variables, mask, attributes,
+                                    {r.system.info().state_names, r.system.info().state_units});
                 summary.files.push_back(file);
             }
         }
@@ -420,6 +426,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
         throw IoError(staging.final_names(e.what()) + storage_hint(out)); // a full disk shows up as "HDF error"
     }
 
+    manifest["provenance"] = detail::run_provenance(r, manifest, summary.files, out);
     if (options.keep_results) {
         summary.grid = e.grid;
         summary.mask = mask;

@@ -1,12 +1,16 @@
 // The flow map and Cauchy–Green fields tile by tile (see tiles.hpp).
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
+#include <geobarrier/mpi.hpp>
 #include <geobarrier/tiles.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numeric>
+#include <type_traits>
+
+#include <omp.h>
 
 namespace geobarrier {
 
@@ -81,6 +85,149 @@ std::size_t tile_rows(const Grid &grid, const IntegratorSettings &settings, cons
     return std::min(rows, std::max<std::size_t>(grid.ny, 1));
 }
 
+namespace {
+
+// What every tile of one grid computation shares.
+struct TileJob {
+    const Dynamics &dynamics;
+    const Grid &grid;
+    double t0, t1;
+    const IntegratorSettings &settings;
+    const std::optional<Bounds> &bounds;
+    const FieldPlan &plan;
+    GradientMethod gradient;
+    double offset_x, offset_y, abs_duration;
+};
+
+// Integrates the `rows` grid rows from `row` and writes their flow map and kept Cauchy–Green fields into `flow` and
+// `cg` from point `at` on (their vectors already hold those points): the whole grid's fields at the tile's own place,
+// or an MPI rank's buffer of its tiles. `buffers` is reused from tile to tile.
+void compute_tile(const TileJob &job, std::size_t row, std::size_t rows, std::size_t at, GridFlowMap &buffers,
+                  GridFlowMap &flow, CauchyGreenField &cg, const ProgressFn &progress) {
+    const Grid &grid = job.grid;
+    const std::size_t nx = grid.nx, first = row * nx, points = rows * nx, count = grid.size();
+    // The full grid's coordinates, so that a tile's points start exactly where they do untiled.
+    const StartFn start = [&](std::size_t k, double &x, double &y) {
+        const std::size_t p = first + k;
+        x = grid.x(p % nx);
+        y = grid.y(p / nx);
+    };
+    ProgressFn tile_progress;
+    if (progress)
+        tile_progress = [&](std::size_t done, std::size_t total) {
+            progress(first + (total > 0 ? points * done / total : points), count);
+        };
+    buffers = flow_map_at_points(job.dynamics, points, start, job.t0, job.t1, job.settings, job.gradient, job.offset_x,
+                                 job.offset_y, job.plan.positions, job.bounds, tile_progress, std::move(buffers));
+    const auto to = static_cast<std::ptrdiff_t>(at);
+    flow.stats.add(buffers.stats);
+    std::copy(buffers.mask.begin(), buffers.mask.end(), flow.mask.begin() + to);
+    if (job.plan.positions) {
+        std::copy(buffers.flow_x.begin(), buffers.flow_x.end(), flow.flow_x.begin() + to);
+        std::copy(buffers.flow_y.begin(), buffers.flow_y.end(), flow.flow_y.begin() + to);
+    }
+    if (!job.plan.cauchy_green) return;
+    // Straight into the fields, only those kept (the others are empty in cg).
+    cg.degenerate_count += cauchy_green_into(
+        cg, at, points, buffers.dF.data(), buffers.mask.data(),
+        buffers.dF_exponent.empty() ? nullptr : buffers.dF_exponent.data(),
+        buffers.log_det.empty() ? nullptr : buffers.log_det.data(), job.abs_duration);
+}
+
+// `flow` and `cg` sized for `count` points with the plan's fields (NaN until computed).
+void allocate_fields(const FieldPlan &plan, std::size_t count, GridFlowMap &flow, CauchyGreenField &cg) {
+    constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+    flow.mask.resize(count, 0);
+    if (plan.positions) {
+        flow.flow_x.resize(count, nan);
+        flow.flow_y.resize(count, nan);
+    }
+    if (plan.cauchy_green) {
+        cg.mask.resize(count, 0);
+        for (const auto &name : plan.keep) cauchy_green_member(cg, name).resize(count, nan);
+    }
+}
+
+// The whole-grid arrays a rank sends rank 0 for its tiles, in this order (tiles in the order computed).
+template <class Visit> void for_each_shared_array(const FieldPlan &plan, GridFlowMap &flow, CauchyGreenField &cg,
+                                                  Visit visit) {
+    visit(flow.mask);
+    if (plan.positions) {
+        visit(flow.flow_x);
+        visit(flow.flow_y);
+    }
+    if (!plan.cauchy_green) return;
+    visit(cg.mask);
+    for (const auto &name : plan.keep) visit(cauchy_green_member(cg, name));
+}
+
+// The tiles shared among MPI ranks (mpi.hpp): each rank takes the next tile from the work queue until none is left
+// (rank 0 straight into the whole-grid fields, the others into a buffer of their tiles), then the others send rank 0
+// their tiles' fields, statistics and degenerate counts. Rank 0 returns the whole grid's fields, the others only
+// their tile count. Tiles are whole lockstep batches, so every point's numbers are those of the single process.
+void share_tiles(const TileJob &job, GridFields &out, const ProgressFn &progress) {
+    const Grid &grid = job.grid;
+    const std::size_t nx = grid.nx, count = grid.size();
+    const bool root = mpi::rank() == 0;
+    const std::size_t tiles = (grid.ny + out.rows_per_tile - 1) / out.rows_per_tile;
+    if (root) allocate_fields(job.plan, count, out.flow, out.cg);
+    GridFlowMap mine; // a worker's tiles, one after the other
+    CauchyGreenField mine_cg;
+    std::vector<std::uint64_t> my_tiles;
+    std::size_t my_points = 0;
+    GridFlowMap buffers;
+    {
+        mpi::WorkQueue queue(tiles);
+        while (const auto tile = queue.next()) {
+            const std::size_t row = *tile * out.rows_per_tile, rows = std::min(out.rows_per_tile, grid.ny - row);
+            if (root) {
+                compute_tile(job, row, rows, row * nx, buffers, out.flow, out.cg, progress);
+            } else {
+                allocate_fields(job.plan, my_points + rows * nx, mine, mine_cg);
+                compute_tile(job, row, rows, my_points, buffers, mine, mine_cg, {});
+                my_points += rows * nx;
+            }
+            my_tiles.push_back(*tile);
+        }
+    }
+    out.tiles = my_tiles.size();
+    if (!root) {
+        mpi::send_vector(0, my_tiles);
+        mpi::send_bytes(0, &mine.stats, sizeof mine.stats);
+        mpi::send_bytes(0, &mine_cg.degenerate_count, sizeof mine_cg.degenerate_count);
+        for_each_shared_array(job.plan, mine, mine_cg, [](const auto &v) { mpi::send_vector(0, v); });
+        return;
+    }
+    static_assert(std::is_trivially_copyable_v<IntegratorStats>, "sent as bytes between ranks of one build");
+    for (int from = 1; from < mpi::size(); ++from) {
+        const std::vector<std::uint64_t> their_tiles = mpi::receive_vector<std::uint64_t>(from);
+        IntegratorStats stats;
+        std::uint64_t degenerate = 0;
+        mpi::receive_bytes(from, &stats, sizeof stats);
+        mpi::receive_bytes(from, &degenerate, sizeof degenerate);
+        out.flow.stats.add(stats);
+        out.cg.degenerate_count += degenerate;
+        out.tiles += their_tiles.size();
+        for_each_shared_array(job.plan, out.flow, out.cg, [&](auto &whole) {
+            using T = typename std::decay_t<decltype(whole)>::value_type;
+            const std::vector<T> received = mpi::receive_vector<T>(from);
+            std::size_t at = 0;
+            for (const std::uint64_t tile : their_tiles) {
+                const std::size_t row = tile * out.rows_per_tile, rows = std::min(out.rows_per_tile, grid.ny - row);
+                const std::size_t points = rows * nx;
+                if (at + points > received.size())
+                    throw Error("MPI rank " + std::to_string(from) + " sent fewer values than its tiles hold");
+                std::copy(received.begin() + static_cast<std::ptrdiff_t>(at),
+                          received.begin() + static_cast<std::ptrdiff_t>(at + points),
+                          whole.begin() + static_cast<std::ptrdiff_t>(row * nx));
+                at += points;
+            }
+        });
+    }
+}
+
+} // namespace
+
 GridFields compute_grid_fields(const Dynamics &dynamics, const Grid &grid, double t0, double t1,
                                const IntegratorSettings &settings, const std::optional<Bounds> &bounds,
                                const FieldPlan &plan, const ProgressFn &progress) {
@@ -90,64 +237,47 @@ GridFields compute_grid_fields(const Dynamics &dynamics, const Grid &grid, doubl
     const GradientMethod gradient = plan.cauchy_green ? plan.gradient : GradientMethod::none;
     if (gradient == GradientMethod::auxiliary_grid && !(plan.aux_offset > 0.0 && std::isfinite(plan.aux_offset)))
         throw ConfigError("/cauchy_green/offset", std::to_string(plan.aux_offset) + " is not a positive offset");
-    constexpr double nan = std::numeric_limits<double>::quiet_NaN();
-    const std::size_t count = grid.size(), nx = grid.nx;
-    const double abs_duration = std::abs(t1 - t0);
+    const std::size_t count = grid.size();
+    const TileJob job{dynamics, grid, t0, t1, settings, bounds, plan, gradient,
+                      plan.aux_offset * grid.dx(), plan.aux_offset * grid.dy(), std::abs(t1 - t0)};
 
     GridFields out;
     out.flow.grid = grid;
-    out.flow.mask.assign(count, 0);
-    if (plan.positions) {
-        out.flow.flow_x.assign(count, nan);
-        out.flow.flow_y.assign(count, nan);
-    }
-    if (plan.cauchy_green) {
-        out.cg.grid = grid;
-        out.cg.mask.assign(count, 0);
-        for (const auto &name : plan.keep) cauchy_green_member(out.cg, name).assign(count, nan);
-    }
-    out.rows_per_tile = tile_rows(grid, settings, plan);
-    const double offset_x = plan.aux_offset * grid.dx(), offset_y = plan.aux_offset * grid.dy();
-
-    // One tile's buffers, reused by the next tile: fresh ones would cost page faults, serially, at every tile.
-    GridFlowMap tile;
-    for (std::size_t row = 0; row < grid.ny; row += out.rows_per_tile) {
-        const std::size_t rows = std::min(out.rows_per_tile, grid.ny - row);
-        const std::size_t first = row * nx, points = rows * nx;
-        ++out.tiles;
-        // The full grid's coordinates, so that a tile's points start exactly where they do untiled.
-        const StartFn start = [&](std::size_t k, double &x, double &y) {
-            const std::size_t p = first + k;
-            x = grid.x(p % nx);
-            y = grid.y(p / nx);
-        };
-        ProgressFn tile_progress;
-        if (progress)
-            tile_progress = [&](std::size_t done, std::size_t total) {
-                progress(first + (total > 0 ? points * done / total : points), count);
-            };
-        tile = flow_map_at_points(dynamics, points, start, t0, t1, settings, gradient, offset_x, offset_y,
-                                  plan.positions, bounds, tile_progress, std::move(tile));
-        out.flow.stats.add(tile.stats);
-        std::copy(tile.mask.begin(), tile.mask.end(), out.flow.mask.begin() + static_cast<std::ptrdiff_t>(first));
-        if (plan.positions) {
-            std::copy(tile.flow_x.begin(), tile.flow_x.end(),
-                      out.flow.flow_x.begin() + static_cast<std::ptrdiff_t>(first));
-            std::copy(tile.flow_y.begin(), tile.flow_y.end(),
-                      out.flow.flow_y.begin() + static_cast<std::ptrdiff_t>(first));
-        }
-        if (!plan.cauchy_green) continue;
-        // Straight into the whole-grid fields, only those kept (the others are empty in out.cg).
-        out.cg.degenerate_count += cauchy_green_into(
-            out.cg, first, points, tile.dF.data(), tile.mask.data(),
-            tile.dF_exponent.empty() ? nullptr : tile.dF_exponent.data(),
-            tile.log_det.empty() ? nullptr : tile.log_det.data(), abs_duration);
+    if (plan.cauchy_green) out.cg.grid = grid;
+    if (mpi::sharing_tiles()) {
+        // About 8 tiles per rank, so that the queue can even out ranks whose rows cost more (trajectories leaving
+        // the box early, adaptive steps), and never larger than the plan's tiles.
+        FieldPlan shared = plan;
+        const std::size_t ranks = static_cast<std::size_t>(mpi::size());
+        shared.tile_points = std::min(plan.tile_points, std::max<std::size_t>(count / (8 * ranks), 1));
+        out.rows_per_tile = tile_rows(grid, settings, shared);
+        share_tiles(job, out, progress);
+        if (mpi::rank() != 0) return out;
+    } else {
+        allocate_fields(plan, count, out.flow, out.cg);
+        out.rows_per_tile = tile_rows(grid, settings, plan);
+        // One tile's buffers, reused by the next tile: fresh ones would cost page faults, serially, at every tile.
+        GridFlowMap buffers;
+        for (std::size_t row = 0; row < grid.ny; row += out.rows_per_tile, ++out.tiles)
+            compute_tile(job, row, std::min(out.rows_per_tile, grid.ny - row), row * grid.nx, buffers, out.flow,
+                         out.cg, progress);
     }
     if (std::none_of(out.flow.mask.begin(), out.flow.mask.end(), [](std::uint8_t m) { return m == 0; }))
         throw NumericalError("every one of the " + std::to_string(count) + " grid points was masked: " +
                              describe_masking(out.flow.stats, settings, dynamics.system->has_jacobian()) +
                              "; check the grid, the time interval, the bounds and the system");
     return out;
+}
+
+RunSummary run_as_tile_worker(const ResolvedExperiment &r, const RunOptions &options) {
+    // The same decision as the runner's on rank 0, so that every rank takes part in the same grid computation.
+    if (options.threads > 0) omp_set_num_threads(options.threads);
+    const Experiment &e = r.experiment;
+    if (r.need_cauchy_green || r.need_positions) {
+        const Dynamics dynamics{&r.system, &r.forcing};
+        compute_grid_fields(dynamics, e.grid, e.t0, e.t1, e.integrator, e.bounds, plan_fields(r));
+    }
+    return {};
 }
 
 } // namespace geobarrier

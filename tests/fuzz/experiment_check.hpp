@@ -5,6 +5,7 @@
 #ifndef GEOBARRIER_TESTS_FUZZ_EXPERIMENT_CHECK_HPP
 #define GEOBARRIER_TESTS_FUZZ_EXPERIMENT_CHECK_HPP
 
+#include <geobarrier/equations.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/plugin.hpp>
@@ -21,7 +22,13 @@ inline bool names_a_file(const std::string &plugin) {
 }
 
 inline void check_plugin_use(const PluginRegistry &registry, PluginKind kind, const PluginUse &use) {
-    if (!names_a_file(use.plugin)) {
+    if (kind == PluginKind::system && use.plugin == equations::plugin_name) {
+        // The equations' grammar and code generator, without compiling (which would run the compiler per input).
+        try {
+            equations::define(use.params, use.json_path + "/params");
+        } catch (const Error &) {
+        }
+    } else if (!names_a_file(use.plugin)) {
         try {
             const PluginHandle &h = registry.find(kind, use.plugin, use.json_path + "/plugin");
             validate_params(h.info, use.params, use.json_path + "/params");

@@ -1,7 +1,7 @@
 // An independent reference for the paper's first example (forced undamped
 // Duffing, x' = y, y' = x - x^3 + eps cos t): Boost.Odeint rkf78 at 1e-12 on
 // the state plus the variational equations, one trajectory at a time, as
-// ../shared/peers/reference.cpp does. Shares no code with the engine.
+// apps/bench/baselines/exact_reference.cpp does. Shares no code with the engine.
 #ifndef GEOBARRIER_TEST_REFERENCE_FTLE_HPP
 #define GEOBARRIER_TEST_REFERENCE_FTLE_HPP
 

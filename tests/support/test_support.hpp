@@ -7,6 +7,8 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -18,6 +20,14 @@ inline std::filesystem::path plugin_dir() { return GEOBARRIER_PLUGIN_DIR; }
 inline std::filesystem::path test_plugin_dir() { return GEOBARRIER_TEST_PLUGIN_DIR; }
 inline std::filesystem::path source_dir() { return GEOBARRIER_SOURCE_DIR; }
 inline std::filesystem::path geobarrier_program() { return GEOBARRIER_BIN; }
+
+// The whole text of a file ("" when it cannot be read): program output, logs, summaries.
+inline std::string read_text(const std::filesystem::path &file) {
+    std::ifstream in(file);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
 
 // One registry over both folders, built once per test program.
 inline const PluginRegistry &registry() {

@@ -84,6 +84,8 @@ Experiment load_experiment(const std::filesystem::path &file);
 // The same from the text of an experiment file (`file` names it in messages and resolves relative paths). Malformed
 // JSON is a ConfigError at "file:line:col"; so are numbers beyond the double range and nesting deeper than 64.
 Experiment parse_experiment_text(const std::string &text, const std::filesystem::path &file = {});
+// The JSON of an experiment (or sweep) file's text with those rules; `where` names the file in messages.
+nlohmann::json parse_json_text(const std::string &text, const std::string &where);
 
 // The experiment with its plugins found, parameters validated and objects created.
 struct ResolvedExperiment {

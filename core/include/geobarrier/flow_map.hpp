@@ -76,6 +76,7 @@ struct IntegratorStats {
     std::uint64_t masked = 0;          // trajectories masked for any reason
     std::uint64_t masked_left_bounds = 0, masked_non_finite = 0, masked_step_limit = 0, masked_invalid_state = 0;
     std::uint64_t renormalised = 0;    // variational: trajectories whose DF left [1/2, 2^256] and was rescaled
+    std::uint64_t fused_batches = 0;   // batches the system plugin's fused step integrated (ABI 1.2 advance)
     double wall_seconds = 0.0;
 
     void add(const IntegratorStats &other);

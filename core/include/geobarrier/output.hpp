@@ -35,13 +35,28 @@ struct FieldVariable {
     std::uint8_t masked_by = mask_trajectory_bits;
 };
 
+// The names and units a system declares for its two state components (PluginInfo::state_names, state_units);
+// empty: x and y, nondimensional.
+struct StateAxes {
+    std::vector<std::string> names, units;
+};
+
 // Writes a NetCDF-4 file with coordinate variables x (nx) and y (ny), the
 // given variables of shape (ny, nx) with _FillValue where masked, and a `mask`
 // variable (ubyte, CF flag_masks/flag_meanings saying why). Global attributes
-// come from a flat JSON object of strings and numbers.
+// come from a flat JSON object of strings and numbers. Units are written as
+// UDUNITS-2 strings: the coordinates' from `axes`; a unit in the model's own
+// nondimensional vocabulary (cf_units: "time", "length", "state") becomes "1"
+// with the meaning appended to long_name.
 void write_fields_netcdf(const std::filesystem::path &file, const Grid &grid,
                          const std::vector<FieldVariable> &variables, const std::vector<std::uint8_t> &mask,
-                         const nlohmann::json &global_attributes);
+                         const nlohmann::json &global_attributes, const StateAxes &axes = {});
+
+// A unit as fields.nc writes it: `units` valid for UDUNITS-2 / CF, and what long_name should add ("" if nothing).
+struct CfUnits {
+    std::string units, meaning;
+};
+CfUnits cf_units(const std::string &unit);
 
 // A polyline drawn over a field picture.
 struct PlotCurve {

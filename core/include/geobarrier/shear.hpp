@@ -30,7 +30,7 @@ ShearWeights shear_weights(double lambda1, double lambda2);
 ShearWeights lambda_line_weights(double lambda, double lambda1, double lambda2);
 
 // Geodesic shear deviation, general form (Haller & Beron-Vera 2012 eq. 33, as the authors' 2012 code had it;
-// DESIGN.md §4), sign = +1 for eta+ and -1 for eta-:
+// reducing to the paper's eq. `dg_shr` when l1 l2 = 1), sign = +1 for eta+ and -1 for eta-:
 //   d_g^eta± = |1 - alpha| + | ∓<grad alpha, eta±>/beta + alpha kappa1 ∓ beta kappa2 + (l1/l2 - 1) kappa1
 //                              - 1/2 <grad l1, xi2>/l2 |
 // The absolute value covers the whole bracket: every term in it changes sign with the orientation of (xi1, xi2),

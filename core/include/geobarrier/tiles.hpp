@@ -19,6 +19,8 @@
 namespace geobarrier {
 
 struct ResolvedExperiment;
+struct RunOptions;
+struct RunSummary;
 
 // The Cauchy–Green variables a run can keep for the whole grid (CauchyGreenField's members, fields.nc's names).
 const std::vector<std::string> &cauchy_green_variables();
@@ -56,6 +58,10 @@ struct GridFields {
 GridFields compute_grid_fields(const Dynamics &dynamics, const Grid &grid, double t0, double t1,
                                const IntegratorSettings &settings, const std::optional<Bounds> &bounds,
                                const FieldPlan &plan, const ProgressFn &progress = {});
+
+// Under mpirun, `geobarrier run` on the ranks other than 0 (mpi.hpp): their share of the flow map's tiles, sent to
+// rank 0, which runs everything else (extractors, validation, output) once. Writes nothing; returns no files.
+RunSummary run_as_tile_worker(const ResolvedExperiment &experiment, const RunOptions &options);
 
 } // namespace geobarrier
 

@@ -373,6 +373,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     // folder with a manifest is a finished run.
     throw_if_cancelled("before writing the output files");
     std::vector<FieldVariable> variables;
+    const StateAxes state_axes{r.system.info().state_names, r.system.info().state_units};
     try {
         StageTimer timer(stages, "output");
         for (const auto &product : known_products()) {
@@ -401,8 +402,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
             if (options.keep_results) summary.field_attributes = attributes;
             if (options.write_files) {
                 const fs::path file = out / "fields.nc";
-                write_fields_netcdf(file, e.grid, variables, mask, attributes,
-                                    {r.system.info().state_names, r.system.info().state_units});
+                write_fields_netcdf(file, e.grid, variables, mask, attributes, state_axes);
                 summary.files.push_back(file);
             }
         }
@@ -431,8 +431,16 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
         summary.grid = e.grid;
         summary.mask = mask;
         summary.barriers = barriers;
-        for (const FieldVariable &v : variables)
-            summary.fields.push_back({v.name, v.long_name, v.units, v.masked_by, *v.values});
+        for (const FieldVariable &v : variables) {
+            const NetcdfAttributes a = variable_attributes(v);
+            summary.fields.push_back({v.name, a.long_name, a.units, v.masked_by, *v.values});
+        }
+        for (std::size_t c = 0; c < 2; ++c) {
+            const NetcdfAttributes a = coordinate_attributes(c, state_axes);
+            std::vector<double> values(c == 0 ? e.grid.nx : e.grid.ny);
+            for (std::size_t k = 0; k < values.size(); ++k) values[k] = c == 0 ? e.grid.x(k) : e.grid.y(k);
+            summary.coordinates.push_back({c == 0 ? "x" : "y", a.long_name, a.units, 0, std::move(values)});
+        }
     }
     if (!options.write_files) summary.files.clear(); // the validation products' files went to the private folder
 

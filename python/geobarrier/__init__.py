@@ -10,6 +10,7 @@ docs/python.md is the guide; docs/experiment-format.md describes experiments.
 """
 
 import json
+import math
 import os
 import signal
 import threading
@@ -158,9 +159,10 @@ def plugins(plugin_paths=()):
     found = json.loads(_native.plugins([os.fspath(p) for p in plugin_paths]))["plugins"]
     for plugin in found:
         for param in plugin.get("params", []):
-            for key in ("min", "max"):
-                if param.get(key) in ("inf", "-inf"):
-                    param[key] = float(param[key])
+            # JSON's null for an unbounded side of a numeric range: an infinity in Python, usable in comparisons.
+            for key, unbounded in (("min", -math.inf), ("max", math.inf)):
+                if key in param and param[key] is None:
+                    param[key] = unbounded
     return found
 
 

@@ -14,14 +14,13 @@ MASK_ATTRIBUTES = {
     "flag_meanings": "left_bounds non_finite step_limit invalid_state degenerate_eigenvectors",
     "long_name": "why the values at a grid point are not usable (0 = valid)",
 }
-X_ATTRIBUTES = {"long_name": "x of the initial condition", "units": "1", "axis": "X"}
-Y_ATTRIBUTES = {"long_name": "y of the initial condition", "units": "1", "axis": "Y"}
 
 
 class Fields:
     """The fields without xarray: ``fields.ftle`` or ``fields["ftle"]`` is an (ny, nx) array (row index = y, NaN
     where fields.nc has its fill value), ``fields.x``, ``fields.y`` the coordinates, ``fields.mask`` the mask,
-    ``fields.attrs`` the global attributes and ``fields.variable_attrs[name]`` each variable's."""
+    ``fields.attrs`` the global attributes, ``fields.variable_attrs[name]`` each variable's and
+    ``fields.coordinate_attrs["x"]`` the coordinates'."""
 
     def __init__(self, x, y, variables, variable_attrs, attrs):
         self.x, self.y = x, y
@@ -76,11 +75,14 @@ def build(native, use_xarray=True):
         variables["mask"] = mask
         variable_attrs["mask"] = dict(MASK_ATTRIBUTES)
     attrs = _global_attributes(json.loads(native["attributes"]) or {})
-    x, y = native["x"], native["y"]
+    coordinates = {name: (values, {"long_name": long_name, "units": units, "axis": name.upper()})
+                   for name, long_name, units, values in native["coordinates"]}
     if xarray is None or not use_xarray:
-        return Fields(x, y, variables, variable_attrs, attrs)
+        fields = Fields(coordinates["x"][0], coordinates["y"][0], variables, variable_attrs, attrs)
+        fields.coordinate_attrs = {name: a for name, (_, a) in coordinates.items()}
+        return fields
     return xarray.Dataset(
         {name: (("y", "x"), values, variable_attrs[name]) for name, values in variables.items()},
-        coords={"x": ("x", x, X_ATTRIBUTES), "y": ("y", y, Y_ATTRIBUTES)},
+        coords={name: (name, values, a) for name, (values, a) in coordinates.items()},
         attrs=attrs,
     )

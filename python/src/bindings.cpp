@@ -169,9 +169,11 @@ py::dict run(const std::string &text, const std::string &file, std::optional<std
     py::list fields;
     for (geobarrier::FieldResult &f : summary.fields)
         fields.append(py::make_tuple(f.name, f.long_name, f.units, f.masked_by, to_array(std::move(f.values), shape)));
-    std::vector<double> x(nx), y(ny);
-    for (std::size_t j = 0; j < nx; ++j) x[j] = summary.grid.x(j);
-    for (std::size_t i = 0; i < ny; ++i) y[i] = summary.grid.y(i);
+    py::list coordinates;
+    for (geobarrier::FieldResult &c : summary.coordinates) {
+        const auto n = static_cast<py::ssize_t>(c.values.size());
+        coordinates.append(py::make_tuple(c.name, c.long_name, c.units, to_array(std::move(c.values), {n})));
+    }
     py::list files;
     for (const fs::path &f : summary.files) files.append(f.string());
 
@@ -182,8 +184,7 @@ py::dict run(const std::string &text, const std::string &file, std::optional<std
     result["fields"] = fields;
     result["mask"] =
         summary.mask.empty() ? py::object(py::none()) : py::object(to_array(std::move(summary.mask), shape));
-    result["x"] = to_array(std::move(x), {static_cast<py::ssize_t>(nx)});
-    result["y"] = to_array(std::move(y), {static_cast<py::ssize_t>(ny)});
+    result["coordinates"] = coordinates;
     result["output_dir"] = summary.output_dir.string();
     result["files"] = files;
     return result;

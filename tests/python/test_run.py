@@ -44,7 +44,9 @@ def test_demo_shaped_run_from_a_file(tmp_path):
     assert r.fields.ftle.dims == ("y", "x")
     assert r.fields.x.values[0] == -1.9 and r.fields.x.values[-1] == pytest.approx(1.9, abs=1e-15)
     assert r.fields.y.values[0] == -1.1 and r.fields.y.values[-1] == pytest.approx(1.1, abs=1e-15)
-    assert r.fields.ftle.attrs["units"] == "1/time"
+    # CF units: the model's own time scale is dimensionless "1", with the meaning in long_name.
+    assert r.fields.ftle.attrs["units"] == "1" and "1/time in the model's own units" in r.fields.ftle.attrs["long_name"]
+    assert r.fields.x.attrs["axis"] == "X" and r.fields.y.attrs["axis"] == "Y"
     assert set(r.fields.data_vars) == {"ftle", "lambda1", "lambda2", "xi1_x", "xi1_y", "xi2_x", "xi2_y", "mask"}
     assert r.fields.attrs["system"] == "duffing" and r.fields.attrs["forcing"] == "cosine"
     assert r.manifest["resolved"]["grid"]["n"] == [31, 21]

@@ -130,6 +130,7 @@ struct RunSummary {
     // keep_results only: what fields.nc and barriers.json hold.
     Grid grid;
     std::vector<FieldResult> fields;
+    std::vector<FieldResult> coordinates; // x (nx values) and y (ny values)
     std::vector<std::uint8_t> mask;
     nlohmann::json field_attributes; // fields.nc's global attributes
     nlohmann::json barriers = nlohmann::json::array();

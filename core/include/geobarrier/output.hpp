@@ -58,6 +58,14 @@ struct CfUnits {
 };
 CfUnits cf_units(const std::string &unit);
 
+// The long_name and units fields.nc gives a variable, and the coordinate x (component 0) or y (1): for programs that
+// hand the fields over in memory with the file's attributes (the Python module).
+struct NetcdfAttributes {
+    std::string long_name, units;
+};
+NetcdfAttributes variable_attributes(const FieldVariable &variable);
+NetcdfAttributes coordinate_attributes(std::size_t component, const StateAxes &axes);
+
 // A polyline drawn over a field picture.
 struct PlotCurve {
     std::vector<double> xy; // x0, y0, x1, y1, ...

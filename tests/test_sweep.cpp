@@ -325,3 +325,15 @@ TEST_CASE("validate checks a sweep file, every member included: exit 2 with the 
     CHECK(e.out.find("valid sweep (2 members over /time/t1 (2 values)") != std::string::npos);
     fs::remove_all(dir);
 }
+
+TEST_CASE("experiments/sweep-kam-amplitude.json: the shipped sweep validates, its base found beside it") {
+    const fs::path file = test::source_dir() / "experiments" / "sweep-kam-amplitude.json";
+    const Sweep s = load_sweep(file);
+    CHECK_NOTHROW(check_sweep_members(s));
+    REQUIRE(s.members.size() == 8);
+    CHECK(s.relative_to == (test::source_dir() / "experiments" / "duffing-kam.json").lexically_normal());
+    CHECK(s.members[0].experiment["forcing"]["params"]["amplitude"] == 0.02);
+    CHECK(s.members[7].experiment["forcing"]["params"]["amplitude"] == 0.16);
+    CHECK(s.members[7].experiment["extractors"] == s.base["extractors"]);
+    CHECK(s.plot_figure == "outermost_elliptic_area");
+}

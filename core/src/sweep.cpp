@@ -154,6 +154,7 @@ Sweep parse_sweep(const json &j, const fs::path &file) {
     ObjectReader root(j, "");
     const fs::path folder = file.empty() ? fs::current_path() : fs::absolute(file).parent_path();
 
+    s.description = root.string("description", std::string());
     const json &base = root.get("base");
     if (base.is_string()) {
         fs::path path = base.get<std::string>();

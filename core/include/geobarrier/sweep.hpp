@@ -31,6 +31,7 @@ struct SweepMember {
 
 struct Sweep {
     std::filesystem::path file;          // the sweep file ("" in memory)
+    std::string description;
     std::filesystem::path relative_to;   // what the members' relative paths are relative to (the base's file)
     nlohmann::json base;
     std::vector<SweepParameter> parameters;

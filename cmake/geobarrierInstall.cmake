@@ -25,10 +25,13 @@ file(STRINGS ${PROJECT_SOURCE_DIR}/core/include/geobarrier/abi.h _abi_lines REGE
 string(REGEX REPLACE ".*MAJOR ([0-9]+)u.*" "\\1" _abi_major "${_abi_lines}")
 string(REGEX REPLACE ".*MINOR ([0-9]+)u.*" "\\1" _abi_minor "${_abi_lines}")
 set(GEOBARRIER_ABI_VERSION "${_abi_major}.${_abi_minor}")
+string(JOIN " " GEOBARRIER_PLUGIN_CFLAGS ${GEOBARRIER_PLUGIN_COMPILE_OPTIONS})
 configure_file(${PROJECT_SOURCE_DIR}/cmake/geobarrier.pc.in ${PROJECT_BINARY_DIR}/geobarrier.pc @ONLY)
 install(FILES ${PROJECT_BINARY_DIR}/geobarrier.pc DESTINATION lib/pkgconfig)
 
 install(DIRECTORY ${PROJECT_SOURCE_DIR}/examples/plugin-template/ DESTINATION share/geobarrier/plugin-template
         PATTERN "build" EXCLUDE PATTERN "out" EXCLUDE)
-install(FILES ${PROJECT_SOURCE_DIR}/docs/plugins.md ${PROJECT_SOURCE_DIR}/docs/plugin-reference.md
-        DESTINATION share/doc/geobarrier)
+# Every document, with the pictures they show: the installed plugins.md links to the experiment format, which links to
+# the extractors and the robustness notes, and so on (test_plugin_tutorial checks that every link resolves).
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs/ DESTINATION share/doc/geobarrier FILES_MATCHING PATTERN "*.md")
+install(DIRECTORY ${PROJECT_SOURCE_DIR}/docs/images/ DESTINATION share/doc/geobarrier/images)

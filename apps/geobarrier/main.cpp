@@ -281,17 +281,10 @@ int command_check_plugin(const CheckPluginOptions &o) {
             } catch (const Error &e) { // unusable options, e.g. a box of the wrong dimension
                 throw ConfigError("check-plugin " + h.info.name, e.what());
             }
-            std::size_t passed = 0, skipped = 0;
-            for (const auto &c : checks) {
-                passed += c.passed;
-                skipped += c.skipped;
-            }
             std::cout << h.info.name << " " << h.info.version << " (" << to_string(h.info.kind) << ", "
                       << h.info.file.string() << ")\n"
                       << format_checks(checks) << "\n";
-            summary.push_back({all_passed(checks), to_string(h.info.kind), h.info.name,
-                               std::to_string(passed) + "/" + std::to_string(checks.size()) + " passed, " +
-                                   std::to_string(skipped) + " skipped"});
+            summary.push_back({all_passed(checks), to_string(h.info.kind), h.info.name, count_checks(checks)});
         }
     }
     bool ok = true;

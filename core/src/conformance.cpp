@@ -1,19 +1,28 @@
 // The plugin conformance checks of <geobarrier/conformance.hpp>: each check calls the plugin through the same
 // System/Forcing wrappers the runner uses and reports what it found, with the offending values.
+#include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/conformance.hpp>
 #include <geobarrier/errors.hpp>
+#include <geobarrier/line_field.hpp>
+#include <geobarrier/shear.hpp>
+#include <geobarrier/tiles.hpp>
 #include <geobarrier/rk_tableaux.hpp>
+#include <geobarrier/sdk.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <exception>
 #include <functional>
+#include <filesystem>
 #include <limits>
+#include <map>
 #include <memory>
 #include <regex>
 #include <set>
 #include <sstream>
+
+#include <unistd.h>
 
 namespace geobarrier {
 
@@ -63,6 +72,9 @@ bool close(double a, double b, double rtol) {
 ConformanceCheck pass(const std::string &name, std::string detail) { return {name, true, std::move(detail), false}; }
 ConformanceCheck fail(const std::string &name, std::string detail) { return {name, false, std::move(detail), false}; }
 ConformanceCheck skip(const std::string &name, std::string detail) { return {name, true, std::move(detail), true}; }
+ConformanceCheck warn(const std::string &name, std::string detail) {
+    return {name, true, std::move(detail), false, true};
+}
 
 // Runs one check; an exception from the plugin (a failed call) is a failed check, not a crash of the checker.
 ConformanceCheck guarded(const std::string &name, const std::function<ConformanceCheck()> &body) {
@@ -157,6 +169,25 @@ ConformanceCheck check_schema(const PluginInfo &info) {
     std::string detail;
     for (const auto &p : problems) detail += (detail.empty() ? "" : "; ") + p;
     return fail("schema", detail);
+}
+
+// How the plugin was compiled against how the core was (the GB_EXTENSION_BUILD_INFO extension, ABI 1.3): a plugin
+// built for narrower vectors or without FMA runs its fused step slower than the built-ins (2.4x seen), so say so.
+ConformanceCheck check_code_generation(const PluginInfo &info) {
+    const std::string name = "code_generation";
+    const gb_build_info core = sdk::build_info(), &own = info.build;
+    const auto describe = [](const gb_build_info &b) {
+        return std::to_string(b.vector_bits) + "-bit vectors, " + (b.fma ? "FMA" : "no FMA");
+    };
+    if (own.struct_size == 0)
+        return skip(name, "the plugin does not say how it was compiled (built for ABI " +
+                              std::to_string(info.abi_major) + "." + std::to_string(info.abi_minor) +
+                              " or without the SDK)");
+    if (own.vector_bits < core.vector_bits || (core.fma && !own.fma))
+        return warn(name, "compiled for " + describe(own) + ", the core for " + describe(core) +
+                              ": its fused step runs slower than the built-in plugins' (build it with "
+                              "geobarrier_add_plugin without PORTABLE, or add -march=native)");
+    return pass(name, "compiled for " + describe(own) + ", as the core (" + describe(core) + ")");
 }
 
 // ------------------------------------------------------------ systems
@@ -333,7 +364,10 @@ ConformanceCheck check_system_lanes_untouched(const System &system, const Sample
 
 ConformanceCheck check_jacobian(const System &system, const Sample &s, const Box &box, const ConformanceOptions &o) {
     const std::string name = "jacobian_vs_finite_differences";
-    if (!system.has_jacobian()) return skip(name, "skipped: no analytic Jacobian");
+    if (!system.has_jacobian())
+        return skip(name, "skipped: no Jacobian, so flow maps take finite differences on an auxiliary grid (with the "
+                          "SDK: make `field` a template over its number type, Real, and it derives the Jacobian; or "
+                          "give field_jacobian)");
     const unsigned dim = s.dim;
     const Output jac = evaluate(system, Quantity::jacobian, s);
     // fd[(i*dim+j)*ld+k] = (v_i(x + h e_j) - v_i(x - h e_j)) / (2h), with the step actually taken.
@@ -373,8 +407,10 @@ ConformanceCheck check_jacobian(const System &system, const Sample &s, const Box
     const std::string summary = "largest difference " + short_num(worst) +
                                 " relative to the lane's largest entry (allowed " + short_num(o.jacobian_rtol) +
                                 ", step " + short_num(o.fd_step) + " of the box width)";
-    if (worst > o.jacobian_rtol) return fail(name, summary + "; at " + worst_detail);
-    return pass(name, summary);
+    // A Jacobian the SDK derived from the field by automatic differentiation is checked like a hand-written one.
+    const std::string source = system.info().jacobian_derived ? "derived by automatic differentiation; " : "";
+    if (worst > o.jacobian_rtol) return fail(name, source + summary + "; at " + worst_detail);
+    return pass(name, source + summary);
 }
 
 ConformanceCheck check_divergence(const System &system, const Sample &s, const ConformanceOptions &o) {
@@ -488,16 +524,10 @@ std::string compare_advance(const System &system, const Sample &s, std::int32_t 
     std::vector<std::int32_t> status(ld, GB_OK);
     // The reference: stage by stage, as BatchContext::evaluate and stage_state / new_state in flow_map.cpp.
     std::vector<double> kst(static_cast<std::size_t>(Tab::stages) * C * ld, 0.0);
+    // x + h sum_j row_j k_j as the core's kernel forms it (row_step: a chain of mul_add from x).
     auto combine = [&](const detail::RkRow &row, double *out) {
-        for (std::size_t q = 0; q < C * ld; ++q) {
-            if (row.count == 0) {
-                out[q] = x[q];
-                continue;
-            }
-            double sum = row.terms[0].weight * kst[row.terms[0].stage * C * ld + q];
-            for (int m = 1; m < row.count; ++m) sum += row.terms[m].weight * kst[row.terms[m].stage * C * ld + q];
-            out[q] = x[q] + h * sum;
-        }
+        for (std::size_t q = 0; q < C * ld; ++q)
+            out[q] = detail::row_step(row, h, x[q], [&](int stage) { return kst[stage * C * ld + q]; });
     };
     for (int I = 0; I < Tab::stages; ++I) {
         combine(Tab::a[I], y.data());
@@ -512,8 +542,8 @@ std::string compare_advance(const System &system, const Sample &s, std::int32_t 
             auto F = [&](std::size_t i, std::size_t j) { return y[(D + i * D + j) * ld + lane]; };
             for (std::size_t i = 0; i < D; ++i)
                 for (std::size_t j = 0; j < D; ++j) {
-                    double sum = J(i, 0) * F(0, j);
-                    for (std::size_t l = 1; l < D; ++l) sum += J(i, l) * F(l, j);
+                    double sum = J(i, 0) * F(0, j); // DF' = Dv DF as the core's kernel sums it (mul_add)
+                    for (std::size_t l = 1; l < D; ++l) sum = detail::mul_add(J(i, l), F(l, j), sum);
                     k[(D + i * D + j) * ld + lane] = sum;
                 }
             double trace = J(0, 0);
@@ -576,9 +606,19 @@ ConformanceCheck check_advance(const System &system, const Sample &s) {
                 return fail(name, what);
         }
     }
+    const gb_build_info &build = system.info().build;
+    if (!declined.empty() && build.struct_size && build.tableau_revision != GB_ADVANCE_TABLEAU_REVISION)
+        declined += " (compiled with fused-step numerics revision " + std::to_string(build.tableau_revision) +
+                    ", the core's is " + std::to_string(GB_ADVANCE_TABLEAU_REVISION) + ": rebuild the plugin)";
     return pass(name, std::to_string(compared) + " values of rk4 and dop853 steps agree (relative tolerance " +
                           short_num(rtol) + " of each component's largest value)" +
-                          (declined.empty() ? "" : "; declined: " + declined));
+                          (declined.empty() ? ""
+                                            : "; declined: " + declined +
+                                                  (declined.find("variational") != std::string::npos
+                                                       ? " (the variational equations need a per-lane Jacobian: give "
+                                                         "field_jacobian, or make `field` a template so that the SDK "
+                                                         "derives it)"
+                                                       : "")));
 }
 
 void check_system(const PluginHandle &handle, const ParamValues &values, const Box &box, const ConformanceOptions &o,
@@ -593,8 +633,16 @@ void check_system(const PluginHandle &handle, const ParamValues &values, const B
     out.push_back(guarded("determinism", [&] { return check_system_determinism(a, b, s); }));
     out.push_back(guarded("forcing_ignored", [&] { return check_forcing_ignored(a, s); }));
     out.push_back(guarded("finite_on_sample_box", [&] { return check_system_finite(a, rng, box, o); }));
-    // Only for systems with a fused step: the others have nothing to check (and the lists stay as they were).
-    if (a.has_advance()) out.push_back(guarded("advance_equals_stages", [&] { return check_advance(a, s); }));
+    // A system without a fused step runs slower on the fixed-step methods: the row says so rather than vanishing.
+    if (a.has_advance())
+        out.push_back(guarded("advance_equals_stages", [&] { return check_advance(a, s); }));
+    else
+        out.push_back(skip("advance_equals_stages",
+                           handle.info.abi_minor < 2
+                               ? "no fused step: the plugin was built for ABI " + std::to_string(handle.info.abi_major) +
+                                     "." + std::to_string(handle.info.abi_minor) + ", before the fused step (1.2)"
+                               : "no fused step: the system gives no per-lane `field` (sdk.hpp); fixed-step flow maps "
+                                 "take the slower stage-by-stage path"));
 }
 
 // ------------------------------------------------------------ forcings
@@ -701,6 +749,146 @@ void check_forcing(const PluginHandle &handle, const ParamValues &values, const 
     }));
 }
 
+// ------------------------------------------------------------ extractors
+
+// A synthetic flow with a known answer for extractors: the shear vortex x' = -w y, y' = w x, w = omega + shear r^2
+// (systems/shear-vortex), whose flow map rotates each circle r = const rigidly by w(r) T. Its fields are exact: DF =
+// R(theta) + R'(theta) x grad(theta)^T with theta = w(r) T, grad(theta) = 2 shear T x. Every circle about the centre is
+// invariant, and a closed shearline (<e_theta, C e_theta> = 1), so every closed barrier an extractor reports must be
+// such a circle; every barrier must lie on the grid, with finite metrics, the same on every run.
+struct SyntheticVortex {
+    double omega = 1.0, shear = 0.5;
+    double t0 = 0.0, t1 = 4.0;
+    Grid grid{-1.5, 1.5, -1.5, 1.5, 81, 81};
+
+    double angle(double x, double y, double duration) const { return (omega + shear * (x * x + y * y)) * duration; }
+    // The flow map from t_from to t_to at (x, y), and its gradient F11 F12 F21 F22 when dF is not null.
+    void flow(double x, double y, double t_from, double t_to, double *xy, double *dF) const {
+        const double duration = t_to - t_from, theta = angle(x, y, duration);
+        const double c = std::cos(theta), s = std::sin(theta);
+        xy[0] = c * x - s * y;
+        xy[1] = s * x + c * y;
+        if (!dF) return;
+        const double gx = 2.0 * shear * duration * x, gy = 2.0 * shear * duration * y; // grad(theta)
+        const double rx = -s * x - c * y, ry = c * x - s * y;                           // R'(theta) x
+        dF[0] = c + rx * gx;
+        dF[1] = -s + rx * gy;
+        dF[2] = s + ry * gx;
+        dF[3] = c + ry * gy;
+    }
+};
+
+ConformanceCheck check_extractor_behaviour(const Extractor &extractor) {
+    const std::string name = "synthetic_field";
+    const SyntheticVortex v;
+    const Grid &grid = v.grid;
+    std::vector<double> dF(4 * grid.size()), flow_x(grid.size()), flow_y(grid.size());
+    const std::vector<std::uint8_t> valid(grid.size(), 0);
+    for (std::size_t i = 0; i < grid.ny; ++i)
+        for (std::size_t j = 0; j < grid.nx; ++j) {
+            const std::size_t k = i * grid.nx + j;
+            double xy[2];
+            v.flow(grid.x(j), grid.y(i), v.t0, v.t1, xy, &dF[4 * k]);
+            flow_x[k] = xy[0];
+            flow_y[k] = xy[1];
+        }
+    CauchyGreenField cg = cauchy_green_field(grid, dF, valid, std::fabs(v.t1 - v.t0));
+    std::map<std::string, const std::vector<double> *> fields;
+    for (const std::string &variable : cauchy_green_variables()) fields[variable] = &cauchy_green_member(cg, variable);
+    fields["flow_x"] = &flow_x;
+    fields["flow_y"] = &flow_y;
+    std::vector<double> strain_deviation;
+    ShearFields shear;
+    std::vector<gb_field> inputs;
+    for (const std::string &field : extractor.required_fields()) {
+        if (field == "strain_deviation" && strain_deviation.empty()) {
+            strain_deviation = strain_deviation_field(cg);
+            fields[field] = &strain_deviation;
+        } else if (field.rfind("shear_deviation", 0) == 0 && shear.deviation_plus.empty()) {
+            shear = shear_fields(cg);
+            fields["shear_deviation_plus"] = &shear.deviation_plus;
+            fields["shear_deviation_minus"] = &shear.deviation_minus;
+        }
+        const auto found = fields.find(field);
+        if (found == fields.end())
+            return skip(name, "not checked: it requires field '" + field + "', which the synthetic flow lacks");
+        inputs.push_back({field.c_str(), found->second->data()});
+    }
+    const char *const names[2] = {"x", "y"}, *const units[2] = {"length", "length"};
+    const gb_extract_input input{grid.x_min, grid.x_max, grid.y_min, grid.y_max, grid.nx, grid.ny, v.t0, v.t1,
+                                 cg.mask.data(), static_cast<std::uint32_t>(inputs.size()), inputs.data(), nullptr, 0,
+                                 names, units};
+    // The extractor's own files, if any, go to a folder of its own that is removed afterwards.
+    const std::filesystem::path folder = std::filesystem::temp_directory_path() /
+                                         ("geobarrier-check-" + extractor.info().name + "-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(folder);
+    struct RemoveFolder {
+        std::filesystem::path path;
+        ~RemoveFolder() {
+            std::error_code ec;
+            std::filesystem::remove_all(path, ec);
+        }
+    } remove_folder{folder};
+    const std::string folder_text = folder.string();
+    gb_extract_input in = input;
+    in.output_dir = folder_text.c_str();
+    ExtractServices services;
+    services.advect = [&v](std::size_t n, const double *xy, double t_from, double t_to, double *xy_out,
+                           double *dF_out, std::uint8_t *mask_out) {
+        for (std::size_t k = 0; k < n; ++k) {
+            v.flow(xy[2 * k], xy[2 * k + 1], t_from, t_to, xy_out + 2 * k, dF_out ? dF_out + 4 * k : nullptr);
+            mask_out[k] = 0;
+        }
+    };
+    const std::vector<Barrier> first = extractor.extract(in, services), again = extractor.extract(in, services);
+    const double slack = grid.dx(); // a curve may end a grid cell outside, where it was interpolated
+    std::size_t closed = 0;
+    double worst_spread = 0.0;
+    for (std::size_t b = 0; b < first.size(); ++b) {
+        const Barrier &barrier = first[b];
+        const std::string who = "barrier " + std::to_string(b) + " (" + barrier.kind + ")";
+        if (barrier.kind != "hyperbolic" && barrier.kind != "elliptic" && barrier.kind != "parabolic")
+            return fail(name, who + ": unknown kind");
+        if (barrier.xy.size() < 4) return fail(name, who + ": fewer than 2 points");
+        for (std::size_t p = 0; p + 1 < barrier.xy.size(); p += 2) {
+            const double x = barrier.xy[p], y = barrier.xy[p + 1];
+            if (!(x >= grid.x_min - slack && x <= grid.x_max + slack && y >= grid.y_min - slack &&
+                  y <= grid.y_max + slack))
+                return fail(name, who + ": point (" + num(x) + ", " + num(y) + ") is not on the grid");
+        }
+        for (const auto &metric : barrier.metrics)
+            if (!std::isfinite(metric.second))
+                return fail(name, who + ": metric '" + metric.first + "' = " + num(metric.second));
+        if (!barrier.closed) continue;
+        // The known answer: a closed barrier of the shear vortex is a circle about its centre.
+        double r_min = HUGE_VAL, r_max = 0.0;
+        for (std::size_t p = 0; p + 1 < barrier.xy.size(); p += 2) {
+            const double r = std::hypot(barrier.xy[p], barrier.xy[p + 1]);
+            r_min = std::min(r_min, r);
+            r_max = std::max(r_max, r);
+        }
+        const double spread = (r_max - r_min) / (0.5 * (r_max + r_min));
+        if (!(spread <= 0.02))
+            return fail(name, who + ": closed, but not a circle about the centre as every closed barrier of this flow "
+                                    "is: radius from " + num(r_min) + " to " + num(r_max));
+        worst_spread = std::max(worst_spread, spread);
+        ++closed;
+    }
+    if (first.size() != again.size())
+        return fail(name, std::to_string(first.size()) + " barriers, then " + std::to_string(again.size()) +
+                              " from the same input");
+    for (std::size_t b = 0; b < first.size(); ++b)
+        if (first[b].xy != again[b].xy || first[b].kind != again[b].kind)
+            return fail(name, "barrier " + std::to_string(b) + " differs between two runs on the same input");
+    return pass(name, "on the shear vortex (" + std::to_string(grid.nx) + " x " + std::to_string(grid.ny) +
+                          " grid, exact fields and advection): " + std::to_string(first.size()) +
+                          " barrier(s) on the grid with finite metrics, the same on a second run" +
+                          (closed ? "; " + std::to_string(closed) +
+                                        " closed, each a circle about the centre as the known answer says (radius "
+                                        "spread " + short_num(worst_spread) + ")"
+                                  : ""));
+}
+
 }  // namespace
 
 std::vector<ConformanceCheck> check_plugin(const PluginHandle &handle, const ConformanceOptions &options) {
@@ -713,6 +901,7 @@ std::vector<ConformanceCheck> check_plugin(const PluginHandle &handle, const Con
     out.push_back(check_abi(info));
     out.push_back(check_schema(info));
     if (!out[0].passed) return out; // nothing else may be read from a plugin of another ABI
+    out.push_back(check_code_generation(info));
     const Box box = info.kind == PluginKind::system ? make_box(options, info) : Box{};
 
     std::unique_ptr<ParamValues> values;
@@ -727,18 +916,45 @@ std::vector<ConformanceCheck> check_plugin(const PluginHandle &handle, const Con
                                   std::string(options.params.empty() ? "the default parameters"
                                                                      : "the given parameters"));
     }));
-    if (!out.back().passed) return out;
+    if (!out.back().passed) {
+        // A parameter no default can stand for (a string, e.g. the data forcing's file, whose default is empty)
+        // needs a value from the user: without one the plugin is skipped with the reason, not failed.
+        std::string required;
+        for (const ParamSpec &p : info.params)
+            if (p.type == ParamType::string && p.default_string.empty() && p.choices.empty())
+                required += (required.empty() ? "\"" : ", \"") + p.name + "\"";
+        if (options.params.empty() && !required.empty())
+            out.back() = skip("create", "not checked: parameter " + required +
+                                            " has no default, so no instance can be made from the defaults (" +
+                                            out.back().detail + "); give a value with --params, e.g. --params '{\"" +
+                                            info.name + "\": {...}}', to run the remaining checks");
+        return out;
+    }
 
     try {
         switch (info.kind) {
         case PluginKind::system: check_system(handle, *values, box, options, out); break;
         case PluginKind::forcing: check_forcing(handle, *values, options, out); break;
-        case PluginKind::extractor: break; // extractors need fields to run on: their own tests exercise them
+        case PluginKind::extractor:
+            out.push_back(guarded("synthetic_field", [&] { return check_extractor_behaviour(Extractor(handle, *values)); }));
+            break;
         }
     } catch (const std::exception &e) {
         out.push_back(fail("instances", std::string("creating the instances under test failed: ") + e.what()));
     }
     return out;
+}
+
+std::string count_checks(const std::vector<ConformanceCheck> &checks) {
+    std::size_t passed = 0, skipped = 0, failed = 0, warnings = 0;
+    for (const auto &c : checks) {
+        if (c.skipped) ++skipped;
+        else if (c.passed) ++passed;
+        else ++failed;
+        warnings += c.passed && c.warning;
+    }
+    return std::to_string(passed) + " passed, " + std::to_string(skipped) + " skipped, " + std::to_string(failed) +
+           " failed" + (warnings ? ", " + std::to_string(warnings) + (warnings == 1 ? " warning" : " warnings") : "");
 }
 
 bool all_passed(const std::vector<ConformanceCheck> &checks) {
@@ -750,7 +966,7 @@ std::string format_checks(const std::vector<ConformanceCheck> &checks) {
     for (const auto &c : checks) width = std::max(width, c.name.size());
     std::string out;
     for (const auto &c : checks) {
-        out += c.skipped ? "SKIP  " : c.passed ? "PASS  " : "FAIL  ";
+        out += c.skipped ? "SKIP  " : !c.passed ? "FAIL  " : c.warning ? "WARN  " : "PASS  ";
         out += c.name + std::string(width - c.name.size() + 2, ' ') + c.detail + "\n";
     }
     return out;

@@ -3,6 +3,7 @@
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/plugin.hpp>
+#include <geobarrier/sdk.hpp>
 
 #include <dlfcn.h>
 
@@ -70,6 +71,26 @@ std::mutex &registry_mutex() {
 
 std::string text_or_empty(const char *s) { return s ? std::string(s) : std::string(); }
 
+// The C++ series of a core version: "major.minor" while the major is 0 (0.x releases change the C++ API between
+// minor versions), else "major". Also the library's SOVERSION (core/CMakeLists.txt).
+std::string cpp_series(const std::string &version) {
+    const std::size_t first = version.find('.');
+    if (first == std::string::npos) return version;
+    if (version.compare(0, first, "0") != 0) return version.substr(0, first);
+    return version.substr(0, version.find('.', first + 1));
+}
+
+// Extensions the core offers plugins by id (gb_host_info.get_extension): its own build info.
+const void *core_extension(const char *id) {
+    static constexpr gb_build_info build = sdk::build_info();
+    if (id && std::strcmp(id, GB_EXTENSION_BUILD_INFO) == 0) return &build;
+    return nullptr;
+}
+
+// What the core tells each plugin at load time (ABI 1.3): lives as long as the process.
+const gb_host_info host_info{sizeof(gb_host_info), GB_ABI_VERSION_MAJOR, GB_ABI_VERSION_MINOR,
+                             GB_ADVANCE_TABLEAU_REVISION, GEOBARRIER_VERSION, &core_extension};
+
 std::vector<std::string> split(const std::string &s, char sep) {
     std::vector<std::string> out;
     std::string item;
@@ -100,10 +121,13 @@ PluginInfo read_descriptor(const gb_plugin_descriptor &d, const fs::path &file, 
     info.doc = text_or_empty(d.doc);
     info.thread_safety = d.thread_safety;
     if (d.core_version) {
+        // Tied to the core library's C++ series (its SOVERSION), not to the exact release: a patch release needs
+        // no rebuild of the extractors that link it.
         info.core_version = d.core_version;
-        if (info.core_version != GEOBARRIER_VERSION)
-            throw "plugin '" + info.name + "' links geobarrier core " + info.core_version + ", this is core " +
-                GEOBARRIER_VERSION + " (C++ interfaces change between versions: rebuild the plugin)";
+        if (cpp_series(info.core_version) != cpp_series(GEOBARRIER_VERSION))
+            throw "plugin '" + info.name + "' links geobarrier core " + info.core_version + " (C++ series " +
+                cpp_series(info.core_version) + "), this is core " + GEOBARRIER_VERSION + " (series " +
+                cpp_series(GEOBARRIER_VERSION) + "; C++ interfaces change between series: rebuild the plugin)";
     }
     if (!d.create || !d.destroy) throw "plugin '" + info.name + "' has no create/destroy function";
     switch (d.kind) {
@@ -114,6 +138,7 @@ PluginInfo read_descriptor(const gb_plugin_descriptor &d, const fs::path &file, 
         info.has_jacobian = d.system->jacobian != nullptr;
         info.has_divergence = d.system->divergence != nullptr;
         info.uses_forcing = (d.system->capabilities & GB_SYSTEM_USES_FORCING) != 0;
+        info.jacobian_derived = info.has_jacobian && (d.system->capabilities & GB_SYSTEM_JACOBIAN_DERIVED) != 0;
         if (info.dimension != 2)
             throw "system '" + info.name + "' has dimension " + std::to_string(info.dimension) +
                 " (this version handles planar systems, dimension 2)";
@@ -214,12 +239,16 @@ std::vector<PluginHandle> load_plugin_library(const fs::path &file) {
     }
     if (!lib.has(GB_PLUGIN_ENTRY_SYMBOL))
         throw PluginError(where + "not a geobarrier plugin (no '" GB_PLUGIN_ENTRY_SYMBOL "' entry symbol)");
-    const auto entry_fn = lib.get<const gb_plugin_entry *()>(GB_PLUGIN_ENTRY_SYMBOL);
+    // A library built for ABI 1.3 or newer also exports the entry that receives the host's version (gb_host_info).
+    const bool with_host = lib.has(GB_PLUGIN_ENTRY_WITH_HOST_SYMBOL);
     // The entry is C, but a broken C++ plugin can still throw out of it: that is a refusal naming the file, not a
     // crash or an anonymous message (nor an escape from a registry scan).
     const gb_plugin_entry *entry = nullptr;
     try {
-        entry = entry_fn();
+        if (with_host)
+            entry = lib.get<const gb_plugin_entry *(const gb_host_info *)>(GB_PLUGIN_ENTRY_WITH_HOST_SYMBOL)(&host_info);
+        else
+            entry = lib.get<const gb_plugin_entry *()>(GB_PLUGIN_ENTRY_SYMBOL)();
     } catch (const std::exception &e) {
         throw PluginError(where + "the entry function threw: " + e.what());
     } catch (...) {
@@ -232,12 +261,18 @@ std::vector<PluginHandle> load_plugin_library(const fs::path &file) {
                           std::to_string(GB_ABI_VERSION_MAJOR) + "." + std::to_string(GB_ABI_VERSION_MINOR) +
                           " (rebuild the plugin against this version)");
     if (entry->count == 0 || !entry->descriptors) throw PluginError(where + "the entry declares no plugins");
+    // ABI 1.3 appended the library's extensions by id; an older entry ends before them.
+    gb_build_info build{};
+    if (entry->abi_minor >= 3 && entry->get_extension)
+        if (const auto *b = static_cast<const gb_build_info *>(entry->get_extension(UINT32_MAX, GB_EXTENSION_BUILD_INFO)))
+            if (b->struct_size >= sizeof(gb_build_info)) build = *b;
 
     auto shared = std::make_shared<const PluginLibrary>(std::move(lib), file);
     std::vector<PluginHandle> out;
     for (std::uint32_t i = 0; i < entry->count; ++i) {
         try {
             out.push_back(PluginHandle{shared, &entry->descriptors[i], read_descriptor(entry->descriptors[i], file, *entry)});
+            out.back().info.build = build;
         } catch (const std::string &reason) {
             throw PluginError(where + reason);
         }
@@ -525,7 +560,10 @@ void System::divergence(std::size_t n, std::size_t ld, const double *t, const do
 bool System::advance(const gb_advance_request &request) const {
     if (!m_advance) return false;
     CallMessage m;
-    const gb_status status = m_advance(m_instance.self(), &request, &m.msg);
+    // The request names the numerics the core expects (ABI 1.3): a plugin compiled with other ones declines.
+    gb_advance_request named = request;
+    named.tableau_revision = GB_ADVANCE_TABLEAU_REVISION;
+    const gb_status status = m_advance(m_instance.self(), &named, &m.msg);
     if (status == GB_UNSUPPORTED) return false;
     check_plugin_status(status, info(), "advance", m.text);
     return true;

@@ -6,7 +6,6 @@
 
 namespace {
 
-using geobarrier::sdk::Batch;
 using geobarrier::sdk::Params;
 using geobarrier::sdk::real_param;
 
@@ -24,29 +23,13 @@ struct ShakenPendulum {
 
     explicit ShakenPendulum(const Params &p) : m_w2(p.real("omega0") * p.real("omega0")), m_c(p.real("damping")) {}
 
-    // A batch of lanes: component i of lane k is b.x[i * b.ld + k]; lane k has time b.t[k] and forcing b.f[k].
-    void rhs(const Batch &b, double *dxdt) const {
-        for (std::size_t k = 0; k < b.n; ++k) {
-            const double x = b.x[k], y = b.x[b.ld + k];
-            dxdt[k] = y;
-            dxdt[b.ld + k] = -m_w2 * std::sin(x) - m_c * y - b.f[k] * std::cos(x);
-        }
-    }
-
-    // Optional: the Jacobian (row-major 2 x 2 blocks of lanes) lets geobarrier use the variational equations.
-    void jacobian(const Batch &b, double *jac) const {
-        for (std::size_t k = 0; k < b.n; ++k) {
-            const double x = b.x[k];
-            jac[0 * b.ld + k] = 0.0;
-            jac[1 * b.ld + k] = 1.0;
-            jac[2 * b.ld + k] = -m_w2 * std::cos(x) + b.f[k] * std::sin(x);
-            jac[3 * b.ld + k] = -m_c;
-        }
-    }
-
-    // Optional: the divergence, the trace of the Jacobian.
-    void divergence(const Batch &b, double *div) const {
-        for (std::size_t k = 0; k < b.n; ++k) div[k] = -m_c;
+    // The vector field at one state s (one lane): dsdt[i] = component i of v at time t with forcing value f. A template
+    // over the number type: the SDK also evaluates it on dual numbers and so derives the exact Jacobian, for the
+    // variational equations. It derives the batched evaluation and a fused Runge-Kutta step from it, too.
+    template <class Real> void field(double, const Real *s, double f, Real *dsdt) const {
+        using std::cos, std::sin; // unqualified calls below: the dual-number overloads are found too
+        dsdt[0] = s[1];
+        dsdt[1] = -m_w2 * sin(s[0]) - m_c * s[1] - f * cos(s[0]);
     }
 
     double m_w2, m_c;

@@ -124,7 +124,7 @@ TEST_CASE("duffing: passes the conformance checks") {
         const auto checks = check_plugin(duffing(), options);
         INFO(params.dump(), "\n", format_checks(checks));
         CHECK(all_passed(checks));
-        CHECK(checks.size() == 11); // with advance_equals_stages: duffing has a fused step (ABI 1.2)
+        CHECK(checks.size() == 12); // with code_generation (ABI 1.3) and advance_equals_stages (a fused step)
         for (const auto &c : checks) CHECK(c.skipped == (c.name == "forcing_ignored"));
     }
 }

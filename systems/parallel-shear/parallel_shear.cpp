@@ -11,7 +11,6 @@
 
 namespace {
 
-using geobarrier::sdk::Batch;
 using geobarrier::sdk::Params;
 using geobarrier::sdk::real_param;
 using geobarrier::sdk::string_param;
@@ -36,37 +35,18 @@ struct ParallelShear {
         : m_jet(p.string("profile") == "jet"), m_u(p.real("velocity")), m_l(p.real("width")) {}
 
     // p(z) and p'(z).
-    double profile(double z) const {
-        if (!m_jet) return std::tanh(z);
-        const double c = 1.0 / std::cosh(z);
+    template <class Real> Real profile(const Real &z) const {
+        using std::cosh, std::tanh;
+        if (!m_jet) return tanh(z);
+        const Real c = 1.0 / cosh(z);
         return c * c;
     }
-    double slope(double z) const {
-        const double c = 1.0 / std::cosh(z);
-        return m_jet ? -2.0 * c * c * std::tanh(z) : c * c;
-    }
 
-    void rhs(const Batch &b, double *dxdt) const {
-        const double *y = b.x + b.ld;
-        for (std::size_t k = 0; k < b.n; ++k) {
-            dxdt[k] = m_u * profile(y[k] / m_l);
-            dxdt[b.ld + k] = 0.0;
-        }
-    }
-
-    // jac = [[0, (U/L) p'(y/L)], [0, 0]].
-    void jacobian(const Batch &b, double *jac) const {
-        const double *y = b.x + b.ld;
-        for (std::size_t k = 0; k < b.n; ++k) {
-            jac[k] = 0.0;
-            jac[b.ld + k] = m_u / m_l * slope(y[k] / m_l);
-            jac[2 * b.ld + k] = 0.0;
-            jac[3 * b.ld + k] = 0.0;
-        }
-    }
-
-    void divergence(const Batch &b, double *div) const {
-        for (std::size_t k = 0; k < b.n; ++k) div[k] = 0.0;
+    // The vector field, one lane at a time; the SDK derives the batched rhs, the exact Jacobian
+    // [[0, U p'(y/L) / L], [0, 0]] (automatic differentiation), its trace 0 and the fused step.
+    template <class Real> void field(double, const Real *s, double, Real *dsdt) const {
+        dsdt[0] = m_u * profile(s[1] / m_l);
+        dsdt[1] = Real(0.0);
     }
 
     bool m_jet;

@@ -6,7 +6,6 @@
 
 namespace {
 
-using geobarrier::sdk::Batch;
 using geobarrier::sdk::Params;
 using geobarrier::sdk::real_param;
 
@@ -26,40 +25,12 @@ struct Pendulum {
         : m_omega0_squared(p.real("omega0") * p.real("omega0")), m_damping(p.real("damping")) {}
 
     // Component i of lane k is at [i * ld + k]; the loops run over lanes.
-    void rhs(const Batch &b, double *dxdt) const {
-        const double *__restrict x = b.x;
-        const double *__restrict y = b.x + b.ld;
-        const double *__restrict f = b.f;
-        double *__restrict dx = dxdt;
-        double *__restrict dy = dxdt + b.ld;
-        const double w2 = m_omega0_squared, c = m_damping;
-        for (std::size_t k = 0; k < b.n; ++k) {
-            dx[k] = y[k];
-            dy[k] = -w2 * std::sin(x[k]) - c * y[k] + f[k];
-        }
-    }
-
-    // jac = [[0, 1], [-omega0^2 cos x, -damping]].
-    void jacobian(const Batch &b, double *jac) const {
-        const double *__restrict x = b.x;
-        double *__restrict j00 = jac;
-        double *__restrict j01 = jac + b.ld;
-        double *__restrict j10 = jac + 2 * b.ld;
-        double *__restrict j11 = jac + 3 * b.ld;
-        const double w2 = m_omega0_squared, c = m_damping;
-        for (std::size_t k = 0; k < b.n; ++k) {
-            j00[k] = 0.0;
-            j01[k] = 1.0;
-            j10[k] = -w2 * std::cos(x[k]);
-            j11[k] = -c;
-        }
-    }
-
-    // Liouville: det DF = exp(-damping (t1 - t0)).
-    void divergence(const Batch &b, double *div) const {
-        double *__restrict d = div;
-        const double c = m_damping;
-        for (std::size_t k = 0; k < b.n; ++k) d[k] = -c;
+    // The vector field, one lane at a time; the SDK derives the batched rhs, the exact Jacobian
+    // [[0, 1], [-omega0^2 cos x, -damping]] (automatic differentiation), its trace and the fused step.
+    template <class Real> void field(double, const Real *s, double f, Real *dsdt) const {
+        using std::sin;
+        dsdt[0] = s[1];
+        dsdt[1] = -m_omega0_squared * sin(s[0]) - m_damping * s[1] + f;
     }
 
     double m_omega0_squared, m_damping;

@@ -6,7 +6,6 @@
 
 namespace {
 
-using geobarrier::sdk::Batch;
 using geobarrier::sdk::Params;
 using geobarrier::sdk::real_param;
 
@@ -24,42 +23,11 @@ struct VanDerPol {
 
     explicit VanDerPol(const Params &p) : m_mu(p.real("mu")) {}
 
-    void rhs(const Batch &b, double *dxdt) const {
-        const double *__restrict x = b.x;
-        const double *__restrict y = b.x + b.ld;
-        const double *__restrict f = b.f;
-        double *__restrict dx = dxdt;
-        double *__restrict dy = dxdt + b.ld;
-        const double mu = m_mu;
-        for (std::size_t k = 0; k < b.n; ++k) {
-            dx[k] = y[k];
-            dy[k] = mu * (1.0 - x[k] * x[k]) * y[k] - x[k] + f[k];
-        }
-    }
-
-    // jac = [[0, 1], [-2 mu x y - 1, mu (1 - x^2)]].
-    void jacobian(const Batch &b, double *jac) const {
-        const double *__restrict x = b.x;
-        const double *__restrict y = b.x + b.ld;
-        double *__restrict j00 = jac;
-        double *__restrict j01 = jac + b.ld;
-        double *__restrict j10 = jac + 2 * b.ld;
-        double *__restrict j11 = jac + 3 * b.ld;
-        const double mu = m_mu;
-        for (std::size_t k = 0; k < b.n; ++k) {
-            j00[k] = 0.0;
-            j01[k] = 1.0;
-            j10[k] = -2.0 * mu * x[k] * y[k] - 1.0;
-            j11[k] = mu * (1.0 - x[k] * x[k]);
-        }
-    }
-
-    // The trace mu (1 - x^2), written as in jacobian() so that both round the same way.
-    void divergence(const Batch &b, double *div) const {
-        const double *__restrict x = b.x;
-        double *__restrict d = div;
-        const double mu = m_mu;
-        for (std::size_t k = 0; k < b.n; ++k) d[k] = mu * (1.0 - x[k] * x[k]);
+    // The vector field, one lane at a time; the SDK derives the batched rhs, the exact Jacobian
+    // [[0, 1], [-2 mu x y - 1, mu (1 - x^2)]] (automatic differentiation), its trace and the fused step.
+    template <class Real> void field(double, const Real *s, double f, Real *dsdt) const {
+        dsdt[0] = s[1];
+        dsdt[1] = m_mu * (1.0 - s[0] * s[0]) * s[1] - s[0] + f;
     }
 
     double m_mu;

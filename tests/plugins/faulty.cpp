@@ -93,9 +93,27 @@ struct FaultyForcing {
     static inline std::atomic<int> s_created{0};
 };
 
+// Extractors that report what no extractor may on check-plugin's synthetic shear vortex: a point off the grid, and a
+// closed barrier that is a square, where every closed barrier of that flow is a circle about its centre.
+template <bool OffGrid> struct FaultyExtractor {
+    static constexpr const char *name = OffGrid ? "faulty-extractor-off-grid" : "faulty-extractor-square";
+    static constexpr const char *version = "0.0.1", *doc = "faulty test extractor";
+    static constexpr const char *required_fields[] = {"ftle", nullptr};
+    explicit FaultyExtractor(const Params &) {}
+    void extract(const geobarrier::sdk::Host &host, const gb_extract_input &in) const {
+        if (OffGrid) host.add_barrier("hyperbolic", false, {0.0, 0.0, in.x_max + 10.0, 0.0}, {});
+        else // corners and edge midpoints: radius 0.5 to 0.71
+            host.add_barrier("elliptic", true,
+                             {-0.5, -0.5, 0.0, -0.5, 0.5, -0.5, 0.5, 0.0, 0.5, 0.5, 0.0, 0.5, -0.5, 0.5, -0.5, 0.0, -0.5, -0.5},
+                             {});
+    }
+};
+
 }  // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::system<Good>(), geobarrier::sdk::system<FaultyBatch>(),
                    geobarrier::sdk::system<FaultyNan>(), geobarrier::sdk::system<FaultyInstance>(),
                    geobarrier::sdk::system<FaultyPadding>(), geobarrier::sdk::system<FaultyJacobian>(),
-                   geobarrier::sdk::system<FaultyDivergence>(), geobarrier::sdk::forcing<FaultyForcing>())
+                   geobarrier::sdk::system<FaultyDivergence>(), geobarrier::sdk::forcing<FaultyForcing>(),
+                   geobarrier::sdk::extractor<FaultyExtractor<true>>(),
+                   geobarrier::sdk::extractor<FaultyExtractor<false>>())

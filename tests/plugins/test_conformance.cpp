@@ -48,11 +48,16 @@ TEST_CASE("conformance: a correct system passes every check, in the documented o
     CHECK(all_passed(checks));
     std::vector<std::string> names;
     for (const auto &c : checks) names.push_back(c.name);
-    CHECK(names == std::vector<std::string>{"abi_version", "schema", "create", "batch_equals_scalar",
-                                            "lanes_untouched", "jacobian_vs_finite_differences",
-                                            "divergence_equals_trace", "determinism", "forcing_ignored",
-                                            "finite_on_sample_box"});
+    CHECK(names == std::vector<std::string>{"abi_version", "schema", "code_generation", "create",
+                                            "batch_equals_scalar", "lanes_untouched",
+                                            "jacobian_vs_finite_differences", "divergence_equals_trace",
+                                            "determinism", "forcing_ignored", "finite_on_sample_box",
+                                            "advance_equals_stages"});
     CHECK(find_check(checks, "forcing_ignored").skipped); // it declares that it uses the forcing
+    // Given as a batched rhs only, it has no fused step: the row says so instead of vanishing.
+    CHECK(find_check(checks, "advance_equals_stages").skipped);
+    CHECK(find_check(checks, "advance_equals_stages").detail.find("no per-lane `field`") != std::string::npos);
+    CHECK(find_check(checks, "code_generation").passed);
     CHECK(format_checks(checks).find("PASS  batch_equals_scalar") != std::string::npos);
 }
 
@@ -83,14 +88,25 @@ TEST_CASE("conformance: failure details name the offending values") {
     CHECK(divergence.detail.find("divergence 0.5") != std::string::npos);
 }
 
+TEST_CASE("conformance: extractors run on a synthetic field with a known answer") {
+    const auto off_grid = find_check(check_plugin(faulty("faulty-extractor-off-grid")), "synthetic_field");
+    CHECK_FALSE(off_grid.passed);
+    CHECK(off_grid.detail.find("is not on the grid") != std::string::npos);
+    const auto square = find_check(check_plugin(faulty("faulty-extractor-square")), "synthetic_field");
+    CHECK_FALSE(square.passed);
+    CHECK(square.detail.find("not a circle about the centre") != std::string::npos);
+    CHECK(format_checks({square}).rfind("FAIL  synthetic_field", 0) == 0);
+}
+
 TEST_CASE("conformance: forcings") {
     const auto good = check_plugin(test::registry().find(PluginKind::forcing, "cosine", "/forcing/plugin"));
     INFO(format_checks(good));
     CHECK(all_passed(good));
     std::vector<std::string> names;
     for (const auto &c : good) names.push_back(c.name);
-    CHECK(names == std::vector<std::string>{"abi_version", "schema", "create", "batch_equals_scalar",
-                                            "lanes_untouched", "determinism", "finite_on_sample_times"});
+    CHECK(names == std::vector<std::string>{"abi_version", "schema", "code_generation", "create",
+                                            "batch_equals_scalar", "lanes_untouched", "determinism",
+                                            "finite_on_sample_times"});
     // Its values depend on the batch size and on the instance.
     const auto bad = check_plugin(faulty("faulty-forcing"));
     CHECK(failed(bad) == std::set<std::string>{"batch_equals_scalar", "determinism"});

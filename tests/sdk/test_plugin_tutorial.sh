@@ -72,6 +72,23 @@ grep -q '"name": "chirp"' "$home/my-plugins/out/template-ramped/manifest.json" |
 [ -f "$home/geobarrier/lib/geobarrier/plugins/geobarrier-shaken-pendulum.so" ] ||
   fail "cmake --install did not put the plugin beside the built-in ones"
 [ -f "$home/my-plugins/by-hand/geobarrier-chirp.so" ] || fail "the pkg-config build made no plugin"
+# Every relative link of the installed documents resolves in the install (plugins.md links to experiment-format.md,
+# which links to extractors.md, ...).
+docs=$home/geobarrier/share/doc/geobarrier
+[ -f "$docs/plugins.md" ] || fail "plugins.md is not installed"
+for md in "$docs"/*.md; do
+  while read -r target; do
+    [ -e "$docs/$target" ] || fail "the installed $(basename "$md") links to $target, which is not installed"
+  done < <(grep -o '](\([^)#:]*\)' "$md" | sed 's/^](//' | grep -v '^$' | grep -v '^docs/' | sort -u)
+done
+# The out-of-tree plugins were compiled like the built-ins (geobarrier_add_plugin: fast by default).
+checked=$("$home/geobarrier/bin/geobarrier" check-plugin "$home/my-plugins/build/plugins/geobarrier-shaken-pendulum.so")
+grep -q "^PASS  code_generation " <<<"$checked" || fail "the template's system was not compiled like the built-ins:
+$checked"
+grep -q "^PASS  advance_equals_stages " <<<"$checked" || fail "the template's system has no fused step:
+$checked"
+grep -q "derived by automatic differentiation" <<<"$checked" || fail "the template's Jacobian is not derived:
+$checked"
 # The installed program finds the built-in plugins, and the installed template ones, with no environment variable.
 listing=$(cd / && env -u GEOBARRIER_PLUGIN_PATH "$home/geobarrier/bin/geobarrier" plugins)
 for p in duffing cosine ramp shaken-pendulum; do

@@ -2,9 +2,20 @@
  *
  * Only plain C types cross it: fixed-width integers, double, const char* and
  * pointers to buffers that the caller owns. No C++ types, no exceptions: every
- * function a plugin exports returns a status and never throws. Published
- * structs never change shape within one ABI major version; a new minor version
- * may only append fields at the end of a struct, behind a size or version check.
+ * function a plugin exports returns a status and never throws.
+ *
+ * How the boundary evolves (the compatibility promise; docs/plugins.md says it for users):
+ *   - Within one major version, published structs never change shape: a minor version only appends fields at the
+ *     end of a struct that is not an array element, adds flags, adds enum values, or adds extensions by id.
+ *   - Every struct has a version, that of the side that allocated it: what a plugin fills (entry, descriptors,
+ *     tables, parameter specs) has the plugin's version, gb_plugin_entry.abi_minor; what the core fills (requests,
+ *     inputs, the host) has the core's, which a plugin learns at load time from gb_host_info (minor 3; a core that
+ *     does not call GB_PLUGIN_ENTRY_WITH_HOST_SYMBOL is older than 1.3). Each side reads an appended field only
+ *     when the other side's version has it. Structs introduced from 1.3 on also start with their size.
+ *   - Arrays of structs (descriptors, parameter specs, fields) never grow: new per-plugin data comes as an
+ *     extension by id (gb_plugin_entry.get_extension; gb_host_info.get_extension the other way).
+ *   - A core loads every plugin of its major version, older or newer minor, and refuses another major version
+ *     naming both versions. A new major version is for changes that cannot be made this way.
  *
  * Batched, structure-of-arrays evaluation: a batch holds `n` lanes; component
  * i of lane k lives at `x[i * ld + k]` (ld >= n). Every lane has its own time.
@@ -28,12 +39,18 @@ extern "C" {
  * from plugins whose entry says abi_minor >= 1. */
 /* Minor 2 appended: gb_system_vtable.state_names/state_units and gb_extract_input.state_names/state_units.
  * The core reads the system's only from plugins whose entry says abi_minor >= 2; an extractor may read the
- * input's only when its host is 1.2 or newer (the SDK offers them to plugins that link the core library).
+ * input's only when its host is 1.2 or newer (known from gb_host_info from 1.3 on; sdk::axis_label checks it).
  * Minor 2 also appended gb_system_vtable.advance (a fused Runge-Kutta step, gb_advance_request), read likewise. */
-#define GB_ABI_VERSION_MINOR 2u
+/* Minor 3 added: the host entry GB_PLUGIN_ENTRY_WITH_HOST_SYMBOL (gb_host_info: the core's version, its fused-step
+ * numerics revision and extensions by id), gb_plugin_entry.get_extension (extensions of a plugin by id, e.g.
+ * GB_EXTENSION_BUILD_INFO), gb_advance_request.tableau_revision, and the flag GB_SYSTEM_JACOBIAN_DERIVED. */
+#define GB_ABI_VERSION_MINOR 3u
 
 /* The one symbol every plugin library exports. */
 #define GB_PLUGIN_ENTRY_SYMBOL "geobarrier_plugin_entry"
+/* ABI 1.3, optional: the entry a core of 1.3 or newer calls instead, with its gb_host_info (below), when the library
+ * exports it. Same result as the plain entry; a plugin keeps the host info to know what the core offers. */
+#define GB_PLUGIN_ENTRY_WITH_HOST_SYMBOL "geobarrier_plugin_entry_with_host"
 
 #if defined(_WIN32)
 #define GB_PLUGIN_EXPORT __declspec(dllexport)
@@ -100,6 +117,7 @@ typedef struct gb_message {
 #define GB_SYSTEM_HAS_JACOBIAN 1u    /* jacobian() is provided */
 #define GB_SYSTEM_HAS_DIVERGENCE 2u  /* divergence() is provided */
 #define GB_SYSTEM_USES_FORCING 4u    /* the right-hand side reads the forcing values */
+#define GB_SYSTEM_JACOBIAN_DERIVED 8u /* informational: the SDK derived jacobian() by automatic differentiation */
 
 /* ABI 1.2: one fused explicit Runge-Kutta step of a batch (gb_system_vtable.advance). All lanes share the time t
  * (the core's lockstep engine); the step runs every stage of every lane inside the plugin, so a lane's stage
@@ -117,6 +135,12 @@ typedef enum gb_advance_method {
     GB_ADVANCE_DOP853 = 2 /* Dormand-Prince 8(5,3), 12 stages, as in Hairer's dop853.f (no error estimate here) */
 } gb_advance_method;
 
+/* The revision of the numerics a fused step must reproduce: the tableaux of <geobarrier/rk_tableaux.hpp> and the
+ * order of the step's operations. Bumped whenever either changes, so that a plugin compiled with older numerics
+ * declines (GB_UNSUPPORTED: the core then takes its own stage-by-stage path) rather than computing with stale ones.
+ * Cores before 1.3 do not send it; their numerics are revision 1. */
+#define GB_ADVANCE_TABLEAU_REVISION 1u
+
 typedef struct gb_advance_request {
     int32_t method; /* gb_advance_method */
     int32_t variational;
@@ -126,6 +150,9 @@ typedef struct gb_advance_request {
     const double *x, *df, *log_det;
     double *x_out, *df_out, *log_det_out;
     int32_t *lane_status;
+    /* ABI 1.3, appended (present when the host's gb_host_info says 1.3 or newer): the core's
+     * GB_ADVANCE_TABLEAU_REVISION. A plugin whose compiled-in revision differs answers GB_UNSUPPORTED. */
+    uint32_t tableau_revision;
 } gb_advance_request;
 
 /* x' = v(x, t; f(t)) with state dimension `dimension`.
@@ -225,8 +252,8 @@ typedef struct gb_host {
     /* ABI 1.1, appended: attach non-numeric attributes to the barrier this extractor reported last, e.g.
      * "family" = "\"+\"" or "outermost" = "true". Each value is one JSON literal (a string in quotes, true,
      * false, null or a number), copied as such into barriers.json. A core older than 1.1 hands over a shorter
-     * struct, so a plugin may call this only when it knows its host is 1.1 or newer: the SDK offers it to
-     * plugins that link the core library, which the loader's exact core-version check guarantees. */
+     * struct, so a plugin may call this only when it knows its host is 1.1 or newer: from gb_host_info (1.3), or
+     * because it links the core library (the loader checks the core's C++ series). */
     gb_status (*set_barrier_attributes)(void *context, uint32_t count, const char *const *names,
                                         const char *const *json_values);
 } gb_host;
@@ -256,20 +283,48 @@ typedef struct gb_plugin_descriptor {
     const gb_extractor_vtable *extractor;
     /* The geobarrier core version a plugin that also links the core's C++ library
      * (libgeobarrier: tensor lines, curves, pictures) was built against; the loader
-     * refuses any other version, since C++ interfaces carry no ABI promise. NULL for
-     * plugins that use only this header. */
+     * refuses a core of another C++ series (another SOVERSION: major.minor while the major is 0, else the major),
+     * since C++ interfaces change between series. NULL for plugins that use only this header. */
     const char *core_version;
 } gb_plugin_descriptor;
+
+/* ABI 1.3: what the core tells a plugin about itself, through GB_PLUGIN_ENTRY_WITH_HOST_SYMBOL. It lives as long as
+ * the process; a plugin may keep the pointer. */
+typedef struct gb_host_info {
+    uint32_t struct_size; /* sizeof(gb_host_info) in the core: a field past it is absent */
+    uint32_t abi_major;   /* the core's plugin ABI: the version of every struct the core fills */
+    uint32_t abi_minor;
+    uint32_t tableau_revision; /* the core's GB_ADVANCE_TABLEAU_REVISION */
+    const char *core_version;  /* the geobarrier release, e.g. "0.1.0" (for messages; compare ABI versions instead) */
+    /* A feature of the core by id (a string such as GB_EXTENSION_BUILD_INFO), or NULL when it lacks it. Each
+     * extension is a struct that starts with its uint32_t size. */
+    const void *(*get_extension)(const char *id);
+} gb_host_info;
+
+/* ABI 1.3 extension "geobarrier.build-info", offered by the SDK's plugins (gb_plugin_entry.get_extension) and by the
+ * core (gb_host_info.get_extension): how the code was compiled, so that check-plugin can say when a plugin was built
+ * for a lesser CPU than the core (its fused step then runs slower). */
+#define GB_EXTENSION_BUILD_INFO "geobarrier.build-info"
+typedef struct gb_build_info {
+    uint32_t struct_size;
+    uint32_t tableau_revision; /* GB_ADVANCE_TABLEAU_REVISION the code was compiled with */
+    uint32_t vector_bits;      /* widest vectors the compiler could use: 128 (e.g. SSE2), 256 (AVX2), 512 (AVX-512) */
+    uint32_t fma;              /* nonzero when a * b + c compiles to one fused multiply-add */
+} gb_build_info;
 
 typedef struct gb_plugin_entry {
     uint32_t abi_major; /* must equal GB_ABI_VERSION_MAJOR; checked before anything else is read */
     uint32_t abi_minor;
     uint32_t count;
     const gb_plugin_descriptor *descriptors;
+    /* ABI 1.3, appended (read when abi_minor >= 3), may be NULL: an extension of plugin `descriptor` (an index
+     * into descriptors), or of the library when descriptor is UINT32_MAX, by id; NULL when it has none. */
+    const void *(*get_extension)(uint32_t descriptor, const char *id);
 } gb_plugin_entry;
 
-/* Signature of the exported entry point, named GB_PLUGIN_ENTRY_SYMBOL. */
+/* Signatures of the exported entry points, named GB_PLUGIN_ENTRY_SYMBOL and GB_PLUGIN_ENTRY_WITH_HOST_SYMBOL. */
 typedef const gb_plugin_entry *(*gb_plugin_entry_fn)(void);
+typedef const gb_plugin_entry *(*gb_plugin_entry_with_host_fn)(const gb_host_info *host);
 
 #ifdef __cplusplus
 }

@@ -17,12 +17,14 @@
 namespace geobarrier {
 
 // The outcome of one check. A skipped check (e.g. the Jacobian check for a system without a Jacobian) counts as
-// passed; `detail` says why it was skipped, or what failed, with the offending values.
+// passed; `detail` says why it was skipped, or what failed, with the offending values. A passed check with a
+// warning (WARN) works but not as well as it could, e.g. a plugin compiled for a lesser CPU than the core.
 struct ConformanceCheck {
     std::string name;
     bool passed = false;
     std::string detail;
     bool skipped = false;
+    bool warning = false;
 };
 
 struct ConformanceOptions {
@@ -57,10 +59,13 @@ struct ConformanceOptions {
 // its failures are failed checks. Throws Error for unusable options (e.g. a box of the wrong dimension).
 std::vector<ConformanceCheck> check_plugin(const PluginHandle &handle, const ConformanceOptions &options = {});
 
+// "10 passed, 1 skipped, 0 failed" (and ", 1 warning" when a passed check warns): each check counted once.
+std::string count_checks(const std::vector<ConformanceCheck> &checks);
+
 // True when every check passed (skipped ones included).
 bool all_passed(const std::vector<ConformanceCheck> &checks);
 
-// A pass/fail table, one line per check: "PASS  name  detail".
+// A pass/fail table, one line per check: "PASS  name  detail" (PASS, WARN, SKIP or FAIL).
 std::string format_checks(const std::vector<ConformanceCheck> &checks);
 
 }  // namespace geobarrier

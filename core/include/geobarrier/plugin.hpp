@@ -52,9 +52,12 @@ struct PluginInfo {
     std::filesystem::path file;
     std::uint32_t abi_major = 0, abi_minor = 0;
     std::string core_version; // non-empty when the plugin links the core's C++ library
+    // How the library was compiled (ABI 1.3 extension GB_EXTENSION_BUILD_INFO); struct_size 0 when it does not say.
+    gb_build_info build{};
     // Systems only.
     std::uint32_t dimension = 0;
     bool has_jacobian = false, has_divergence = false, uses_forcing = false;
+    bool jacobian_derived = false; // the SDK derived the Jacobian by automatic differentiation (informational)
     std::vector<double> domain_min, domain_max; // the documented domain (ABI 1.1); empty when not declared
     // Name and unit of each state component (ABI 1.2; "" = nondimensional); both empty when not declared.
     std::vector<std::string> state_names, state_units;

@@ -3,35 +3,53 @@
 // links the core. Exceptions thrown by plugin code are caught here and become a
 // GB_ERROR status with the exception's message: nothing throws across the ABI.
 //
-// A system plugin, in full:
+// A system plugin, in full: its vector field, one lane at a time.
 //
 //   struct Pendulum {
 //       static constexpr const char *name = "pendulum", *version = "1.0.0",
-//                                   *doc = "x' = y, y' = -sin x + f(t)";
+//                                   *doc = "x' = y, y' = -sin x - c y + f(t)";
 //       static constexpr unsigned dimension = 2;
 //       static constexpr gb_param_spec params[] = {
 //           geobarrier::sdk::real_param("damping", 0.0, 0.0, HUGE_VAL, "1/s", "linear damping")};
 //       // (a plugin without parameters leaves `params` out)
 //       explicit Pendulum(const geobarrier::sdk::Params &p) : c(p.real("damping")) {}
-//       void rhs(const geobarrier::sdk::Batch &b, double *dxdt) const { ... }
-//       // optional: void jacobian(const Batch &, double *jac) const;
-//       //           void divergence(const Batch &, double *div) const;
+//       template <class Real> void field(double t, const Real *x, double f, Real *dxdt) const {
+//           using std::sin;
+//           dxdt[0] = x[1];
+//           dxdt[1] = -sin(x[0]) - c * x[1] + f;
+//       }
 //       double c;
 //   };
 //   GEOBARRIER_PLUGINS(geobarrier::sdk::system<Pendulum>())
+//
+// From the one `field` the SDK derives everything the ABI asks of a system:
+//   - the batched right-hand side (gb_system_vtable.rhs), a loop over lanes;
+//   - the exact Jacobian dv_i/dx_j, by forward-mode automatic differentiation: a `field` that is a template over its
+//     number type is also evaluated on dual numbers (<geobarrier/sdk_dual.hpp>; call math functions unqualified,
+//     `using std::sin; sin(x)`, or as geobarrier::sdk::sin), and check-plugin compares it with finite differences.
+//     Or give it by hand, one lane at a time (kept for generated code and for fields AD cannot see through):
+//       void field_jacobian(double t, const double *x, double f, double *jac) const;  // jac[i * dimension + j]
+//     A `field` taking plain `const double *` has no derived Jacobian: give field_jacobian then;
+//   - the divergence, as the Jacobian's trace;
+//   - a fused Runge-Kutta step (gb_system_vtable.advance): every stage of a lane, with the variational equations,
+//     runs in registers, the lanes vectorised. Keep `field` short, branch-light and defined in the class.
+// A member named field / field_jacobian with another signature, or not const, is a compile error saying what to
+// write (never a silently slower plugin).
+//
+// Batched members written by hand stay possible, and take precedence over the derived ones (the adaptive steppers and
+// the other engines call them; the fused step always uses the per-lane field):
+//   void rhs(const geobarrier::sdk::Batch &b, double *dxdt) const;   // or (..., std::int32_t *lane_status) to mark
+//                                                                    // lanes outside the model GB_LANE_INVALID
+//   void jacobian(const Batch &, double *jac) const;                  // jac[(i*dimension+j)*ld+k]
+//   void divergence(const Batch &, double *div) const;
+// A system given only as rhs() has no fused step; check-plugin says so (advance_equals_stages, SKIP).
 //
 // A system may declare its documented domain (checked for finite values by check-plugin):
 //   static constexpr double domain_min[] = {0.0, 0.0}, domain_max[] = {2.0, 1.0};
 // and the names and units of its state components (ABI 1.2; pictures label their axes "name [unit]", "" for a
 // nondimensional component):
 //   static constexpr const char *state_names[] = {"theta", "omega"}, *state_units[] = {"rad", "rad/s"};
-//
-// A system may also give its vector field one lane at a time, as inline members (ABI 1.2):
-//   void field(double t, const double *x, double f, double *dxdt) const;          // dxdt[i] = v_i(x, t; f)
-//   void field_jacobian(double t, const double *x, double f, double *jac) const;  // jac[i * dimension + j] = dv_i/dx_j
-// The SDK then compiles a fused Runge-Kutta step into the plugin (gb_system_vtable.advance): every stage of a lane,
-// with the variational equations, runs in registers, the lanes vectorised. Keep them branch-light and inline
-// (defined in the class); they must give the same values as rhs() and jacobian(), which stay required.
+// and `static constexpr bool uses_forcing = false` when it ignores the forcing (checked).
 //
 // Forcings provide `void evaluate(std::size_t n, const double *t, double *f) const`.
 // Composite forcings (ABI 1.1) combine other forcings, which the core evaluates for them:
@@ -44,6 +62,7 @@
 
 #include <geobarrier/abi.h>
 #include <geobarrier/rk_tableaux.hpp>
+#include <geobarrier/sdk_dual.hpp>
 
 #include <cmath>
 #include <cstdint>
@@ -54,6 +73,12 @@
 #include <type_traits>
 #include <utility>
 #include <vector>
+
+// The numerics revision the fused step is compiled with (abi.h, GB_ADVANCE_TABLEAU_REVISION). Overridable only so
+// that a test can build a plugin with stale numerics and watch it decline.
+#ifndef GEOBARRIER_SDK_TABLEAU_REVISION
+#define GEOBARRIER_SDK_TABLEAU_REVISION GB_ADVANCE_TABLEAU_REVISION
+#endif
 
 namespace geobarrier::sdk {
 
@@ -131,6 +156,43 @@ struct Terms {
     double value(std::size_t j, std::size_t k) const { return values[j * ld + k]; }
 };
 
+namespace detail {
+// The gb_host_info of the core that loaded this library (GB_PLUGIN_ENTRY_WITH_HOST_SYMBOL, ABI 1.3), or null when
+// the core is older than 1.3. One per plugin library: plugins are built with hidden visibility.
+inline const gb_host_info *loaded_by = nullptr;
+} // namespace detail
+
+// The plugin ABI version of the core that loaded this plugin, which is the version of every struct the core fills
+// (requests, inputs, the host): from its gb_host_info; a core older than 1.3 sends none, so then 2 for a plugin that
+// links the core library (the loader checks the core's C++ series, whose first release spoke 1.2) and 0 otherwise.
+inline std::uint32_t host_abi_minor() {
+    if (detail::loaded_by) return detail::loaded_by->abi_minor;
+#ifdef GEOBARRIER_VERSION
+    return 2;
+#else
+    return 0;
+#endif
+}
+
+// The code generation of this plugin (gb_build_info, the GB_EXTENSION_BUILD_INFO extension): the widest vectors and
+// whether mul_add is one instruction. check-plugin compares it with the core's.
+constexpr gb_build_info build_info() {
+    return gb_build_info{sizeof(gb_build_info), GEOBARRIER_SDK_TABLEAU_REVISION,
+#if defined(__AVX512F__)
+                         512,
+#elif defined(__AVX__)
+                         256,
+#else
+                         128,
+#endif
+#if defined(__FMA__) || defined(__aarch64__)
+                         1
+#else
+                         0
+#endif
+    };
+}
+
 // What an extractor may ask of the core while it runs.
 class Host {
   public:
@@ -151,11 +213,13 @@ class Host {
                                                 static_cast<std::uint32_t>(names.size()), names.data(), values.data());
         if (s != GB_OK) throw std::runtime_error("the core refused a barrier");
     }
-#ifdef GEOBARRIER_VERSION
     // Text and boolean attributes of the barrier reported last (ABI 1.1): values are JSON literals, e.g.
-    // {"family", "\"+\""}, {"outermost", "true"}. Offered only to plugins that link the core library (whose
-    // exact core-version check guarantees a 1.1 host).
+    // {"family", "\"+\""}, {"outermost", "true"}. Needs a core of ABI 1.1 or newer (host_abi_minor()): throws
+    // otherwise, as it cannot tell.
     void set_barrier_attributes(const std::vector<std::pair<std::string, std::string>> &attributes) const {
+        if (host_abi_minor() < 1)
+            throw std::runtime_error("barrier attributes need a geobarrier core of plugin ABI 1.3 or newer (or a "
+                                     "plugin that links the core library)");
         std::vector<const char *> names, values;
         for (const auto &a : attributes) {
             names.push_back(a.first.c_str());
@@ -165,7 +229,6 @@ class Host {
                                            values.data()) != GB_OK)
             throw std::runtime_error("the core refused barrier attributes (no barrier yet, or a value is not JSON)");
     }
-#endif
     // Advects points (x, y interleaved) with the experiment's system and integrator; mask 0 = valid.
     // With `gradient`, dF receives F11 F12 F21 F22 per point.
     void advect(const std::vector<double> &xy, double t_from, double t_to, std::vector<double> &xy_out,
@@ -185,18 +248,16 @@ class Host {
     const gb_host *m_host;
 };
 
-#ifdef GEOBARRIER_VERSION
 // The axis label of state component i (0 or 1) for an extractor's pictures: "name [unit]", "name [–]" when the
 // unit is "" (nondimensional) and "x" / "y" when the system declares no names. Reads gb_extract_input's ABI 1.2
-// fields, so it is offered only to plugins that link the core library (whose exact core-version check guarantees
-// a 1.2 host).
+// fields only when the host has them (host_abi_minor()); else "x" / "y".
 inline std::string axis_label(const gb_extract_input &in, unsigned i) {
+    if (host_abi_minor() < 2) return i == 0 ? "x" : "y";
     const char *name = in.state_names && in.state_names[i] && *in.state_names[i] ? in.state_names[i] : nullptr;
     const char *unit = in.state_units && in.state_units[i] ? in.state_units[i] : "";
     if (!name) return i == 0 ? "x" : "y";
     return std::string(name) + " [" + (*unit ? unit : "–") + "]";
 }
-#endif
 
 namespace detail {
 
@@ -229,6 +290,12 @@ template <class T, class = void> struct has_divergence : std::false_type {};
 template <class T>
 struct has_divergence<T, std::void_t<decltype(std::declval<const T &>().divergence(
                              std::declval<const Batch &>(), static_cast<double *>(nullptr)))>> : std::true_type {};
+
+template <class T, class = void> struct has_rhs : std::false_type {};
+template <class T>
+struct has_rhs<T, std::void_t<decltype(std::declval<const T &>().rhs(std::declval<const Batch &>(),
+                                                                     static_cast<double *>(nullptr)))>>
+    : std::true_type {};
 
 // A plugin may set lane_status itself by declaring rhs(const Batch&, double*, int32_t*).
 template <class T, class = void> struct has_lane_status_rhs : std::false_type {};
@@ -335,6 +402,128 @@ struct has_field_jacobian<T, std::void_t<decltype(std::declval<const T &>().fiel
                                  0.0, static_cast<const double *>(nullptr), 0.0, static_cast<double *>(nullptr)))>>
     : std::true_type {};
 
+// A `field` the SDK can differentiate: a template over the number type (or an overload) taking dual numbers.
+template <class T, class = void> struct has_dual_field : std::false_type {};
+template <class T>
+struct has_dual_field<T, std::void_t<decltype(std::declval<const T &>().field(
+                             0.0, static_cast<const Dual<T::dimension> *>(nullptr), 0.0,
+                             static_cast<Dual<T::dimension> *>(nullptr)))>> : std::true_type {};
+
+// A Jacobian one lane at a time: given (field_jacobian) or derived (a differentiable field).
+template <class T> constexpr bool has_lane_jacobian = has_field_jacobian<T>::value || has_dual_field<T>::value;
+
+// Whether T declares a member of this name at all, whatever its signature: in a class deriving from T and from a
+// probe that has the member too, naming it is ambiguous exactly when T has one. With the has_* traits above this
+// tells "no field" (fine) from "a field the SDK cannot call" (a compile error saying what to write).
+#define GEOBARRIER_SDK_MEMBER_PROBE(member)                                                                          \
+    struct probe_##member {                                                                                          \
+        int member;                                                                                                  \
+    };                                                                                                               \
+    template <class T> struct probed_##member : T, probe_##member {};                                                \
+    template <class T, class = void> struct declares_##member : std::true_type {};                                   \
+    template <class T>                                                                                               \
+    struct declares_##member<T, std::void_t<decltype(&probed_##member<T>::member)>> : std::false_type {};
+GEOBARRIER_SDK_MEMBER_PROBE(field)
+GEOBARRIER_SDK_MEMBER_PROBE(field_jacobian)
+GEOBARRIER_SDK_MEMBER_PROBE(rhs)
+GEOBARRIER_SDK_MEMBER_PROBE(jacobian)
+GEOBARRIER_SDK_MEMBER_PROBE(divergence)
+#undef GEOBARRIER_SDK_MEMBER_PROBE
+
+// The Jacobian of one lane, jac[i * D + j] = dv_i/dx_j: the plugin's field_jacobian, or the field on dual numbers
+// seeded with the identity (forward-mode automatic differentiation; exact up to rounding).
+template <class T>
+GEOBARRIER_ALWAYS_INLINE void lane_jacobian(const T &sys, double t, const double *x, double f, double *jac) {
+    if constexpr (has_field_jacobian<T>::value) {
+        sys.field_jacobian(t, x, f, jac);
+    } else {
+        constexpr unsigned D = T::dimension;
+        Dual<D> s[D], v[D];
+#pragma GCC unroll 16
+        for (unsigned i = 0; i < D; ++i) {
+            s[i] = Dual<D>(x[i]);
+            s[i].d[i] = 1.0;
+        }
+        sys.field(t, static_cast<const Dual<D> *>(s), f, v);
+#pragma GCC unroll 16
+        for (unsigned i = 0; i < D; ++i)
+#pragma GCC unroll 16
+            for (unsigned j = 0; j < D; ++j) jac[i * D + j] = v[i].d[j];
+    }
+}
+
+// The batched members derived from the per-lane ones: gather a lane, call, scatter. Lanes are independent, so the
+// loops vectorise like the fused step's (ivdep: the outputs never alias the inputs).
+template <class T> struct LaneLoops {
+    static constexpr unsigned D = T::dimension;
+    template <class PerLane> static void run(const Batch &b, double *out, unsigned rows, PerLane per_lane) {
+#if defined(__GNUC__) && !defined(__clang__)
+#pragma GCC ivdep
+#endif
+        for (std::size_t k = 0; k < b.n; ++k) {
+            double s[D], r[D * D];
+#pragma GCC unroll 16
+            for (unsigned i = 0; i < D; ++i) s[i] = b.x[i * b.ld + k];
+            per_lane(b.t[k], s, b.f ? b.f[k] : 0.0, r);
+#pragma GCC unroll 16
+            for (unsigned i = 0; i < rows; ++i) out[i * b.ld + k] = r[i];
+        }
+    }
+    static void rhs(const T &sys, const Batch &b, double *dxdt) {
+        run(b, dxdt, D, [&](double t, const double *s, double f, double *r) { sys.field(t, s, f, r); });
+    }
+    static void jacobian(const T &sys, const Batch &b, double *jac) {
+        run(b, jac, D * D, [&](double t, const double *s, double f, double *r) { lane_jacobian(sys, t, s, f, r); });
+    }
+    // The trace, summed as the fused step sums it.
+    static void divergence(const T &sys, const Batch &b, double *div) {
+        run(b, div, 1, [&](double t, const double *s, double f, double *r) {
+            double J[D * D];
+            lane_jacobian(sys, t, s, f, J);
+            double trace = J[0];
+#pragma GCC unroll 16
+            for (unsigned i = 1; i < D; ++i) trace += J[i * D + i];
+            r[0] = trace;
+        });
+    }
+};
+
+// What a system class declares, checked once with messages that say what to write.
+template <class T> struct SystemShape {
+    static constexpr bool field = has_field<T>::value;
+    static constexpr bool batch_rhs = has_rhs<T>::value || has_lane_status_rhs<T>::value;
+    static_assert(!declares_field<T>::value || field,
+                  "geobarrier::sdk: this system's `field` has the wrong signature or is not const. Write "
+                  "`template <class Real> void field(double t, const Real *x, double f, Real *dxdt) const` (the SDK "
+                  "then derives the Jacobian) or `void field(double t, const double *x, double f, double *dxdt) "
+                  "const`");
+    static_assert(!declares_field_jacobian<T>::value || has_field_jacobian<T>::value,
+                  "geobarrier::sdk: this system's `field_jacobian` has the wrong signature or is not const. Write "
+                  "`void field_jacobian(double t, const double *x, double f, double *jac) const` (jac[i * dimension "
+                  "+ j] = dv_i/dx_j), or leave it out and make `field` a template so that the SDK derives it");
+    static_assert(!declares_rhs<T>::value || batch_rhs,
+                  "geobarrier::sdk: this system's `rhs` has the wrong signature or is not const. Write `void "
+                  "rhs(const geobarrier::sdk::Batch &b, double *dxdt) const` (optionally with a third parameter "
+                  "std::int32_t *lane_status), or leave it out: the SDK derives it from `field`");
+    static_assert(!declares_jacobian<T>::value || has_jacobian<T>::value,
+                  "geobarrier::sdk: this system's `jacobian` has the wrong signature or is not const. Write `void "
+                  "jacobian(const geobarrier::sdk::Batch &b, double *jac) const`, or leave it out: the SDK derives "
+                  "it from `field`");
+    static_assert(!declares_divergence<T>::value || has_divergence<T>::value,
+                  "geobarrier::sdk: this system's `divergence` has the wrong signature or is not const. Write `void "
+                  "divergence(const geobarrier::sdk::Batch &b, double *div) const`, or leave it out: the SDK "
+                  "derives it from the Jacobian");
+    static_assert(field || batch_rhs,
+                  "geobarrier::sdk: a system needs its vector field: `template <class Real> void field(double t, "
+                  "const Real *x, double f, Real *dxdt) const` (or a batched rhs)");
+    static_assert(!has_field_jacobian<T>::value || field,
+                  "geobarrier::sdk: `field_jacobian` is given without `field`: give the per-lane field too");
+    static constexpr bool jacobian = has_jacobian<T>::value || (field && has_lane_jacobian<T>);
+    static constexpr bool divergence = has_divergence<T>::value || (field && has_lane_jacobian<T>);
+    static constexpr bool derived_jacobian = !has_jacobian<T>::value && !has_field_jacobian<T>::value && field &&
+                                             has_dual_field<T>::value;
+};
+
 // One fused explicit Runge-Kutta step of tableau Tab for every lane of a request (gb_advance_request). Per lane the
 // state (with the variational equations: x, DF row-major, log|det DF|) and the stage derivatives are small local
 // arrays, so after inlining they live in registers, and the lane loop vectorises (GCC 12 -O3: 8 lanes with AVX-512,
@@ -362,7 +551,7 @@ template <class T, class Tab, bool Variational> struct FusedStep {
         sys.field(t, y, f, dy);
         if constexpr (Variational) {
             double J[D * D];
-            sys.field_jacobian(t, y, f, J);
+            lane_jacobian(sys, t, y, f, J);
             const double *F = y + D;
 #pragma GCC unroll 16
             for (unsigned i = 0; i < D; ++i)
@@ -448,45 +637,50 @@ template <class T, class Tab, bool Variational> struct FusedStep {
 
 template <class T, class Tab> void fused_step(const T &sys, const gb_advance_request &r) {
     if (r.variational) {
-        if constexpr (has_field_jacobian<T>::value) FusedStep<T, Tab, true>::run(sys, r);
+        if constexpr (has_lane_jacobian<T>) FusedStep<T, Tab, true>::run(sys, r);
     } else {
         FusedStep<T, Tab, false>::run(sys, r);
     }
 }
 
 template <class T> struct SystemThunks {
+    using Shape = SystemShape<T>;
     static gb_status rhs(void *self, std::uint64_t n, std::uint64_t ld, const double *t, const double *x,
                          const double *f, double *dxdt, std::int32_t *lane_status, gb_message *msg) noexcept {
         return guarded(msg, [&] {
             const Batch b{n, ld, t, x, f};
+            const T &sys = *static_cast<const T *>(self);
             clear_lanes(lane_status, n);
-            if constexpr (has_lane_status_rhs<T>::value)
-                static_cast<const T *>(self)->rhs(b, dxdt, lane_status);
-            else
-                static_cast<const T *>(self)->rhs(b, dxdt);
+            if constexpr (has_lane_status_rhs<T>::value) sys.rhs(b, dxdt, lane_status);
+            else if constexpr (has_rhs<T>::value) sys.rhs(b, dxdt);
+            else if constexpr (Shape::field) LaneLoops<T>::rhs(sys, b, dxdt);
         });
     }
     static gb_status jacobian(void *self, std::uint64_t n, std::uint64_t ld, const double *t, const double *x,
                               const double *f, double *jac, std::int32_t *lane_status, gb_message *msg) noexcept {
         return guarded(msg, [&] {
-            if constexpr (has_jacobian<T>::value) {
-                clear_lanes(lane_status, n);
-                static_cast<const T *>(self)->jacobian(Batch{n, ld, t, x, f}, jac);
-            }
+            const T &sys = *static_cast<const T *>(self);
+            clear_lanes(lane_status, n);
+            if constexpr (has_jacobian<T>::value) sys.jacobian(Batch{n, ld, t, x, f}, jac);
+            else if constexpr (Shape::jacobian) LaneLoops<T>::jacobian(sys, Batch{n, ld, t, x, f}, jac);
         });
     }
     static gb_status divergence(void *self, std::uint64_t n, std::uint64_t ld, const double *t, const double *x,
                                 const double *f, double *div, std::int32_t *lane_status, gb_message *msg) noexcept {
         return guarded(msg, [&] {
-            if constexpr (has_divergence<T>::value) {
-                clear_lanes(lane_status, n);
-                static_cast<const T *>(self)->divergence(Batch{n, ld, t, x, f}, div);
-            }
+            const T &sys = *static_cast<const T *>(self);
+            clear_lanes(lane_status, n);
+            if constexpr (has_divergence<T>::value) sys.divergence(Batch{n, ld, t, x, f}, div);
+            else if constexpr (Shape::divergence) LaneLoops<T>::divergence(sys, Batch{n, ld, t, x, f}, div);
         });
     }
     static gb_status advance(void *self, const gb_advance_request *r, gb_message *msg) noexcept {
         if (r->method != GB_ADVANCE_RK4 && r->method != GB_ADVANCE_DOP853) return GB_UNSUPPORTED;
-        if (r->variational && !has_field_jacobian<T>::value) return GB_UNSUPPORTED;
+        // Numerics compiled in (tableaux and operation order) that differ from the core's: decline, and the core
+        // takes its own path. The request names its revision from ABI 1.3 on; older cores use revision 1.
+        const std::uint32_t core_revision = host_abi_minor() >= 3 ? r->tableau_revision : 1u;
+        if (core_revision != GEOBARRIER_SDK_TABLEAU_REVISION) return GB_UNSUPPORTED;
+        if (r->variational && !has_lane_jacobian<T>) return GB_UNSUPPORTED;
         return guarded(msg, [&] {
             if constexpr (has_field<T>::value) {
                 clear_lanes(r->lane_status, r->n);
@@ -497,13 +691,13 @@ template <class T> struct SystemThunks {
         });
     }
     static constexpr std::uint32_t capabilities() {
-        return (has_jacobian<T>::value ? GB_SYSTEM_HAS_JACOBIAN : 0u) |
-               (has_divergence<T>::value ? GB_SYSTEM_HAS_DIVERGENCE : 0u) |
-               (uses_forcing<T>::value ? GB_SYSTEM_USES_FORCING : 0u);
+        return (Shape::jacobian ? GB_SYSTEM_HAS_JACOBIAN : 0u) | (Shape::divergence ? GB_SYSTEM_HAS_DIVERGENCE : 0u) |
+               (uses_forcing<T>::value ? GB_SYSTEM_USES_FORCING : 0u) |
+               (Shape::derived_jacobian ? GB_SYSTEM_JACOBIAN_DERIVED : 0u);
     }
     static inline const gb_system_vtable table{T::dimension, capabilities(), &rhs,
-                                               has_jacobian<T>::value ? &jacobian : nullptr,
-                                               has_divergence<T>::value ? &divergence : nullptr,
+                                               Shape::jacobian ? &jacobian : nullptr,
+                                               Shape::divergence ? &divergence : nullptr,
                                                domain_min<T>(), domain_max<T>(), state_names<T>(),
                                                state_units<T>(), has_field<T>::value ? &advance : nullptr};
 };
@@ -590,15 +784,30 @@ template <class T> gb_plugin_descriptor extractor() {
 
 }  // namespace geobarrier::sdk
 
-// Defines the library's one exported entry point, listing its plugins.
+namespace geobarrier::sdk::detail {
+// The library's extensions by id (gb_plugin_entry.get_extension): its build info, for every descriptor.
+inline const void *library_extension(std::uint32_t, const char *id) noexcept {
+    static constexpr gb_build_info build = build_info();
+    if (id && std::strcmp(id, GB_EXTENSION_BUILD_INFO) == 0) return &build;
+    return nullptr;
+}
+} // namespace geobarrier::sdk::detail
+
+// Defines the library's exported entry points, listing its plugins: the plain one, and the one through which a core
+// of ABI 1.3 or newer also tells the plugin its version (gb_host_info).
 #define GEOBARRIER_PLUGINS(...)                                                                          \
     extern "C" GB_PLUGIN_EXPORT const gb_plugin_entry *geobarrier_plugin_entry(void) {                   \
         static const gb_plugin_descriptor geobarrier_descriptors[] = {__VA_ARGS__};                      \
         static const gb_plugin_entry geobarrier_entry = {                                                \
             GB_ABI_VERSION_MAJOR, GB_ABI_VERSION_MINOR,                                                  \
             static_cast<std::uint32_t>(sizeof(geobarrier_descriptors) / sizeof(geobarrier_descriptors[0])), \
-            geobarrier_descriptors};                                                                     \
+            geobarrier_descriptors, &geobarrier::sdk::detail::library_extension};                        \
         return &geobarrier_entry;                                                                        \
+    }                                                                                                    \
+    extern "C" GB_PLUGIN_EXPORT const gb_plugin_entry *geobarrier_plugin_entry_with_host(               \
+        const gb_host_info *host) {                                                                      \
+        if (host && host->struct_size >= sizeof(std::uint32_t) * 3) geobarrier::sdk::detail::loaded_by = host; \
+        return geobarrier_plugin_entry();                                                                \
     }
 
 #endif  // GEOBARRIER_SDK_HPP

@@ -11,7 +11,6 @@
 #include <geobarrier/tensor_lines.hpp>
 
 #include <algorithm>
-#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -30,6 +29,10 @@ using geobarrier::sdk::real_param;
 using geobarrier::sdk::string_param;
 
 constexpr double nan_value = std::numeric_limits<double>::quiet_NaN();
+
+// Largest sqrt(lambda2 / lambda1) along a barrier for which its advected length is measured (step 5 of extract):
+// with tangent errors theta ~ 5e-4 the image length then stays within kappa^2 theta^2 / 2 ~ 1e-3 of the barrier's.
+constexpr double max_condition = 100.0;
 
 // A strainline at t0, with what the picture and the selection need. For the opposite-time route, xy_t1 holds the
 // matching points of the stretchline at t1 whose image it is.
@@ -104,7 +107,12 @@ class RunIndex {
     // Whether a point of a polyline with id != self and key(id) < limit lies within r of (x, y). The buckets must
     // be sorted by the same key: a scan stops at the first run at or above the limit, and at the first hit.
     template <class Key> bool any_near_below(double x, double y, double limit, std::size_t self, Key &&key) const {
-        const double r2 = m_r * m_r;
+        return any_near_below_within(x, y, m_r, limit, self, key);
+    }
+    // The same within `radius` <= r (the buckets' side, so that the 3 x 3 buckets around the point hold every hit).
+    template <class Key>
+    bool any_near_below_within(double x, double y, double radius, double limit, std::size_t self, Key &&key) const {
+        const double r2 = radius * radius;
         const long bx = static_cast<long>(std::floor((x - m_x0) / m_r)),
                    by = static_cast<long>(std::floor((y - m_y0) / m_r));
         // The point's own bucket first: that is where a neighbour is most likely found.
@@ -128,8 +136,9 @@ class RunIndex {
         return false;
     }
     // Whether any point lies within r of (x, y).
-    bool any_near(double x, double y) const {
-        return any_near_below(x, y, HUGE_VAL, std::numeric_limits<std::size_t>::max(), [](std::size_t) { return 0.0; });
+    bool any_near(double x, double y, double radius) const {
+        return any_near_below_within(x, y, std::min(radius, m_r), HUGE_VAL, std::numeric_limits<std::size_t>::max(),
+                                     [](std::size_t) { return 0.0; });
     }
 
   private:
@@ -148,6 +157,161 @@ class RunIndex {
     double m_r, m_x0, m_y0;
     std::size_t m_nx = 1, m_ny = 1;
     std::vector<std::vector<Run>> m_buckets;
+};
+
+// What truncation and selection measure along a piece of a strainline: l(gamma_t0), d_g^xi1, l(gamma_t1) and q
+// (eq. `rel_stretch`), the midpoint.
+struct SegmentMeter {
+    const Grid &grid;
+    const std::vector<double> &log_lambda1; // log lambda1 on the grid: l(gamma_t1) = int sqrt(lambda1) ds (direct)
+    const std::vector<std::uint8_t> &mask;
+    bool opposite; // l(gamma_t1) is the stretchline's measured length at t1 instead
+
+    // Fills everything but `length` (set by the caller, which drops short pieces first); false when sqrt(lambda1) is
+    // unknown on part of the piece or q is not finite.
+    bool measure(const std::vector<Strainline> &lines, Segment &s) const {
+        const Strainline &line = lines[s.line];
+        const std::vector<double> xy = points_of(lines, s);
+        const std::vector<double> dev(line.deviation.begin() + static_cast<std::ptrdiff_t>(s.first),
+                                      line.deviation.begin() + static_cast<std::ptrdiff_t>(s.last + 1));
+        const CurveStats ds = curve_statistics(xy, dev);
+        s.mean_deviation = ds.mean;
+        s.max_deviation = ds.max;
+        if (opposite) {
+            s.stretched_length = polyline_length(std::vector<double>(
+                line.xy_t1.begin() + 2 * static_cast<std::ptrdiff_t>(s.first),
+                line.xy_t1.begin() + 2 * static_cast<std::ptrdiff_t>(s.last + 1)));
+        } else {
+            // Interpolating log(lambda1) is exact for exponential variation across a cell.
+            std::vector<double> root = sample_along(grid, log_lambda1, mask, xy);
+            for (double &v : root) v = std::exp(0.5 * v);
+            const CurveStats rs = curve_statistics(xy, root);
+            if (rs.covered_length < 0.999 * s.length) return false;
+            s.stretched_length = rs.integral;
+        }
+        s.q = s.stretched_length / s.length;
+        const std::vector<double> c = cumulative_length(xy);
+        const std::size_t mid = std::min(
+            static_cast<std::size_t>(std::lower_bound(c.begin(), c.end(), 0.5 * s.length) - c.begin()), c.size() - 1);
+        s.mid_x = xy[2 * mid];
+        s.mid_y = xy[2 * mid + 1];
+        return std::isfinite(s.q);
+    }
+};
+
+// The walls of the computation: the box's four edges and the edge of the mask (where trajectories left `bounds` or
+// failed). A strainline running along a wall is shaped by the wall (the field stops there, one-sided differences,
+// strainlines stopped at the edge) rather than by the flow, so it is no barrier unless the wall is an invariant line
+// of the flow, which the experiment declares (`invariant_walls`).
+struct Walls {
+    bool left = true, right = true, bottom = true, top = true, mask = true; // walls NOT declared invariant
+
+    static Walls parse(const std::string &text) {
+        Walls w;
+        std::stringstream all(text);
+        std::string item;
+        while (std::getline(all, item, ',')) {
+            item.erase(0, item.find_first_not_of(" \t"));
+            item.erase(item.find_last_not_of(" \t") + 1);
+            if (item.empty()) continue;
+            if (item == "all") w.left = w.right = w.bottom = w.top = w.mask = false;
+            else if (item == "box") w.left = w.right = w.bottom = w.top = false;
+            else if (item == "left") w.left = false;
+            else if (item == "right") w.right = false;
+            else if (item == "bottom") w.bottom = false;
+            else if (item == "top") w.top = false;
+            else if (item == "mask") w.mask = false;
+            else
+                throw std::invalid_argument("hyperbolic: invariant_walls: \"" + item +
+                                            "\" is not one of left, right, bottom, top, mask, box, all");
+        }
+        return w;
+    }
+};
+
+// Distance from every grid point to the nearest masked point (8-neighbour chamfer transform: exact along grid lines
+// and diagonals, within 8% elsewhere, which is plenty for "within the neighbour distance of the mask"); HUGE_VAL
+// everywhere when nothing is masked.
+std::vector<double> distance_to_mask(const Grid &g, const std::vector<std::uint8_t> &mask) {
+    std::vector<double> d(g.size(), HUGE_VAL);
+    bool any = false;
+    for (std::size_t p = 0; p < g.size() && p < mask.size(); ++p)
+        if (mask[p] & mask_trajectory_bits) {
+            d[p] = 0.0;
+            any = true;
+        }
+    if (!any) return d;
+    const double dx = g.dx(), dy = g.dy(), dd = std::hypot(dx, dy);
+    const auto relax = [&](std::size_t i, std::size_t j, long di, long dj, double w) {
+        const long ii = static_cast<long>(i) + di, jj = static_cast<long>(j) + dj;
+        if (ii < 0 || jj < 0 || ii >= static_cast<long>(g.ny) || jj >= static_cast<long>(g.nx)) return;
+        double &here = d[i * g.nx + j];
+        here = std::min(here, d[static_cast<std::size_t>(ii) * g.nx + static_cast<std::size_t>(jj)] + w);
+    };
+    for (std::size_t i = 0; i < g.ny; ++i)
+        for (std::size_t j = 0; j < g.nx; ++j) {
+            relax(i, j, 0, -1, dx);
+            relax(i, j, -1, -1, dd);
+            relax(i, j, -1, 0, dy);
+            relax(i, j, -1, 1, dd);
+        }
+    for (std::size_t i = g.ny; i-- > 0;)
+        for (std::size_t j = g.nx; j-- > 0;) {
+            relax(i, j, 0, 1, dx);
+            relax(i, j, 1, 1, dd);
+            relax(i, j, 1, 0, dy);
+            relax(i, j, 1, -1, dd);
+        }
+    return d;
+}
+
+// The fraction of a polyline's arc length that lies within `reach` of a wall not declared invariant.
+double fraction_along_walls(const Grid &g, const Walls &walls, const std::vector<double> &to_mask,
+                            const std::vector<double> &xy, double reach) {
+    std::vector<double> near(xy.size() / 2, 0.0);
+    for (std::size_t k = 0; k < near.size(); ++k) {
+        const double x = xy[2 * k], y = xy[2 * k + 1];
+        double d = HUGE_VAL;
+        if (walls.left) d = std::min(d, x - g.x_min);
+        if (walls.right) d = std::min(d, g.x_max - x);
+        if (walls.bottom) d = std::min(d, y - g.y_min);
+        if (walls.top) d = std::min(d, g.y_max - y);
+        if (walls.mask) {
+            const std::size_t j = static_cast<std::size_t>(std::clamp(std::lround((x - g.x_min) / g.dx()), 0L,
+                                                                      static_cast<long>(g.nx) - 1)),
+                              i = static_cast<std::size_t>(std::clamp(std::lround((y - g.y_min) / g.dy()), 0L,
+                                                                      static_cast<long>(g.ny) - 1));
+            d = std::min(d, to_mask[i * g.nx + j]);
+        }
+        near[k] = d < reach ? 1.0 : 0.0;
+    }
+    const CurveStats st = curve_statistics(xy, near);
+    return st.covered_length > 0.0 ? st.integral / st.covered_length : 0.0;
+}
+
+// Points about `spacing` apart along a polyline (at least 3, at most 64), at the middles of equal arc-length parts.
+std::vector<double> probe_points(const std::vector<double> &xy, double spacing) {
+    const std::vector<double> arc = cumulative_length(xy);
+    const std::size_t count =
+        std::clamp<std::size_t>(static_cast<std::size_t>(std::ceil(arc.back() / spacing)), 3, 64);
+    std::vector<double> out(2 * count);
+    for (std::size_t j = 0; j < count; ++j) {
+        const double at = (static_cast<double>(j) + 0.5) / static_cast<double>(count) * arc.back();
+        const std::size_t m = std::min(
+            static_cast<std::size_t>(std::lower_bound(arc.begin(), arc.end(), at) - arc.begin()), arc.size() - 1);
+        out[2 * j] = xy[2 * m];
+        out[2 * j + 1] = xy[2 * m + 1];
+    }
+    return out;
+}
+
+// A barrier chosen by the selection rule (step 5 of docs/extractors.md).
+struct Selected {
+    Segment piece;              // what is reported: a whole candidate segment, or the part of one not yet covered
+    std::size_t candidate = 0;  // the candidate segment it was selected with
+    bool remainder = false;     // a part only: the rest of the candidate lies along barriers of smaller q
+    std::size_t probes = 0;     // probe points along the piece, about a neighbour distance apart
+    std::size_t dominated = 0;  // probes with a segment of smaller q within the neighbour distance
 };
 
 struct Hyperbolic {
@@ -179,6 +343,9 @@ struct Hyperbolic {
         bool_param("validate", true, "advect every barrier to t1 with point insertion and report its true length"),
         real_param("max_gap_fraction", 0.005, 1e-6, 0.5, "",
                    "curve advection: no gap in an image longer than this fraction of the image's size"),
+        string_param("invariant_walls", "", nullptr,
+                     "walls that are invariant lines of the flow, comma-separated from left, right, bottom, top, "
+                     "mask, box, all: segments along them are reported; along any other wall they are artefacts"),
     };
 
     explicit Hyperbolic(const sdk::Params &p)
@@ -186,7 +353,8 @@ struct Hyperbolic {
           m_seed_spacing(static_cast<std::size_t>(p.integer("seed_spacing"))), m_max_length(p.real("max_length")),
           m_min_length(p.real("min_length")), m_neighbour_distance(p.real("neighbour_distance")),
           m_max_barriers(static_cast<std::size_t>(p.integer("max_barriers"))), m_singular_gap(p.real("singular_gap")),
-          m_route(p.string("route")), m_validate(p.flag("validate")), m_max_gap_fraction(p.real("max_gap_fraction")) {}
+          m_route(p.string("route")), m_validate(p.flag("validate")), m_max_gap_fraction(p.real("max_gap_fraction")),
+          m_walls(Walls::parse(p.string("invariant_walls"))) {}
 
     void extract(const sdk::Host &host, const gb_extract_input &in) const;
 
@@ -199,6 +367,7 @@ struct Hyperbolic {
     std::string m_route;
     bool m_validate;
     double m_max_gap_fraction;
+    Walls m_walls;
 
   private:
     std::vector<double> seeds(const Grid &g, const LineField &field, const std::vector<double> *deviation) const;
@@ -372,7 +541,6 @@ std::vector<Strainline> Hyperbolic::opposite_time_strainlines(const sdk::Host &h
 }
 
 void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) const {
-    const auto started = std::chrono::steady_clock::now();
     const CauchyGreenField cg = cauchy_green_from_input(in);
     const Grid &g = cg.grid;
     const double *dev_data = find_field(in, "strain_deviation");
@@ -394,6 +562,7 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     // Line by line in parallel, gathered in line order.
     std::vector<double> log_lambda1(g.size());
     for (std::size_t p = 0; p < g.size(); ++p) log_lambda1[p] = std::log(cg.lambda1[p]);
+    const SegmentMeter meter{g, log_lambda1, cg.mask, opposite};
     std::vector<std::vector<Segment>> per_line(lines.size());
     std::vector<std::size_t> short_per_line(lines.size(), 0);
 #pragma omp parallel for schedule(dynamic)
@@ -410,34 +579,12 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
             s.line = l;
             s.first = first;
             s.last = k - 1;
-            const std::vector<double> xy = points_of(lines, s);
-            s.length = polyline_length(xy);
+            s.length = polyline_length(points_of(lines, s));
             if (s.length < min_length) {
                 ++short_per_line[l];
                 continue;
             }
-            const std::vector<double> dev(line.deviation.begin() + first, line.deviation.begin() + k);
-            const CurveStats ds = curve_statistics(xy, dev);
-            s.mean_deviation = ds.mean;
-            s.max_deviation = ds.max;
-            if (opposite) {
-                s.stretched_length =
-                    polyline_length(std::vector<double>(line.xy_t1.begin() + 2 * first, line.xy_t1.begin() + 2 * k));
-            } else {
-                // Interpolating log(lambda1) is exact for exponential variation across a cell.
-                std::vector<double> root = sample_along(g, log_lambda1, cg.mask, xy);
-                for (double &v : root) v = std::exp(0.5 * v);
-                const CurveStats rs = curve_statistics(xy, root);
-                if (rs.covered_length < 0.999 * s.length) continue; // sqrt(lambda1) unknown on part of it
-                s.stretched_length = rs.integral;
-            }
-            s.q = s.stretched_length / s.length;
-            const std::vector<double> c = cumulative_length(xy);
-            const std::size_t mid =
-                static_cast<std::size_t>(std::lower_bound(c.begin(), c.end(), 0.5 * s.length) - c.begin());
-            s.mid_x = xy[2 * std::min(mid, c.size() - 1)];
-            s.mid_y = xy[2 * std::min(mid, c.size() - 1) + 1];
-            if (std::isfinite(s.q)) per_line[l].push_back(s);
+            if (meter.measure(lines, s)) per_line[l].push_back(s);
         }
     }
     std::vector<Segment> candidates;
@@ -452,75 +599,194 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
               std::to_string(short_segments) + " shorter ones left out)");
     if (host.progress(0.7)) throw std::runtime_error("stopped by the user");
 
-    // 3. Local minima of q (Alg. 1, step 3). Neighbours of a segment: the other segments passing within `radius`
-    // of its midpoint (they cross a disc around it, so they run beside it). A segment is a local minimum when no
-    // neighbour has a smaller q. Minima that are neighbours of each other (the same barrier found from several
-    // seeds) are thinned to the least q, visiting them in order of increasing q (ties: the longer first).
+    // 3. Segments running along a wall that is not declared invariant (more than half their length within the
+    // neighbour distance of it) are no candidates for reporting; they stay in the neighbourhoods below, so that the
+    // strainlines beside them do not become local minima in their place.
+    std::vector<char> along_wall(candidates.size(), 0);
+    {
+        const std::vector<double> to_mask = m_walls.mask ? distance_to_mask(g, cg.mask) : std::vector<double>();
+        std::size_t count = 0;
+#pragma omp parallel for schedule(dynamic) reduction(+ : count)
+        for (std::size_t c = 0; c < candidates.size(); ++c)
+            if (fraction_along_walls(g, m_walls, to_mask, points_of(lines, candidates[c]), radius) > 0.5) {
+                along_wall[c] = 1;
+                ++count;
+            }
+        if (count)
+            host.info("" + std::to_string(count) + " segments run along the box's edge or the mask's and are not "
+                      "reported (declare invariant walls with \"invariant_walls\")");
+    }
+
+    // 4. Local minima of q (Alg. 1, step 3), disjoint. The neighbours of a segment are the other strainlines
+    // running beside it, not the same curve found again from another seed and cut elsewhere by d_g or by where its
+    // strainline left the curve: comparing such pieces by q would favour the shortest piece where sqrt(lambda1) is
+    // least (along a homoclinic loop, the branch entering the saddle) and drop the rest of the curve. So a segment
+    // lying along longer ones (at least 90% of its probes, about a neighbour distance apart, within two grid cells
+    // of them) is a piece: it can be chosen, but it is nobody's neighbour; the longer segments stand for it.
     const auto first_point = [&](const Segment &c) { return lines[c.line].xy.data() + 2 * c.first; };
+    const double cover_distance = std::min(radius, 2.0 * std::max(g.dx(), g.dy()));
+    // Visited longest first, so that the index holds only the distinct curves (a few hundred where thousands of
+    // strainlines crowd onto an attractor), a segment is a piece when 90% of its probes lie within two grid cells
+    // of the longer segments kept so far.
+    std::vector<char> piece_of_longer(candidates.size(), 0);
+    {
+        std::vector<std::size_t> by_length(candidates.size());
+        std::iota(by_length.begin(), by_length.end(), std::size_t{0});
+        std::stable_sort(by_length.begin(), by_length.end(), [&](std::size_t a, std::size_t b) {
+            return candidates[a].length > candidates[b].length;
+        });
+        RunIndex distinct(g, radius);
+        for (std::size_t c : by_length) {
+            const std::vector<double> probes = probe_points(points_of(lines, candidates[c]), radius);
+            const std::size_t count = probes.size() / 2;
+            std::size_t along = 0;
+            for (std::size_t j = 0; j < count; ++j)
+                along += distinct.any_near(probes[2 * j], probes[2 * j + 1], cover_distance) ? 1 : 0;
+            if (static_cast<double>(along) >= 0.9 * static_cast<double>(count))
+                piece_of_longer[c] = 1;
+            else
+                distinct.add(first_point(candidates[c]), candidates[c].last - candidates[c].first + 1, c);
+        }
+    }
+    // Then the neighbourhoods. Visited in order of increasing q (ties: the longer first), a segment's points within
+    // two grid cells of a barrier already chosen are covered: that stretch of it is a barrier of smaller q already.
+    // Each uncovered run at least min_length long is probed about every neighbour distance; it is a local minimum
+    // of q among its own neighbours, and a barrier, when at most half of its probes have a segment of smaller q
+    // (not a piece) within the neighbour distance. A remainder must also be at least a third of its segment: the
+    // shorter leftovers of pieces cut at different places would otherwise tile a curve already reported. So a family of strainlines whose q falls monotonically across it yields only
+    // its least member, while two curves that merely touch (the two homoclinic loops of a double well at its
+    // saddle) are both barriers, and so is the part of a segment that runs on past a barrier of smaller q
+    // (`selection` "remainder").
     RunIndex index(g, radius);
     for (std::size_t c = 0; c < candidates.size(); ++c)
-        index.add(first_point(candidates[c]), candidates[c].last - candidates[c].first + 1, c);
+        if (!piece_of_longer[c]) index.add(first_point(candidates[c]), candidates[c].last - candidates[c].first + 1, c);
     const auto q_of = [&](std::size_t c) { return candidates[c].q; };
     index.sort_buckets(q_of);
-    std::vector<std::size_t> minima;
+    std::vector<std::size_t> order;
     for (std::size_t c = 0; c < candidates.size(); ++c)
-        if (!index.any_near_below(candidates[c].mid_x, candidates[c].mid_y, candidates[c].q, c, q_of))
-            minima.push_back(c);
-    std::sort(minima.begin(), minima.end(), [&](std::size_t a, std::size_t b) {
+        if (!along_wall[c]) order.push_back(c);
+    std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
         if (candidates[a].q != candidates[b].q) return candidates[a].q < candidates[b].q;
-        return candidates[a].length > candidates[b].length;
+        if (candidates[a].length != candidates[b].length) return candidates[a].length > candidates[b].length;
+        return a < b;
     });
-    std::vector<std::size_t> barriers;
+    std::vector<Selected> selected;
     RunIndex kept(g, radius);
-    for (std::size_t c : minima) {
-        if (kept.any_near(candidates[c].mid_x, candidates[c].mid_y)) continue;
-        barriers.push_back(c);
-        kept.add(first_point(candidates[c]), candidates[c].last - candidates[c].first + 1, c);
-        if (m_max_barriers > 0 && barriers.size() >= m_max_barriers) break;
+    for (std::size_t c : order) {
+        if (m_max_barriers > 0 && selected.size() >= m_max_barriers) break;
+        const Segment &cand = candidates[c];
+        const std::size_t n = cand.last - cand.first + 1;
+        const double *xy = first_point(cand);
+        std::size_t k = 0;
+        while (k < n) {
+            while (k < n && kept.any_near(xy[2 * k], xy[2 * k + 1], cover_distance)) ++k;
+            const std::size_t begin = k;
+            while (k < n && !kept.any_near(xy[2 * k], xy[2 * k + 1], cover_distance)) ++k;
+            if (k - begin < 2) continue;
+            Selected pick;
+            pick.candidate = c;
+            pick.piece = cand;
+            pick.piece.first = cand.first + begin;
+            pick.piece.last = cand.first + k - 1;
+            pick.remainder = begin > 0 || k < n;
+            const std::vector<double> piece_xy = points_of(lines, pick.piece);
+            pick.piece.length = polyline_length(piece_xy);
+            if (pick.piece.length < min_length || (pick.remainder && 3.0 * pick.piece.length < cand.length)) continue;
+            const std::vector<double> probes = probe_points(piece_xy, radius);
+            pick.probes = probes.size() / 2;
+            for (std::size_t j = 0; j < pick.probes; ++j)
+                if (index.any_near_below(probes[2 * j], probes[2 * j + 1], cand.q, c, q_of)) ++pick.dominated;
+            if (2 * pick.dominated > pick.probes) continue;
+            if (pick.remainder && !meter.measure(lines, pick.piece)) continue;
+            selected.push_back(pick);
+        }
+        // This candidate's pieces cover only from now on, not the rest of the same candidate.
+        for (std::size_t b = selected.size(); b-- > 0 && selected[b].candidate == c;)
+            kept.add(first_point(selected[b].piece), selected[b].piece.last - selected[b].piece.first + 1, b);
     }
-    host.info("" + std::to_string(minima.size()) + " local minima of q, " + std::to_string(barriers.size()) +
-              " barriers after thinning (neighbour distance " + format(radius) + ")");
+    // Ranked by the q of what is reported (a remainder's own q).
+    std::stable_sort(selected.begin(), selected.end(),
+                     [](const Selected &a, const Selected &b) { return a.piece.q < b.piece.q; });
+    std::size_t remainders = 0;
+    for (const Selected &p : selected) remainders += p.remainder ? 1 : 0;
+    host.info("" + std::to_string(selected.size()) + " barriers: disjoint local minima of q (neighbour distance " +
+              format(radius) + "), " + std::to_string(remainders) + " of them remainders of a segment past a " +
+              "barrier of smaller q");
 
-    // 4. Check the shortcut: advect each barrier to t1 with point insertion and compare lengths.
-    std::vector<AdvectedCurve> advected;
-    if (m_validate && !barriers.empty()) {
+    // 5. Check the shortcut: advect each barrier to t1 with point insertion and compare lengths, where that
+    // measurement is well-conditioned. A polyline whose tangent is off xi1 by theta has an image longer than
+    // int sqrt(lambda1) ds by about kappa^2 theta^2 / 2 relatively, kappa = sqrt(lambda2 / lambda1): the curve
+    // advection then measures the polyline's discretisation error (theta ~ 5e-4 on a grid of h = 0.02, measured
+    // below), amplified, and two builds that round differently disagree on it (38.4 against 56.1 for one barrier).
+    // Barriers with kappa above max_condition get no advected figures; their stretching_condition says why.
+    std::vector<double> log_condition(g.size());
+    for (std::size_t p = 0; p < g.size(); ++p) log_condition[p] = 0.5 * std::log(cg.lambda2[p] / cg.lambda1[p]);
+    std::vector<double> condition(selected.size(), HUGE_VAL);
+    for (std::size_t b = 0; b < selected.size(); ++b) {
+        const CurveStats cs = curve_statistics(points_of(lines, selected[b].piece),
+                                               sample_along(g, log_condition, cg.mask, points_of(lines, selected[b].piece)));
+        if (cs.finite_points) condition[b] = std::exp(cs.max);
+    }
+    std::vector<AdvectedCurve> advected(selected.size());
+    std::vector<char> was_advected(selected.size(), 0);
+    if (m_validate && !selected.empty()) {
         const AdvectPointsFn advect = [&](const std::vector<double> &pts, std::vector<double> &out,
                                           std::vector<std::uint8_t> &m) { host.advect(pts, in.t0, in.t1, out, m); };
         CurveAdvectionSettings cs;
         cs.max_gap_fraction = m_max_gap_fraction;
         std::vector<std::vector<double>> curves;
-        for (std::size_t c : barriers) curves.push_back(points_of(lines, candidates[c]));
-        advected = advect_curves(curves, std::vector<bool>(curves.size(), false), advect, cs);
+        std::vector<std::size_t> which;
+        for (std::size_t b = 0; b < selected.size(); ++b)
+            if (condition[b] <= max_condition) {
+                curves.push_back(points_of(lines, selected[b].piece));
+                which.push_back(b);
+            }
+        const std::vector<AdvectedCurve> images =
+            advect_curves(curves, std::vector<bool>(curves.size(), false), advect, cs);
+        for (std::size_t k = 0; k < which.size(); ++k) {
+            advected[which[k]] = images[k];
+            was_advected[which[k]] = 1;
+        }
+        if (which.size() < selected.size())
+            host.info("" + std::to_string(selected.size() - which.size()) + " barriers not advected: condition " +
+                      "sqrt(lambda2/lambda1) above " + format(max_condition) + ", the advected length would " +
+                      "measure the polyline's tangent error");
     }
     if (host.progress(0.9)) throw std::runtime_error("stopped by the user");
 
-    const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-    for (std::size_t b = 0; b < barriers.size(); ++b) {
-        const Segment &s = candidates[barriers[b]];
+    for (std::size_t b = 0; b < selected.size(); ++b) {
+        const Selected &p = selected[b];
+        const Segment &s = p.piece;
         std::vector<std::pair<std::string, double>> metrics = {
             {"length", s.length},
             {"relative_stretching", s.q},
             {"stretched_length", s.stretched_length},
             {"mean_geodesic_deviation", s.mean_deviation},
             {"max_geodesic_deviation", s.max_deviation},
-            {backward ? "attracting" : "repelling", 1.0},
-            {"global_minimum", b == 0 ? 1.0 : 0.0},
             {"rank", static_cast<double>(b + 1)},
+            {"neighbour_probes", static_cast<double>(p.probes)},
+            {"probes_with_smaller_q", static_cast<double>(p.dominated)},
         };
-        if (!advected.empty()) {
+        if (p.remainder) metrics.push_back({"segment_relative_stretching", candidates[p.candidate].q});
+        if (std::isfinite(condition[b])) metrics.push_back({"stretching_condition", condition[b]});
+        if (was_advected[b]) {
             const AdvectedCurve &a = advected[b];
             metrics.push_back({"advected_length", a.length1});
             metrics.push_back({"advected_relative_stretching", a.length1 / a.length0});
             metrics.push_back({"advected_points", static_cast<double>(a.xy1.size() / 2)});
-            metrics.push_back({"advection_converged", a.converged ? 1.0 : 0.0});
         }
-        if (b == 0) metrics.push_back({"extraction_seconds", elapsed});
         host.add_barrier("hyperbolic", false, points_of(lines, s), metrics);
+        std::vector<std::pair<std::string, std::string>> attributes = {
+            {backward ? "attracting" : "repelling", "true"},
+            {"global_minimum", b == 0 ? "true" : "false"},
+            {"selection", p.remainder ? "\"remainder\"" : "\"local-minimum\""}};
+        if (was_advected[b]) attributes.push_back({"advection_converged", advected[b].converged ? "true" : "false"});
+        host.set_barrier_attributes(attributes);
     }
-    if (!barriers.empty()) {
-        const Segment &s = candidates[barriers[0]];
+    if (!selected.empty()) {
+        const Segment &s = selected[0].piece;
         std::string line = "global minimum q = " + format(s.q) + ", length " + format(s.length);
-        if (!advected.empty())
+        if (was_advected[0])
             line += "; advected length " + format(advected[0].length1) + " vs int sqrt(lambda1) ds " +
                     format(s.stretched_length);
         host.info(line);
@@ -539,9 +805,9 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     fp.colorbar_label = "FTLE";
     fp.x_label = sdk::axis_label(in, 0); // "name [unit]" of the system's states (ABI 1.2)
     fp.y_label = sdk::axis_label(in, 1);
-    for (std::size_t b = barriers.size(); b-- > 0;) {
+    for (std::size_t b = selected.size(); b-- > 0;) {
         PlotCurve c;
-        c.xy = points_of(lines, candidates[barriers[b]]);
+        c.xy = points_of(lines, selected[b].piece);
         c.color = b == 0 ? "red" : "white";
         c.width = b == 0 ? 3.0 : 1.5;
         fp.curves.push_back(c);
@@ -572,8 +838,8 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
         s.width = 0.5;
         xp.series.push_back(std::move(s));
     }
-    if (!barriers.empty()) {
-        const Segment &best = candidates[barriers[0]];
+    if (!selected.empty()) {
+        const Segment &best = selected[0].piece;
         const Strainline &parent = lines[best.line];
         PlotSeries full;
         full.xy = parent.xy;

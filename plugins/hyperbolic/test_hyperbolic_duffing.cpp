@@ -52,11 +52,11 @@ TEST_CASE("damped Duffing: the least-stretching attracting barrier lies on the c
     REQUIRE(!barriers.empty());
     const json *best = nullptr;
     for (const auto &b : barriers)
-        if (b.value("global_minimum", 0.0) == 1.0) best = &b;
+        if (b.value("global_minimum", false)) best = &b;
     REQUIRE(best != nullptr);
     CHECK((*best)["kind"] == "hyperbolic");
     CHECK((*best)["closed"] == false);
-    CHECK((*best)["attracting"] == 1.0);
+    CHECK((*best)["attracting"] == true);
     std::vector<double> bx, by;
     for (const auto &p : (*best)["points"]) {
         bx.push_back(p[0]);

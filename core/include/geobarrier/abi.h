@@ -29,8 +29,10 @@ extern "C" {
 /* Minor 2 appended: gb_system_vtable.state_names/state_units and gb_extract_input.state_names/state_units.
  * The core reads the system's only from plugins whose entry says abi_minor >= 2; an extractor may read the
  * input's only when its host is 1.2 or newer (the SDK offers them to plugins that link the core library).
- * Minor 2 also appended gb_system_vtable.advance (a fused Runge-Kutta step, gb_advance_request), read likewise. */
-#define GB_ABI_VERSION_MINOR 2u
+ * Minor 2 also appended gb_system_vtable.advance (a fused Runge-Kutta step, gb_advance_request), read likewise.
+ * Minor 3 added the method GB_ADVANCE_DOP853_CHECKED and appended lane_error to gb_advance_request
+ * (the fused step's error estimate), read only with that method. */
+#define GB_ABI_VERSION_MINOR 3u
 
 /* The one symbol every plugin library exports. */
 #define GB_PLUGIN_ENTRY_SYMBOL "geobarrier_plugin_entry"
@@ -114,7 +116,8 @@ typedef struct gb_message {
  * The core keeps everything else: masking (it restores lanes it had frozen), bounds, renormalisation, step counts. */
 typedef enum gb_advance_method {
     GB_ADVANCE_RK4 = 1,   /* classic 4-stage Runge-Kutta */
-    GB_ADVANCE_DOP853 = 2 /* Dormand-Prince 8(5,3), 12 stages, as in Hairer's dop853.f (no error estimate here) */
+    GB_ADVANCE_DOP853 = 2, /* Dormand-Prince 8(5,3), 12 stages, as in Hairer's dop853.f, no error estimate */
+    GB_ADVANCE_DOP853_CHECKED = 3 /* ABI 1.3: DOP853 that also writes lane_error (see gb_advance_request) */
 } gb_advance_method;
 
 typedef struct gb_advance_request {
@@ -126,6 +129,13 @@ typedef struct gb_advance_request {
     const double *x, *df, *log_det;
     double *x_out, *df_out, *log_det_out;
     int32_t *lane_status;
+    /* ABI 1.3, appended; read only for method GB_ADVANCE_DOP853_CHECKED, which a core older than 1.3 never sends (and
+     * which a plugin older than 1.3 answers GB_UNSUPPORTED), so the struct's size never matters across versions.
+     * lane_error[k] receives max over the state components i < dimension (not DF) of |sum_j e_j k_ij|, DOP853's
+     * 5th-order error row (er1..er12 of dop853.f) over the lane's stage derivatives k_j (rk_tableaux.hpp,
+     * lane_error_estimate); the core scales it by |h| and the tolerances and shrinks a step whose batch maximum
+     * fails. */
+    double *lane_error;
 } gb_advance_request;
 
 /* x' = v(x, t; f(t)) with state dimension `dimension`.

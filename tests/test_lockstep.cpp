@@ -294,6 +294,13 @@ TEST_CASE("quality presets: names, overrides, errors") {
     CHECK_FALSE(fixed.integrator.adaptive);
     CHECK(fixed.integrator.step == 0.1);
     CHECK(experiment({{"integrator", {{"engine", "odeint"}, {"method", "dopri5"}}}}).integrator.engine == "odeint");
+    // Every preset checks its fixed steps, looser for draft, tighter for publication; 0 turns the check off.
+    CHECK(draft.integrator.step_tolerance > quality_preset("standard").step_tolerance);
+    CHECK(publication.integrator.step_tolerance < quality_preset("standard").step_tolerance);
+    CHECK(publication.integrator.step_tolerance > 0.0);
+    CHECK(experiment({{"integrator", {{"step_tolerance", 0}}}}).integrator.step_tolerance == 0.0);
+    CHECK_THROWS_WITH_AS(experiment({{"integrator", {{"step_tolerance", -1}}}}),
+                         doctest::Contains("/integrator/step_tolerance"), ConfigError);
     // The auxiliary-grid offset follows the tolerances unless given: 1e-3 of the spacing (0.5 here), raised to
     // 1e-14 / tau in state units (capped at 0.5 of the spacing).
     const Experiment paper = experiment({{"integrator", {{"method", "dopri5"}, {"rtol", 1e-6}, {"atol", 1e-4}}}});
@@ -310,4 +317,105 @@ TEST_CASE("quality presets: names, overrides, errors") {
                          doctest::Contains("/integrator/engine"), ConfigError);
     CHECK_THROWS_WITH_AS(experiment({{"integrator", {{"engine", "boost"}}}}), doctest::Contains("\"boost\""),
                          ConfigError);
+}
+
+namespace {
+
+// FTLE of every grid point by `settings` and by a tight rkf78 reference (NaN where masked), forward from 0 to T.
+struct FtlePair {
+    std::vector<double> ours, exact;
+    GridFlowMap flow;
+};
+FtlePair ftle_pair(const Dynamics &dyn, const Grid &grid, double T, const IntegratorSettings &settings) {
+    FtlePair r;
+    r.flow = compute_grid_flow_map(dyn, grid, 0.0, T, settings, GradientMethod::variational, 0.0, false);
+    IntegratorSettings tight;
+    tight.method = "rkf78";
+    tight.rtol = tight.atol = 1e-12;
+    const GridFlowMap exact = compute_grid_flow_map(dyn, grid, 0.0, T, tight, GradientMethod::variational, 0.0, false);
+    r.ours = cauchy_green_field(grid, r.flow.dF, r.flow.mask, T, r.flow.dF_exponent, r.flow.log_det).ftle;
+    r.exact = cauchy_green_field(grid, exact.dF, exact.mask, T, exact.dF_exponent, exact.log_det).ftle;
+    return r;
+}
+
+}  // namespace
+
+TEST_CASE("checked fixed steps: on the paper's first example every step passes, bit for bit the unchecked run") {
+    const System duffing = make_system("duffing");
+    const Forcing cosine = make_forcing("cosine", {{"amplitude", 0.08}});
+    const Dynamics dyn{&duffing, &cosine};
+    const Grid grid{-1.8, 1.8, -1.2, 1.2, 40, 27};
+    const double T = 8 * pi;
+    for (bool fused : {true, false}) {
+        CAPTURE(fused);
+        IntegratorSettings checked = quality_preset("standard"), plain = checked;
+        checked.fused = plain.fused = fused;
+        plain.step_tolerance = 0.0;
+        REQUIRE(checked.step_tolerance > 0.0);
+        const GridFlowMap a = compute_grid_flow_map(dyn, grid, 0.0, T, checked, GradientMethod::variational, 0.0, false);
+        const GridFlowMap b = compute_grid_flow_map(dyn, grid, 0.0, T, plain, GradientMethod::variational, 0.0, false);
+        CHECK(a.stats.rejected_steps == 0);
+        CHECK(a.stats.steps == a.stats.planned_steps);
+        CHECK(a.stats.planned_steps == 77 * a.stats.batches); // ceil(8 pi / 0.33)
+        CHECK(a.dF == b.dF);
+        CHECK(describe_step_refinement(a.stats, checked, true).empty());
+    }
+}
+
+TEST_CASE("checked fixed steps: van der Pol mu = 4 and 8 with the standard preset are accurate, or masked with cause") {
+    // The failure: cosine forcing 0.5, T = 10, box [-3, 3] x [-4, 4]. Unchecked steps of 0.33 blow up on
+    // most of the box at mu = 8; checked steps refine where the relaxation oscillation is fast.
+    const Forcing cosine = make_forcing("cosine", {{"amplitude", 0.5}});
+    const Grid grid{-3, 3, -4, 4, 13, 13};
+    const IntegratorSettings standard = quality_preset("standard");
+    for (double mu : {4.0, 8.0}) {
+        CAPTURE(mu);
+        const System vdp = make_system("van-der-pol", {{"mu", mu}});
+        const Dynamics dyn{&vdp, &cosine};
+        const FtlePair r = ftle_pair(dyn, grid, 10.0, standard);
+        double mean = 0.0, worst = 0.0;
+        std::size_t counted = 0;
+        for (std::size_t p = 0; p < grid.size(); ++p) {
+            REQUIRE(std::isfinite(r.exact[p]));
+            if (!std::isfinite(r.ours[p])) continue;
+            const double e = std::abs(r.ours[p] - r.exact[p]);
+            mean += e;
+            worst = std::max(worst, e);
+            ++counted;
+        }
+        mean /= static_cast<double>(counted);
+        MESSAGE("van der Pol mu = " << mu << ": " << r.flow.stats.steps << " steps for " << r.flow.stats.planned_steps
+                                    << " planned, masked " << r.flow.stats.masked << ", FTLE error mean " << mean
+                                    << ", max " << worst);
+        // The standard preset's stated accuracy, and nothing masked: the checked steps resolve these systems.
+        CHECK(r.flow.stats.masked == 0);
+        CHECK(mean <= 1e-4);
+        CHECK(worst <= 0.05);
+        CHECK(r.flow.stats.steps > r.flow.stats.planned_steps); // it had to refine
+        // A run that refines more than twice the grid says so, naming the stepper and the alternatives.
+        if (r.flow.stats.steps > 2 * r.flow.stats.planned_steps) {
+            const std::string advice = describe_step_refinement(r.flow.stats, standard, true);
+            CHECK(advice.find("dop853") != std::string::npos);
+            CHECK(advice.find("rosenbrock4") != std::string::npos);
+        }
+    }
+}
+
+TEST_CASE("checked fixed steps: a system too stiff for the smallest sub-step is masked unstable, with the fix named") {
+    // Duffing with damping 1e6: the explicit stepper is stable only below about 6e-6, far under 0.33 / 1024.
+    const System stiff = make_system("duffing", {{"delta", 1e6}});
+    const Dynamics dyn{&stiff, nullptr};
+    std::vector<double> x0, y0;
+    test::sample_points(20, x0, y0);
+    const IntegratorSettings standard = quality_preset("standard");
+    const AdvectResult r = advect_points(dyn, x0, y0, 0.0, 2.0, standard, true);
+    CHECK(r.stats.masked == x0.size());
+    CHECK(r.stats.masked_unstable + r.stats.masked_non_finite == x0.size());
+    CHECK(r.stats.masked_unstable > 0);
+    for (std::uint8_t m : r.mask) CHECK((m & (mask_unstable | mask_non_finite)) != 0);
+    const std::string advice = describe_masking(r.stats, standard, true);
+    CHECK(advice.find("integrator unstable") != std::string::npos);
+    CHECK(advice.find("dop853") != std::string::npos);
+    CHECK(advice.find("rosenbrock4") != std::string::npos);
+    CHECK(advice.find("\"adaptive\": true") != std::string::npos);
 }

@@ -243,12 +243,12 @@ TEST_CASE("write_fields_netcdf: round trip of a 4 x 3 grid with two variables an
     CHECK(mask_back == mask);
     std::size_t n_flags = 0;
     nc_ok(nc_inq_attlen(ncid, var_mask, "flag_masks", &n_flags));
-    REQUIRE(n_flags == 5);
-    std::array<unsigned char, 5> flags{};
+    REQUIRE(n_flags == 6);
+    std::array<unsigned char, 6> flags{};
     nc_ok(nc_get_att_uchar(ncid, var_mask, "flag_masks", flags.data()));
-    CHECK(flags == std::array<unsigned char, 5>{1, 2, 4, 8, 16});
+    CHECK(flags == std::array<unsigned char, 6>{1, 2, 4, 8, 16, 32});
     CHECK(text_attribute(ncid, var_mask, "flag_meanings") ==
-          "left_bounds non_finite step_limit invalid_state degenerate_eigenvectors");
+          "left_bounds non_finite step_limit invalid_state degenerate_eigenvectors unstable_step");
 
     // Global attributes: strings as text, numbers as double, bools as int, the rest as JSON text.
     CHECK(text_attribute(ncid, NC_GLOBAL, "title") == "test fields");

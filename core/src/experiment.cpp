@@ -101,11 +101,13 @@ IntegratorSettings quality_preset(const std::string &quality) {
     if (quality == "draft") {
         s.adaptive = false;
         s.step = 0.6;
+        s.step_tolerance = 1e-2;
         s.rtol = 1e-6;
         s.atol = 1e-8;
     } else if (quality == "standard") {
         s.adaptive = false;
         s.step = 0.33;
+        s.step_tolerance = 2e-4;
         s.rtol = 1e-8;
         s.atol = 1e-10;
     } else if (quality == "publication") {
@@ -113,6 +115,7 @@ IntegratorSettings quality_preset(const std::string &quality) {
         // at rtol = atol = 1e-6 for 2.6x the time of this.)
         s.adaptive = false;
         s.step = 0.18;
+        s.step_tolerance = 2e-5;
         s.rtol = 1e-10;
         s.atol = 1e-12;
     } else {
@@ -215,6 +218,12 @@ Experiment parse_experiment(const json &j, const fs::path &file) {
         }
         s.atol = r.positive("atol", s.atol);
         s.step = r.positive("step", s.step);
+        if (r.has("step_tolerance")) {
+            s.step_tolerance = r.number("step_tolerance");
+            if (!(s.step_tolerance >= 0.0 && s.step_tolerance < 1.0))
+                throw ConfigError("/integrator/step_tolerance", short_dump(r.get("step_tolerance")) +
+                                                                    " must be in [0, 1) (0 turns the step check off)");
+        }
         s.batch = r.count("batch", s.batch, 1);
         s.max_steps = r.count("max_steps", s.max_steps, 1);
         if (s.method == "rk4" && !r.has("step"))
@@ -507,7 +516,8 @@ ResolvedExperiment resolve_experiment(const Experiment &experiment) {
     resolved["integrator"] = {{"method", e.integrator.method}, {"engine", e.integrator.engine},
                               {"adaptive", e.integrator.adaptive}, {"rtol", e.integrator.rtol},
                               {"atol", e.integrator.atol},     {"step", e.integrator.step},
-                              {"batch", e.integrator.batch},   {"max_steps", e.integrator.max_steps}};
+                              {"batch", e.integrator.batch},   {"max_steps", e.integrator.max_steps},
+                              {"step_tolerance", e.integrator.step_tolerance}};
     if (!e.integrator.adaptive) {
         const double span = std::abs(e.t1 - e.t0), ratio = span / e.integrator.step;
         resolved["integrator"]["fixed_steps"] =

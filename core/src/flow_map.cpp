@@ -16,6 +16,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <exception>
 #include <functional>
 #include <limits>
@@ -442,12 +443,23 @@ class BatchIntegrator {
         }
         check_bounds(nullptr);
         m_steps = m_rejected = 0;
+        m_planned = 0;
         if (m_t0 != m_t1 && m_active > 0 && m_lockstep && m_method != Method::rosenbrock4) {
-            // rk4 has no error estimate: always fixed steps.
+            // rk4 has no error estimate: always fixed steps, never checked.
             const bool adaptive = m_settings.adaptive && m_method != Method::rk4;
-            const bool fused = !adaptive && try_fused(); // the plugin's fused step took every step
+            const bool checked = !adaptive && m_settings.step_tolerance > 0.0 && m_method != Method::rk4;
+            if (!adaptive) m_planned = static_cast<std::uint64_t>(fixed_step_count());
+            // The plugin's fused step took every step (checked: dop853 only, the method the SDK fuses).
+            const bool fused = !adaptive && (checked ? try_fused_checked() : try_fused());
             stats.fused_batches += fused ? 1 : 0;
-            if (!fused) switch (m_method) {
+            if (checked && !fused) switch (m_method) {
+            case Method::dop853: run_checked<detail::Dop853Tableau>(false); break;
+            case Method::dopri5: run_checked<detail::Dopri5Tableau>(false); break;
+            case Method::rkf78: run_checked<detail::Rkf78Tableau>(false); break;
+            case Method::rk4:
+            case Method::rosenbrock4: break;
+            }
+            else if (!fused) switch (m_method) {
             case Method::dop853: run_lockstep<detail::Dop853Tableau>(adaptive); break;
             case Method::dopri5: run_lockstep<detail::Dopri5Tableau>(adaptive); break;
             case Method::rkf78: run_lockstep<detail::Rkf78Tableau>(adaptive); break;
@@ -468,6 +480,7 @@ class BatchIntegrator {
         stats.batches += 1;
         stats.steps += m_steps;
         stats.rejected_steps += m_rejected;
+        stats.planned_steps += m_planned;
         stats.rhs_evaluations += static_cast<std::uint64_t>(n) * m_ctx.rhs_calls;
         for (std::size_t k = 0; k < n; ++k) {
             const std::uint8_t m = m_ctx.mask[k];
@@ -477,6 +490,7 @@ class BatchIntegrator {
             if (m & mask_non_finite) ++stats.masked_non_finite;
             if (m & mask_step_limit) ++stats.masked_step_limit;
             if (m & mask_invalid_state) ++stats.masked_invalid_state;
+            if (m & mask_unstable) ++stats.masked_unstable;
         }
         for (std::size_t k = 0; k < n; ++k) stats.renormalised += m_renormalised[k];
     }
@@ -898,6 +912,219 @@ class BatchIntegrator {
     // zero derivatives), the same screening, bounds, renormalisation and counts. Same tableaux, same arithmetic
     // order, so the results agree with run_lockstep to rounding. False when the plugin has no fused step or
     // declines the method on the first step (nothing has moved then); run_lockstep takes over.
+    // Fixed steps: ceil(|t1 - t0| / step) equal steps that land on t1 (the 1e-9 keeps rounding from adding a step).
+    double fixed_step_count() const {
+        const double ratio = std::abs(m_t1 - m_t0) / m_settings.step;
+        return std::max(1.0, std::ceil(ratio - 1e-9 * ratio));
+    }
+
+    // ---- checked fixed steps (IntegratorSettings::step_tolerance, the quality presets' default)
+
+    bool try_fused_checked() {
+        if (!m_settings.fused || !m_ctx.system->has_advance() || m_method != Method::dop853) return false;
+        return run_checked<detail::Dop853Tableau>(true);
+    }
+
+    // Fixed steps with an error test. The fixed grid t_i = t0 + i h (h = (t1 - t0) / ceil(|t1 - t0| / step)) is a
+    // sequence of checkpoints: each step goes from t to the next checkpoint in equal sub-steps of at most dt, dt = h
+    // until a step fails. Every trial step's embedded error estimate of the state (per lane: lane_error_estimate of
+    // rk_tableaux.hpp over x and y, scaled by scale_lane_errors) is tested by the batch's worst lane, so the batch
+    // stays in lockstep: a failure (or a NaN, Inf or plugin-refused state, the usual signature of an unstable
+    // explicit step) shrinks dt by the classic factor 0.9 err^(-1/(q+1)) and retries; accepted sub-steps grow it
+    // again, at most to h. On a smooth system every whole step passes, and the run takes exactly the unchecked fixed
+    // steps (same times, same forcing values, same numbers). At the floor h * min_step_fraction, lanes that still
+    // fail are masked with their cause (mask_unstable: the stepper, not the trajectory; mask_non_finite for a NaN or
+    // Inf there; mask_invalid_state for a refused state) and the others go on. DF is not in the test: it follows the
+    // state's time scales, and its error relative to DF tracks the state's (checked on the accuracy suite of the
+    // bench, docs/performance.md). Fused: the plugin's step writes the lane errors (ABI 1.3,
+    // GB_ADVANCE_DOP853_CHECKED); false when it declines on the first step (nothing has moved), and the kernel
+    // takes over. Otherwise the core's stage-by-stage kernel runs the stages (run_lockstep's passes).
+    template <class Tab> bool run_checked(bool fused) {
+        static_assert(Tab::error != detail::RkError::none, "the checked steps need an error estimate");
+        const std::size_t n = m_ctx.n, stride = m_x.size();
+        m_x_new.assign(stride, 0.0);
+        m_dxdt.assign(stride, 0.0);
+        m_lane_error.assign(n, 0.0);
+        const double span = m_t1 - m_t0;
+        const double count = fixed_step_count();
+        const double h_fixed = span / count, h_full = std::abs(h_fixed);
+        const double h_min = h_full * min_step_fraction;
+        // The estimate's own order (lane_error_estimate): DOP853's 5th-order row alone is O(h^6).
+        const double exponent = -1.0 / (Tab::error == detail::RkError::dop853 ? 6 : Tab::error_order + 1);
+        gb_advance_request request{};
+        if (fused) {
+            request.method = GB_ADVANCE_DOP853_CHECKED;
+            request.variational = m_ctx.variational ? 1 : 0;
+            request.n = request.ld = n;
+            request.lane_status = m_ctx.lane_status.data();
+            request.lane_error = m_lane_error.data();
+        } else {
+            m_k.assign(static_cast<std::size_t>(Tab::stages) * stride, 0.0);
+            m_y.assign(stride, 0.0);
+            m_ctx.evaluate(m_x.data(), m_k.data(), m_t0);
+            freeze_invalid(&m_k);
+        }
+        double t = m_t0, dt = h_full;
+        std::size_t attempts = 0;
+        for (double i = 0; m_active > 0 && i < count;) {
+            if (const int signal = cancel_requested()) throw Cancelled(signal, "while integrating trajectories");
+            if (attempts >= m_settings.max_steps) {
+                freeze_all_active(mask_step_limit);
+                break;
+            }
+            const double t_next = i + 1 >= count ? m_t1 : m_t0 + (i + 1) * h_fixed; // not accumulated
+            const double remaining = t_next - t;
+            const double pieces = std::max(1.0, std::ceil(std::abs(remaining) / dt - 1e-9));
+            const bool lands = pieces <= 1.0;
+            const bool whole = lands && t == m_t0 + i * h_fixed; // a step of the fixed grid: cached forcing
+            const double h = lands ? remaining : remaining / pieces;
+            m_ctx.clear_invalid();
+            if (fused) {
+                request.forcing = whole ? stage_forcing<Tab>(static_cast<std::size_t>(i), count, t, h)
+                                        : substep_forcing<Tab>(t, h);
+                request.t = t;
+                request.h = h;
+                request.x = m_x.data();
+                request.x_out = m_x_new.data();
+                if (m_ctx.variational) {
+                    request.df = m_x.data() + comp_f11 * n;
+                    request.log_det = m_x.data() + comp_log_det * n;
+                    request.df_out = m_x_new.data() + comp_f11 * n;
+                    request.log_det_out = m_x_new.data() + comp_log_det * n;
+                }
+                std::fill(m_ctx.lane_status.begin(), m_ctx.lane_status.end(), GB_OK);
+                if (!m_ctx.system->advance(request)) {
+                    if (attempts == 0) return false;
+                    throw PluginError("system '" + m_ctx.system->info().name +
+                                      "': advance() declined a method it had accepted on earlier steps");
+                }
+                m_ctx.note_lane_status();
+                m_ctx.rhs_calls += Tab::stages;
+                for (std::size_t k : m_ctx.frozen) { // frozen lanes stay put, with no error
+                    copy_lane(m_x_new, m_x, k);
+                    m_lane_error[k] = 0.0;
+                }
+            } else {
+                run_stages<Tab>(std::make_index_sequence<Tab::stages - 1>{}, t, h, stride);
+                if constexpr (Tab::fsal) m_x_new.swap(m_y);
+                else new_state<Tab>(m_x_new.data(), m_x.data(), m_k.data(), stride, h);
+                lane_errors<Tab>(); // frozen lanes: zero derivatives, so zero error
+            }
+            scale_lane_errors(h);
+            ++attempts;
+            const double err = batch_error(has_non_finite(m_x_new));
+            const bool at_floor = std::abs(h) <= h_min * (1.0 + 1e-9);
+            if (err > 1.0 && !at_floor) {
+                ++m_rejected;
+                m_ctx.clear_invalid();
+                dt = std::max(h_min, std::abs(h) * std::clamp(0.9 * std::pow(err, exponent), 0.2, 0.9));
+                continue;
+            }
+            if (err > 1.0) mask_failing_lanes(fused); // at the floor: the rest of the batch goes on
+            m_ctx.clear_invalid();
+            t = lands ? t_next : t + h;
+            m_x.swap(m_x_new);
+            if constexpr (Tab::fsal) {
+                if (!fused) std::copy(m_k.begin() + (Tab::stages - 1) * stride, m_k.begin() + Tab::stages * stride,
+                                      m_k.begin());
+            }
+            ++m_steps;
+            if (lands) ++i;
+            if (!fused && !Tab::fsal && i < count) {
+                m_ctx.evaluate(m_x.data(), m_k.data(), t);
+                freeze_invalid(&m_k);
+            }
+            if (!fused && Tab::fsal)
+                for (std::size_t k : m_ctx.frozen) zero_lane(m_k, k);
+            check_after_step(fused ? nullptr : &m_k);
+            if (m_ctx.variational) renormalise(fused ? nullptr : &m_k);
+            dt = whole ? h_full
+                       : std::min(h_full, std::abs(h) * std::clamp(err > 0.0 ? 0.9 * std::pow(err, exponent) : 5.0,
+                                                                   0.2, 5.0));
+        }
+        return true;
+    }
+
+    // The kernel's lane error estimates of a trial step (stage derivatives in m_k), exactly as the SDK's fused step
+    // computes them (rk_tableaux.hpp, lane_error_estimate).
+    template <class Tab> void lane_errors() {
+        const std::size_t n = m_ctx.n, stride = m_x.size();
+        const double *__restrict k = m_k.data();
+        double *__restrict out = m_lane_error.data();
+#pragma omp simd
+        for (std::size_t lane = 0; lane < n; ++lane)
+            out[lane] = detail::lane_error_estimate<Tab, position_components>(
+                [&](int j, unsigned c) { return k[j * stride + c * n + lane]; });
+    }
+
+    // Lane error estimates to ratios: times |h|, over the lane's scale step_tolerance (1 + max(|x|, |x_new|)) over
+    // its state components (a norm-wise error of the state, relative where it is large). One vectorisable pass.
+    void scale_lane_errors(double h) {
+        const std::size_t n = m_ctx.n;
+        const double factor = std::abs(h) / m_settings.step_tolerance;
+        const double *__restrict x = m_x.data(), *__restrict xn = m_x_new.data();
+        double *__restrict e = m_lane_error.data();
+        // By value (std::max returns a reference, which keeps GCC 12 from vectorising this loop).
+        const auto larger = [](double a, double b) { return a < b ? b : a; };
+#pragma omp simd
+        for (std::size_t k = 0; k < n; ++k) {
+            const double big = larger(larger(std::abs(x[k]), std::abs(x[n + k])),
+                                      larger(std::abs(xn[k]), std::abs(xn[n + k])));
+            e[k] = factor * e[k] / (1.0 + big);
+        }
+    }
+
+    // The batch's error of a trial step: the largest lane error of the active lanes; +Inf when a lane's new state or
+    // error is NaN or Inf (`suspect`: the whole-batch probe found one) or the plugin refused one of its stage
+    // states. Such lanes get an infinite lane error, for mask_failing_lanes. One vectorisable pass when all is well.
+    double batch_error(bool suspect) {
+        const std::size_t n = m_ctx.n;
+        const double *e = m_lane_error.data();
+        double err = 0.0;
+        int bad = 0;
+        // max is exact in any order; a NaN fails the comparison into `bad` whatever the order.
+#pragma omp simd reduction(max : err) reduction(| : bad)
+        for (std::size_t k = 0; k < n; ++k) {
+            bad |= !(e[k] <= std::numeric_limits<double>::max());
+            err = std::max(err, e[k]);
+        }
+        if (!bad && !suspect && !m_ctx.any_invalid) return err;
+        const std::size_t comps = m_ctx.components;
+        for (std::size_t k = 0; k < n; ++k) {
+            if (m_ctx.mask[k] != 0) continue;
+            bool lane_bad = m_ctx.invalid[k] || !(m_lane_error[k] <= std::numeric_limits<double>::max());
+            for (std::size_t c = 0; c < comps && !lane_bad; ++c) lane_bad = !std::isfinite(m_x_new[c * n + k]);
+            if (lane_bad) m_lane_error[k] = std::numeric_limits<double>::infinity();
+        }
+        err = 0.0;
+        for (std::size_t k = 0; k < n; ++k)
+            if (m_ctx.mask[k] == 0) err = std::max(err, m_lane_error[k]);
+        return err;
+    }
+
+    // At the smallest sub-step: lanes whose error still exceeds 1 are frozen at their pre-step state, with the cause.
+    void mask_failing_lanes(bool fused) {
+        const std::size_t n = m_ctx.n, comps = m_ctx.components;
+        for (std::size_t k = 0; k < n; ++k) {
+            if (m_ctx.mask[k] != 0 || !(m_lane_error[k] > 1.0)) continue;
+            bool finite = true;
+            for (std::size_t c = 0; c < comps; ++c) finite = finite && std::isfinite(m_x_new[c * n + k]);
+            freeze(k, m_ctx.invalid[k] ? mask_invalid_state : finite ? mask_unstable : mask_non_finite);
+            copy_lane(m_x_new, m_x, k);
+            if (!fused) zero_lane(m_k, k);
+        }
+    }
+
+    // The forcing at the stage times of a sub-step (not on the fixed grid, so not cached).
+    template <class Tab> const double *substep_forcing(double t, double h) {
+        m_substep_forcing.assign(Tab::stages, 0.0);
+        for (int s = 0; s < Tab::stages; ++s) {
+            const double ts = t + Tab::c[s] * h;
+            if (m_ctx.forcing) m_ctx.forcing->evaluate(1, &ts, &m_substep_forcing[static_cast<std::size_t>(s)]);
+        }
+        return m_substep_forcing.data();
+    }
+
     bool try_fused() {
         if (!m_settings.fused || !m_ctx.system->has_advance()) return false;
         switch (m_method) {
@@ -1012,6 +1239,9 @@ class BatchIntegrator {
     std::vector<std::int32_t> m_exponent;     // variational: DF = 2^m_exponent[k] * (the state's DF block)
     std::vector<std::uint8_t> m_renormalised; // lanes rescaled at least once
     unsigned m_since_renormalise = 0;
+    std::vector<double> m_lane_error;         // checked fixed steps: each lane's error of the trial step
+    std::vector<double> m_substep_forcing;    // checked fixed steps: forcing at a sub-step's stage times
+    std::uint64_t m_planned = 0;              // fixed steps: the fixed grid's step count (stats.planned_steps)
     std::vector<double> m_forcing;            // fused steps: forcing at each step's stage times (stage_forcing)
     std::vector<std::uint8_t> m_forcing_known; // per step: m_forcing holds its values
     std::size_t m_forcing_stages = 0;
@@ -1106,7 +1336,10 @@ std::string describe_masking(const IntegratorStats &stats, const IntegratorSetti
     const std::pair<const char *, std::uint64_t> reasons[] = {{"left the bounds", stats.masked_left_bounds},
                                                               {"blew up or became non-finite", stats.masked_non_finite},
                                                               {"hit the step limit", stats.masked_step_limit},
-                                                              {"refused by the plugin", stats.masked_invalid_state}};
+                                                              {"refused by the plugin", stats.masked_invalid_state},
+                                                              {"failed the step's error test at the smallest sub-step "
+                                                               "(integrator unstable / step too large)",
+                                                               stats.masked_unstable}};
     bool first = true;
     for (const auto &[what, count] : reasons) {
         if (count == 0) continue;
@@ -1114,6 +1347,18 @@ std::string describe_masking(const IntegratorStats &stats, const IntegratorSetti
         first = false;
     }
     text += ")";
+    if (stats.masked_unstable > 0) {
+        char step[32];
+        std::snprintf(step, sizeof step, "%g", settings.step);
+        text += "; " + settings.method + " in checked fixed steps (step = " + step +
+                ") could not meet its step_tolerance on these trajectories even at 1/" +
+                std::to_string(static_cast<long>(1.0 / min_step_fraction)) +
+                " of the step: the explicit stepper is unstable or far too coarse there (stiff or very fast dynamics), "
+                "not the trajectory; try \"adaptive\": true" +
+                (has_jacobian ? std::string(", \"method\": \"rosenbrock4\" (stiff systems)")
+                              : std::string()) +
+                " or a smaller \"step\"";
+    }
     if (stats.masked_step_limit > 0) {
         text += "; " + settings.method + " reached its step limit (max_steps = " + std::to_string(settings.max_steps) +
                 " attempted steps per batch, or a step below 1e-14 max(1, |t|))";
@@ -1126,6 +1371,22 @@ std::string describe_masking(const IntegratorStats &stats, const IntegratorSetti
             text += ": try a larger \"max_steps\" or looser tolerances";
     }
     return text;
+}
+
+std::string describe_step_refinement(const IntegratorStats &stats, const IntegratorSettings &settings,
+                                     bool has_jacobian) {
+    if (stats.planned_steps == 0 || stats.steps <= 2 * stats.planned_steps) return std::string();
+    char text[512];
+    std::snprintf(text, sizeof text,
+                  "%s in checked fixed steps (step = %g) took %llu steps and %llu rejected trials where the fixed "
+                  "grid has %llu (%.1fx): the system has faster or stiffer dynamics than the step resolves; the "
+                  "error test kept step_tolerance, but ",
+                  settings.method.c_str(), settings.step, static_cast<unsigned long long>(stats.steps),
+                  static_cast<unsigned long long>(stats.rejected_steps),
+                  static_cast<unsigned long long>(stats.planned_steps),
+                  static_cast<double>(stats.steps) / static_cast<double>(stats.planned_steps));
+    return std::string(text) + "\"adaptive\": true" +
+           (has_jacobian ? ", \"method\": \"rosenbrock4\" (stiff systems)" : "") + " or a smaller \"step\" may be faster";
 }
 
 nlohmann::json long_horizon_method(GradientMethod method) {
@@ -1157,6 +1418,8 @@ void IntegratorStats::add(const IntegratorStats &other) {
     masked_non_finite += other.masked_non_finite;
     masked_step_limit += other.masked_step_limit;
     masked_invalid_state += other.masked_invalid_state;
+    masked_unstable += other.masked_unstable;
+    planned_steps += other.planned_steps;
     renormalised += other.renormalised;
     fused_batches += other.fused_batches;
     wall_seconds += other.wall_seconds;
@@ -1173,6 +1436,8 @@ nlohmann::json IntegratorStats::to_json() const {
                           {"masked_non_finite", masked_non_finite},
                           {"masked_step_limit", masked_step_limit},
                           {"masked_invalid_state", masked_invalid_state},
+                          {"masked_unstable", masked_unstable},
+                          {"planned_steps", planned_steps},
                           {"renormalised", renormalised},
                           {"fused_batches", fused_batches},
                           {"wall_seconds", wall_seconds}};

@@ -253,6 +253,10 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
         spdlog::warn("{}", w);
         warnings.push_back(w);
     }
+    if (const std::string w = describe_step_refinement(flow.stats, e.integrator, r.system.has_jacobian()); !w.empty()) {
+        spdlog::warn("{}", w);
+        warnings.push_back(w);
+    }
     std::map<std::string, const std::vector<double> *> fields;
     if (r.need_cauchy_green) {
         for (const auto &name : plan.keep) fields[name] = &cauchy_green_member(cg, name);

@@ -10,8 +10,8 @@ except ImportError:  # results fall back to NumPy arrays
 
 # fields.nc's mask variable (core/src/fields_netcdf.cpp; the bits of core/include/geobarrier/grid.hpp, MaskBits).
 MASK_ATTRIBUTES = {
-    "flag_masks": np.array([1, 2, 4, 8, 16], dtype=np.uint8),
-    "flag_meanings": "left_bounds non_finite step_limit invalid_state degenerate_eigenvectors",
+    "flag_masks": np.array([1, 2, 4, 8, 16, 32], dtype=np.uint8),
+    "flag_meanings": "left_bounds non_finite step_limit invalid_state degenerate_eigenvectors unstable_step",
     "long_name": "why the values at a grid point are not usable (0 = valid)",
 }
 

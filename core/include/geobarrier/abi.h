@@ -43,7 +43,9 @@ extern "C" {
  * Minor 2 also appended gb_system_vtable.advance (a fused Runge-Kutta step, gb_advance_request), read likewise. */
 /* Minor 3 added: the host entry GB_PLUGIN_ENTRY_WITH_HOST_SYMBOL (gb_host_info: the core's version, its fused-step
  * numerics revision and extensions by id), gb_plugin_entry.get_extension (extensions of a plugin by id, e.g.
- * GB_EXTENSION_BUILD_INFO), gb_advance_request.tableau_revision, and the flag GB_SYSTEM_JACOBIAN_DERIVED. */
+ * GB_EXTENSION_BUILD_INFO), gb_advance_request.tableau_revision, and the flag GB_SYSTEM_JACOBIAN_DERIVED.
+ * Minor 3 also added the method GB_ADVANCE_DOP853_CHECKED and appended gb_advance_request.lane_error (the fused
+ * step's error estimate), read only with that method. */
 #define GB_ABI_VERSION_MINOR 3u
 
 /* The one symbol every plugin library exports. */
@@ -132,7 +134,8 @@ typedef struct gb_message {
  * The core keeps everything else: masking (it restores lanes it had frozen), bounds, renormalisation, step counts. */
 typedef enum gb_advance_method {
     GB_ADVANCE_RK4 = 1,   /* classic 4-stage Runge-Kutta */
-    GB_ADVANCE_DOP853 = 2 /* Dormand-Prince 8(5,3), 12 stages, as in Hairer's dop853.f (no error estimate here) */
+    GB_ADVANCE_DOP853 = 2, /* Dormand-Prince 8(5,3), 12 stages, as in Hairer's dop853.f, no error estimate */
+    GB_ADVANCE_DOP853_CHECKED = 3 /* ABI 1.3: DOP853 that also writes lane_error (see gb_advance_request) */
 } gb_advance_method;
 
 /* The revision of the numerics a fused step must reproduce: the tableaux of <geobarrier/rk_tableaux.hpp> and the
@@ -153,6 +156,13 @@ typedef struct gb_advance_request {
     /* ABI 1.3, appended (present when the host's gb_host_info says 1.3 or newer): the core's
      * GB_ADVANCE_TABLEAU_REVISION. A plugin whose compiled-in revision differs answers GB_UNSUPPORTED. */
     uint32_t tableau_revision;
+    /* ABI 1.3, appended; read only for method GB_ADVANCE_DOP853_CHECKED, which a core older than 1.3 never sends (and
+     * which a plugin older than 1.3 answers GB_UNSUPPORTED), so the struct's size never matters across versions.
+     * lane_error[k] receives max over the state components i < dimension (not DF) of |sum_j e_j k_ij|, DOP853's
+     * 5th-order error row (er1..er12 of dop853.f) over the lane's stage derivatives k_j (rk_tableaux.hpp,
+     * lane_error_estimate); the core scales it by |h| and the tolerances and shrinks a step whose batch maximum
+     * fails. */
+    double *lane_error;
 } gb_advance_request;
 
 /* x' = v(x, t; f(t)) with state dimension `dimension`.

@@ -43,7 +43,20 @@ struct IntegratorSettings {
     // gb_system_vtable.advance, all stages in registers) when it has one; the same numbers to rounding, several
     // times faster. false: always the stage-by-stage kernel (tests compare the two).
     bool fused = true;
+    // Fixed steps of a tableau with an error estimate (dop853, dopri5, rkf78; not rk4), when > 0: every step's
+    // embedded error estimate of the state must stay below step_tolerance (1 + |state|) (norm-wise, the largest
+    // component); a step that fails is split into equal sub-steps, down to step * min_step_fraction, that land back
+    // on the fixed steps' grid t0 + i step (flow_map.cpp, run_checked). On a smooth system every step passes and the
+    // run is exactly the unchecked one; where the step is too large (fast or stiff dynamics, an unstable explicit
+    // step) it is refined instead of blowing up, and a lane that fails even the smallest sub-step is masked
+    // mask_unstable. Separate from rtol/atol, which keep their meaning for adaptive steps. The quality presets set
+    // it; 0 (off) here so that code asking for plain fixed steps gets them.
+    double step_tolerance = 0.0;
 };
+
+// Checked fixed steps never go below step * min_step_fraction: a lane whose error still exceeds the tolerance there
+// is masked mask_unstable (the explicit stepper is unstable at any step the run can afford; try rosenbrock4).
+constexpr double min_step_fraction = 1.0 / 1024;
 
 // rtol below this cannot be honoured in double precision (each stage's rounding error is ~1e-16 |x|, and a step
 // sums several): the engine uses max(rtol, min_rtol), and the experiment parser warns when it clamps.
@@ -75,6 +88,8 @@ struct IntegratorStats {
     std::uint64_t rhs_evaluations = 0; // lane right-hand-side evaluations (batch calls x lanes)
     std::uint64_t masked = 0;          // trajectories masked for any reason
     std::uint64_t masked_left_bounds = 0, masked_non_finite = 0, masked_step_limit = 0, masked_invalid_state = 0;
+    std::uint64_t masked_unstable = 0;  // checked fixed steps: failed the error test at the smallest sub-step
+    std::uint64_t planned_steps = 0;    // fixed steps: the steps of the fixed grid, summed over batches (0: adaptive)
     std::uint64_t renormalised = 0;    // variational: trajectories whose DF left [1/2, 2^256] and was rescaled
     std::uint64_t fused_batches = 0;   // batches the system plugin's fused step integrated (ABI 1.2 advance)
     double wall_seconds = 0.0;
@@ -138,6 +153,11 @@ GridFlowMap compute_grid_flow_map(const Dynamics &dynamics, const Grid &grid, do
 // One line on why trajectories were masked, with the counts per reason; when the step limit is among them, it names
 // the stepper and suggests rosenbrock4 (stiff systems) or a larger max_steps. Empty when nothing was masked.
 std::string describe_masking(const IntegratorStats &stats, const IntegratorSettings &settings, bool has_jacobian);
+
+// Checked fixed steps that needed many more steps than the fixed grid (more than twice): one line naming the stepper,
+// the step and what to try instead (a smaller step, adaptive, rosenbrock4 for stiff systems); else empty.
+std::string describe_step_refinement(const IntegratorStats &stats, const IntegratorSettings &settings,
+                                     bool has_jacobian);
 
 // How the gradient of the flow map survives long horizons, for the manifest: the method and its details.
 nlohmann::json long_horizon_method(GradientMethod method);

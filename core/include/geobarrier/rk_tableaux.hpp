@@ -247,6 +247,26 @@ struct Dop853Tableau {
                                   {11, 4.47106157277725905176885569043e-2 - 0.220588235294117647058823529412e-1}}};
 };
 
+// The checked fixed steps' error test (flow_map.cpp, and the SDK's fused step through gb_advance_request.lane_error):
+// per lane, the largest |sum_j e_j k_j| over the state components, the embedded error estimate of a step over h
+// (for DOP853 its 5th-order estimate alone, er1..er12 of dop853.f). The core multiplies by |h| and divides by the
+// lane's scale atol + rtol max(|x|, |x_new|) over the components (checked_lane_scale in flow_map.cpp). Deliberately
+// lean, because it runs inside the fused step on every lane and step: about 9 multiply-adds per state component,
+// no square root (which may set errno, and keeps compilers from vectorising the lane loop unless built with
+// -fno-math-errno; plugins choose their own flags) and no division. Hairer's combination with the 3rd-order estimate
+// would make the estimate O(h^8) rather than O(h^6); without it the test is more cautious on hard systems, which is
+// the side to err on. The core's kernel and the fused step both call this, so they take the same decisions.
+template <class Tab, unsigned Components, class Value>
+GEOBARRIER_ALWAYS_INLINE double lane_error_estimate(Value value) {
+    double worst = 0.0;
+#pragma GCC unroll 16
+    for (unsigned i = 0; i < Components; ++i) {
+        const double e = std::fabs(row_sum(Tab::e, [&](int j) { return value(j, i); }));
+        worst = worst < e ? e : worst; // NaN: the core screens the new state
+    }
+    return worst;
+}
+
 }  // namespace geobarrier::detail
 
 #endif  // GEOBARRIER_RK_TABLEAUX_HPP

@@ -608,7 +608,9 @@ template <class T, class Tab, bool Variational> struct FusedStep {
     // its own; forcing it with `clang loop vectorize(assume_safety)` only brings warnings.) Every small loop above is
     // unrolled by pragma: with std::fma in the sums GCC's own unrolling heuristics leave some in place, and a lane
     // loop with inner loops does not vectorise.
-    static void run(const T &sys, const gb_advance_request &r) {
+    // Checked: also the lane's error estimate (gb_advance_request.lane_error, ABI 1.3) over the state components, by
+    // the core's own function (rk_tableaux.hpp, lane_error_estimate), so that both paths take the same steps.
+    template <bool Checked> static void run(const T &sys, const gb_advance_request &r) {
         const std::size_t n = r.n, ld = r.ld;
 #if defined(__GNUC__) && !defined(__clang__)
 #pragma GCC ivdep
@@ -631,15 +633,18 @@ template <class T, class Tab, bool Variational> struct FusedStep {
                 for (unsigned m = 0; m < D * D; ++m) r.df_out[m * ld + lane] = out[D + m];
                 r.log_det_out[lane] = out[D + D * D];
             }
+            if constexpr (Checked)
+                r.lane_error[lane] =
+                    geobarrier::detail::lane_error_estimate<Tab, D>([&](int j, unsigned i) { return k[j][i]; });
         }
     }
 };
 
-template <class T, class Tab> void fused_step(const T &sys, const gb_advance_request &r) {
+template <class T, class Tab, bool Checked = false> void fused_step(const T &sys, const gb_advance_request &r) {
     if (r.variational) {
-        if constexpr (has_lane_jacobian<T>) FusedStep<T, Tab, true>::run(sys, r);
+        if constexpr (has_lane_jacobian<T>) FusedStep<T, Tab, true>::template run<Checked>(sys, r);
     } else {
-        FusedStep<T, Tab, false>::run(sys, r);
+        FusedStep<T, Tab, false>::template run<Checked>(sys, r);
     }
 }
 
@@ -675,7 +680,8 @@ template <class T> struct SystemThunks {
         });
     }
     static gb_status advance(void *self, const gb_advance_request *r, gb_message *msg) noexcept {
-        if (r->method != GB_ADVANCE_RK4 && r->method != GB_ADVANCE_DOP853) return GB_UNSUPPORTED;
+        if (r->method != GB_ADVANCE_RK4 && r->method != GB_ADVANCE_DOP853 && r->method != GB_ADVANCE_DOP853_CHECKED)
+            return GB_UNSUPPORTED;
         // Numerics compiled in (tableaux and operation order) that differ from the core's: decline, and the core
         // takes its own path. The request names its revision from ABI 1.3 on; older cores use revision 1.
         const std::uint32_t core_revision = host_abi_minor() >= 3 ? r->tableau_revision : 1u;
@@ -685,8 +691,10 @@ template <class T> struct SystemThunks {
             if constexpr (has_field<T>::value) {
                 clear_lanes(r->lane_status, r->n);
                 const T &sys = *static_cast<const T *>(self);
+                using geobarrier::detail::Dop853Tableau;
                 if (r->method == GB_ADVANCE_RK4) fused_step<T, geobarrier::detail::Rk4Tableau>(sys, *r);
-                else fused_step<T, geobarrier::detail::Dop853Tableau>(sys, *r);
+                else if (r->method == GB_ADVANCE_DOP853) fused_step<T, Dop853Tableau>(sys, *r);
+                else fused_step<T, Dop853Tableau, true>(sys, *r);
             }
         });
     }

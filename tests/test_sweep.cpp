@@ -262,9 +262,10 @@ TEST_CASE("a sweep of 8 members with one failing: the others finish, the failure
 
 TEST_CASE("SIGINT stops a sweep leaving only whole members; the re-run resumes and skips them") {
     const fs::path dir = fresh_dir("resume");
-    // member-000 is quick; the others take seconds each, so the signal finds one of them running.
+    // member-000 is quick; the others integrate 20000 time units (t1 = 200 took only 0.1 s on an idle machine, too
+    // short for the signal to find it running), so the signal finds member-001 running however idle the machine is.
     const json sweep = {{"base", small_base(81, 6.0)},
-                        {"parameters", {{{"path", "/time/t1"}, {"values", {6.0, 200.0, 200.0, 200.0}}}}},
+                        {"parameters", {{{"path", "/time/t1"}, {"values", {6.0, 20000.0, 20000.0, 20000.0}}}}},
                         {"figures", {"ftle_max"}},
                         {"processes", 1},
                         {"threads", 2},

@@ -36,6 +36,11 @@ constexpr double nan_value = std::numeric_limits<double>::quiet_NaN();
 
 // A lane whose position grows beyond this factor times max(1, |initial position|) is treated as blown up.
 constexpr double blow_up_factor = 1e8;
+// Checked fixed steps: a lane that fails the error test even at the smallest sub-step while its position is already
+// beyond this factor times max(1, |initial position|) is running away (a finite-time blow-up defeats every stepper
+// before the position reaches blow_up_factor), so it is masked as blown up, not as an unstable integrator. Stiff or
+// too-coarse steps fail on bounded trajectories, far below this factor.
+constexpr double runaway_factor = 1e4;
 // A step below this fraction of max(1, |t|) makes no progress: the batch stops with mask_step_limit.
 constexpr double min_relative_step = 1e-14;
 // Floor of the error scale atol + rtol |x|.
@@ -1109,7 +1114,9 @@ class BatchIntegrator {
             if (m_ctx.mask[k] != 0 || !(m_lane_error[k] > 1.0)) continue;
             bool finite = true;
             for (std::size_t c = 0; c < comps; ++c) finite = finite && std::isfinite(m_x_new[c * n + k]);
-            freeze(k, m_ctx.invalid[k] ? mask_invalid_state : finite ? mask_unstable : mask_non_finite);
+            const double runaway_limit = m_limit[k] * (runaway_factor / blow_up_factor);
+            const bool runaway = std::abs(m_x[k]) > runaway_limit || std::abs(m_x[n + k]) > runaway_limit;
+            freeze(k, m_ctx.invalid[k] ? mask_invalid_state : finite && !runaway ? mask_unstable : mask_non_finite);
             copy_lane(m_x_new, m_x, k);
             if (!fused) zero_lane(m_k, k);
         }

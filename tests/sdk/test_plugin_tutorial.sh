@@ -79,7 +79,7 @@ docs=$home/geobarrier/share/doc/geobarrier
 for md in "$docs"/*.md; do
   while read -r target; do
     [ -e "$docs/$target" ] || fail "the installed $(basename "$md") links to $target, which is not installed"
-  done < <(grep -o '](\([^)#:]*\)' "$md" | sed 's/^](//' | grep -v '^$' | grep -v '^docs/' | sort -u)
+  done < <(grep -o '](\([^)#]*\)' "$md" | sed 's/^](//' | grep -v '^$' | grep -v '://' | grep -v '^docs/' | sort -u)
 done
 # The out-of-tree plugins were compiled like the built-ins (geobarrier_add_plugin: fast by default).
 checked=$("$home/geobarrier/bin/geobarrier" check-plugin "$home/my-plugins/build/plugins/geobarrier-shaken-pendulum.so")

@@ -152,6 +152,13 @@ CfUnits cf_units(const std::string &unit)
     return {unit, ""};
 }
 
+MaskAttributes mask_attributes() {
+    // CF flag convention: a point's value is the OR of the bits that apply (grid.hpp MaskBits).
+    return {{mask_left_bounds, mask_non_finite, mask_step_limit, mask_invalid_state, mask_degenerate, mask_unstable},
+            "left_bounds non_finite step_limit invalid_state degenerate_eigenvectors unstable_step",
+            "why the values at a grid point are not usable (0 = valid)"};
+}
+
 NetcdfAttributes variable_attributes(const FieldVariable &variable)
 {
     const CfUnits units = cf_units(variable.units);
@@ -207,14 +214,12 @@ void write_fields_netcdf(const std::filesystem::path &file, const Grid &grid,
         int var_mask = -1;
         check(nc_def_var(ncid, "mask", NC_UBYTE, 2, dims_yx.data(), &var_mask), "cannot define the variable mask");
         check(nc_def_var_deflate(ncid, var_mask, 1, 1, 1), "cannot define the variable mask");
-        // CF flag convention: a point's value is the OR of the bits that apply (grid.hpp MaskBits).
-        const std::array<unsigned char, 6> flag_masks{mask_left_bounds, mask_non_finite,  mask_step_limit,
-                                                      mask_invalid_state, mask_degenerate, mask_unstable};
-        check(nc_put_att_uchar(ncid, var_mask, "flag_masks", NC_UBYTE, flag_masks.size(), flag_masks.data()),
+        const MaskAttributes mask_attrs = mask_attributes();
+        check(nc_put_att_uchar(ncid, var_mask, "flag_masks", NC_UBYTE, mask_attrs.flag_masks.size(),
+                               mask_attrs.flag_masks.data()),
               "cannot write the attribute 'flag_masks'");
-        put_text(ncid, var_mask, "flag_meanings",
-                 "left_bounds non_finite step_limit invalid_state degenerate_eigenvectors unstable_step", check);
-        put_text(ncid, var_mask, "long_name", "why the values at a grid point are not usable (0 = valid)", check);
+        put_text(ncid, var_mask, "flag_meanings", mask_attrs.flag_meanings, check);
+        put_text(ncid, var_mask, "long_name", mask_attrs.long_name, check);
 
         put_global_attributes(ncid, global_attributes, check);
         check(nc_enddef(ncid), "cannot leave define mode");

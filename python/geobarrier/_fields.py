@@ -8,12 +8,11 @@ try:
 except ImportError:  # results fall back to NumPy arrays
     xarray = None
 
-# fields.nc's mask variable (core/src/fields_netcdf.cpp; the bits of core/include/geobarrier/grid.hpp, MaskBits).
-MASK_ATTRIBUTES = {
-    "flag_masks": np.array([1, 2, 4, 8, 16, 32], dtype=np.uint8),
-    "flag_meanings": "left_bounds non_finite step_limit invalid_state degenerate_eigenvectors unstable_step",
-    "long_name": "why the values at a grid point are not usable (0 = valid)",
-}
+from . import _geobarrier
+
+# fields.nc's mask variable, from the core's one definition (geobarrier::mask_attributes, used by its NetCDF writer).
+MASK_ATTRIBUTES = _geobarrier.mask_attributes()
+MASK_ATTRIBUTES["flag_masks"] = np.array(MASK_ATTRIBUTES["flag_masks"], dtype=np.uint8)
 
 
 class Fields:

@@ -6,6 +6,7 @@
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
+#include <geobarrier/output.hpp>
 #include <geobarrier/plugin.hpp>
 
 #include <pybind11/functional.h>
@@ -273,6 +274,15 @@ PYBIND11_MODULE(_geobarrier, m) {
     m.def("validate", &validate, py::arg("text"), py::arg("file"));
     m.def("plugins", &plugins, py::arg("extra_folders"));
     m.def("set_log_level", &set_log_level, py::arg("level"));
+    // fields.nc's mask attributes, from the one definition the NetCDF writer uses.
+    m.def("mask_attributes", [] {
+        const geobarrier::MaskAttributes a = geobarrier::mask_attributes();
+        py::dict d;
+        d["flag_masks"] = std::vector<int>(a.flag_masks.begin(), a.flag_masks.end());
+        d["flag_meanings"] = a.flag_meanings;
+        d["long_name"] = a.long_name;
+        return d;
+    });
     py::register_exception_translator(&translate_exception);
     // The core logs to stderr (spdlog's default logger would write to stdout); in Python only warnings and errors by
     // default (set_log_level("info") for more).

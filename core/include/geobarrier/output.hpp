@@ -65,6 +65,12 @@ struct NetcdfAttributes {
 };
 NetcdfAttributes variable_attributes(const FieldVariable &variable);
 NetcdfAttributes coordinate_attributes(std::size_t component, const StateAxes &axes);
+// The mask variable's CF flag attributes (grid.hpp's MaskBits): one definition for fields.nc and the Python module.
+struct MaskAttributes {
+    std::vector<unsigned char> flag_masks;
+    std::string flag_meanings, long_name;
+};
+MaskAttributes mask_attributes();
 
 // A polyline drawn over a field picture.
 struct PlotCurve {

@@ -6,8 +6,8 @@
 #include <geobarrier/experiment.hpp>
 
 #include "json_reader.hpp"
-#include <geobarrier/resources.hpp>
-#include <geobarrier/tiles.hpp>
+#include "resources.hpp"
+#include "tiles.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -9,11 +9,11 @@
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/line_field.hpp>
-#include <geobarrier/mpi.hpp>
+#include "mpi.hpp"
 #include <geobarrier/output.hpp>
-#include <geobarrier/resources.hpp>
+#include "resources.hpp"
 #include <geobarrier/shear.hpp>
-#include <geobarrier/tiles.hpp>
+#include "tiles.hpp"
 
 #include <omp.h>
 #include <spdlog/spdlog.h>

@@ -3,7 +3,7 @@
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
-#include <geobarrier/mpi.hpp>
+#include "mpi.hpp"
 #include <geobarrier/output.hpp>
 #include <geobarrier/sweep.hpp>
 

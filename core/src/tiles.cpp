@@ -1,8 +1,8 @@
 // The flow map and Cauchy–Green fields tile by tile (see tiles.hpp).
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
-#include <geobarrier/mpi.hpp>
-#include <geobarrier/tiles.hpp>
+#include "mpi.hpp"
+#include "tiles.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -494,7 +494,7 @@ TEST_CASE("tolerances: rtol below 1e-14 is clamped with a warning; rtol outside 
     CHECK(r1.stats.steps == r2.stats.steps);
     IntegratorSettings bad = floor;
     bad.rtol = 1.0;
-    CHECK_THROWS_AS(advect_points(Dynamics{&saddle, nullptr}, {0.1}, {0.2}, 0.0, 1.0, bad, false), ConfigError);
+    CHECK_THROWS_AS(advect_points(Dynamics{&saddle, nullptr}, {0.1}, {0.2}, 0.0, 1.0, bad, false), EngineSettingError);
 }
 
 // ------------------------------------------------------------------------------------------------------- grids

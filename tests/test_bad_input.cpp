@@ -178,15 +178,10 @@ std::vector<Case> equations_battery() {
     return cases;
 }
 
-std::vector<Case> battery() {
-    const std::string nan_lib = (bad_plugin_dir / "geobarrier-bad-input.so").string();
-    const std::string throwing_entry = (bad_plugin_dir / "geobarrier-entry-throws.so").string();
-    const std::string wrong_abi = (geobarrier::test::test_plugin_dir() / "geobarrier-wrong-abi.so").string();
-    const std::string not_a_library = (geobarrier::test::test_plugin_dir() / "not-a-plugin.so").string();
+// The file itself: not JSON, not an object, not there.
+std::vector<Case> file_battery() {
     std::vector<Case> cases;
     auto add = [&](Case c) { cases.push_back(std::move(c)); };
-
-    // ---- the file itself
     add(text_case("malformed JSON (a missing comma)", "{\n  \"system\": {\"plugin\": \"duffing\"}\n  \"grid\": {}\n}\n",
                   2, {"exp.json:3:", "not valid JSON"}));
     add(text_case("truncated JSON", "{\"system\": {\"plugin\": \"duff", 2, {"exp.json:1:", "not valid JSON"}));
@@ -210,7 +205,13 @@ std::vector<Case> battery() {
         c.prefix = "rm exp.json && mkdir exp.json;";
         add(c);
     }
-    // ---- structure and types
+    return cases;
+}
+
+// Structure and types: missing keys, wrong types, unknown keys and products.
+std::vector<Case> structure_battery() {
+    std::vector<Case> cases;
+    auto add = [&](Case c) { cases.push_back(std::move(c)); };
     add(json_case("missing system", [](json &j) { j.erase("system"); }, 2, {"missing required key \"system\""}));
     add(json_case("missing grid", [](json &j) { j.erase("grid"); }, 2, {"missing required key \"grid\""}));
     add(json_case("missing time/t1", [](json &j) { j["time"].erase("t1"); }, 2, {"/time", "\"t1\""}));
@@ -236,7 +237,13 @@ std::vector<Case> battery() {
     add(json_case("unknown product, with a hint", [](json &j) { j["products"] = {"ftel"}; }, 2,
                   {"/products/0", "did you mean \"ftle\""}));
     add(json_case("nothing to compute", [](json &j) { j["products"] = json::array(); }, 2, {"/products"}));
-    // ---- values
+    return cases;
+}
+
+// Values outside their rules: non-finite numbers, empty boxes and grids, tolerances, steps, offsets.
+std::vector<Case> values_battery() {
+    std::vector<Case> cases;
+    auto add = [&](Case c) { cases.push_back(std::move(c)); };
     add(json_case("parameter outside the schema's range",
                   [](json &j) {
                       j["system"] = {{"plugin", "pendulum"}, {"params", {{"omega0", -1.0}}}};
@@ -301,7 +308,17 @@ std::vector<Case> battery() {
                   2, {"/cauchy_green/offset"}));
     add(json_case("empty output folder name", [](json &j) { j["output"] = {{"dir", ""}}; }, 2, {"/output/dir"}));
     add(json_case("plugin_paths holds a number", [](json &j) { j["plugin_paths"] = {3}; }, 2, {"/plugin_paths/0"}));
-    // ---- plugins
+    return cases;
+}
+
+// Plugins: unknown, of another ABI, not a library, failing, without the Jacobian a setting needs.
+std::vector<Case> plugin_battery() {
+    const std::string nan_lib = (bad_plugin_dir / "geobarrier-bad-input.so").string();
+    const std::string throwing_entry = (bad_plugin_dir / "geobarrier-entry-throws.so").string();
+    const std::string wrong_abi = (geobarrier::test::test_plugin_dir() / "geobarrier-wrong-abi.so").string();
+    const std::string not_a_library = (geobarrier::test::test_plugin_dir() / "not-a-plugin.so").string();
+    std::vector<Case> cases;
+    auto add = [&](Case c) { cases.push_back(std::move(c)); };
     add(json_case("unknown plugin, listing the known ones", [](json &j) { j["system"]["plugin"] = "dufing"; }, 2,
                   {"/system/plugin", "dufing", "duffing"}));
     add(json_case("a plugin of another ABI major version",
@@ -359,7 +376,13 @@ std::vector<Case> battery() {
                       j["cauchy_green"] = {{"method", "variational"}};
                   },
                   2, {"/cauchy_green/method", "Jacobian"}));
-    // ---- computations that cannot give an answer
+    return cases;
+}
+
+// Computations that cannot give an answer (exit 1).
+std::vector<Case> computation_battery() {
+    std::vector<Case> cases;
+    auto add = [&](Case c) { cases.push_back(std::move(c)); };
     add(json_case("bounds that exclude the whole grid",
                   [](json &j) {
                       j["bounds"] = {{"x", {5, 6}}, {"y", {5, 6}}};
@@ -380,7 +403,13 @@ std::vector<Case> battery() {
                       j["integrator"] = {{"method", "dopri5"}, {"batch", 9}};
                   },
                   1, {"every one of the 9 grid points was masked", "dopri5 reached its step limit", "rosenbrock4"}));
-    // ---- where the output goes
+    return cases;
+}
+
+// Where the output goes: a folder that cannot be created or written, a full disk.
+std::vector<Case> output_battery() {
+    std::vector<Case> cases;
+    auto add = [&](Case c) { cases.push_back(std::move(c)); };
     {
         Case c =
             json_case("an output folder below a regular file", [](json &) {}, 1, {"cannot create the output folder"});
@@ -405,8 +434,14 @@ std::vector<Case> battery() {
         c.prefix = "ulimit -f 2;";
         add(c);
     }
-    // ---- the equations system: expressions and names
-    for (Case &c : equations_battery()) add(std::move(c));
+    return cases;
+}
+
+std::vector<Case> battery() {
+    std::vector<Case> cases;
+    for (auto section : {file_battery, structure_battery, values_battery, plugin_battery, computation_battery,
+                         output_battery, equations_battery})
+        for (Case &c : section()) cases.push_back(std::move(c));
     return cases;
 }
 

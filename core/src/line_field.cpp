@@ -295,6 +295,56 @@ LineStatus LineField::evaluate(double x, double y, double ref_x, double ref_y, d
     return LineStatus::ok;
 }
 
+void LineField::evaluate_lanes(std::size_t n, const double *x, const double *y, const double *ref_x, const double *ref_y,
+                               double *vx, double *vy, std::uint8_t *status) const {
+    const Grid &g = m_grid;
+    if (m_cell.empty()) {
+        for (std::size_t k = 0; k < n; ++k) {
+            vx[k] = ref_x[k];
+            vy[k] = ref_y[k];
+            status[k] = static_cast<std::uint8_t>(LineStatus::outside);
+        }
+        return;
+    }
+    const double x0 = g.x_min, y0 = g.y_min, x1 = g.x_max, y1 = g.y_max, inv_dx = m_inv_dx, inv_dy = m_inv_dy;
+    const double last_j = static_cast<double>(g.nx - 2), last_i = static_cast<double>(g.ny - 2);
+    const std::ptrdiff_t nx = static_cast<std::ptrdiff_t>(g.nx), cells_x = nx - 1;
+    const double *v = m_v.data();
+    const std::uint8_t *cell = m_cell.data();
+#pragma GCC ivdep
+    for (std::size_t k = 0; k < n; ++k) {
+        const double px = x[k], py = y[k];
+        const bool inside = px >= x0 && px <= x1 && py >= y0 && py <= y1;
+        // Outside (or NaN) the lane is evaluated at the box's corner and reported outside: no branch, no bad index.
+        const double fx = ((inside ? px : x0) - x0) * inv_dx, fy = ((inside ? py : y0) - y0) * inv_dy;
+        // As locate(): the cell's index is the floor, the last cell also holds the box's far edge.
+        const double cj = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fx)), last_j);
+        const double ci = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fy)), last_i);
+        const std::ptrdiff_t j = static_cast<std::ptrdiff_t>(cj), i = static_cast<std::ptrdiff_t>(ci);
+        const double u = fx - cj, w = fy - ci;
+        const std::ptrdiff_t p = i * nx + j;
+        const double weights[4] = {(1 - u) * (1 - w), u * (1 - w), (1 - u) * w, u * w};
+        const std::ptrdiff_t corners[4] = {p, p + 1, p + nx, p + nx + 1};
+        const double rx = ref_x[k], ry = ref_y[k];
+        double sx = 0.0, sy = 0.0;
+        for (int q = 0; q < 4; ++q) {
+            const double cx = v[2 * corners[q]], cy = v[2 * corners[q] + 1];
+            const double sign = cx * rx + cy * ry < 0.0 ? -1.0 : 1.0;
+            sx += weights[q] * sign * cx;
+            sy += weights[q] * sign * cy;
+        }
+        const double norm = std::sqrt(sx * sx + sy * sy);
+        const std::uint8_t c = cell[i * cells_x + j];
+        // Status codes as LineStatus: 0 ok, 1 outside, 2 masked, 3 singular (cell codes 0 ok, 1 masked, 2 singular).
+        const std::uint8_t st = !inside ? 1 : c != 0 ? static_cast<std::uint8_t>(c + 1) : !(norm >= min_interpolated_norm) ? 3 : 0;
+        const bool ok = st == 0;
+        const double inverse = 1.0 / (ok ? norm : 1.0);
+        vx[k] = ok ? sx * inverse : rx;
+        vy[k] = ok ? sy * inverse : ry;
+        status[k] = st;
+    }
+}
+
 bool LineField::point_vector(std::size_t i, std::size_t j, double &vx, double &vy) const {
     const std::size_t p = i * m_grid.nx + j;
     vx = m_vx[p];

@@ -1,11 +1,16 @@
-// Tensor-line integration: r' = v(r) on an orientation-free LineField by arc length with an adaptive Cash–Karp
-// 5(4) pair (Boost.Odeint's controlled stepper, written out). Every stage of a step aligns the field with the tangent
-// at the step's start, so the line never turns back on itself at a sign flip of the stored vectors.
+// Tensor-line integration: r' = v(r) on an orientation-free LineField by arc length, many lines at once in lockstep
+// lanes on the core's Runge-Kutta tableaux (rk_tableaux.hpp, the flow map's): fixed steps of half a grid cell with the
+// midpoint rule by default, or an embedded pair with Boost.Odeint's step control. Every stage of a step aligns the
+// field with the lane's tangent at the step's start, so a line never turns back on itself at a sign flip of the
+// stored vectors.
+#include <geobarrier/rk_tableaux.hpp>
 #include <geobarrier/tensor_lines.hpp>
 
+#include <omp.h>
+
 #include <algorithm>
-#include <array>
 #include <cmath>
+#include <stdexcept>
 
 namespace geobarrier {
 
@@ -23,6 +28,8 @@ const char *to_string(StopReason reason) {
         return "closed";
     case StopReason::max_steps:
         return "max_steps";
+    case StopReason::observer:
+        return "observer";
     }
     return "?";
 }
@@ -54,203 +61,389 @@ double distance(double ax, double ay, double bx, double by) {
     return std::sqrt((bx - ax) * (bx - ax) + (by - ay) * (by - ay));
 }
 
+// The settings with their grid-relative defaults filled in.
+struct Resolved {
+    TensorLineSettings s;
+    double max_step, min_step, initial_step, closure_distance, closure_min_length;
+    Resolved(const LineField &field, const TensorLineSettings &settings) : s(settings) {
+        const Grid &g = field.grid();
+        const double h = std::min(g.dx(), g.dy());
+        max_step = settings.max_step > 0.0 ? settings.max_step : 0.5 * h;
+        min_step = settings.min_step > 0.0 ? settings.min_step : 1e-4 * h;
+        initial_step = std::min(settings.initial_step > 0.0 ? settings.initial_step : 0.1 * h, max_step);
+        closure_distance = settings.closure_distance > 0.0 ? settings.closure_distance : 0.5 * h;
+        closure_min_length = settings.closure_min_length > 0.0 ? settings.closure_min_length : 10.0 * h;
+    }
+};
+
+// Lanes per lockstep group: enough for the widest vectors (8 doubles) twice over, few enough that a group's arrays
+// stay in the first-level cache.
+constexpr std::size_t lane_count = 16;
+
+// One group of lanes integrating lines start..start+count of a batch: each lane takes the next line when its line
+// ends, so the lanes stay busy until the batch runs dry. Every lane does exactly what a lone line would: the stage
+// states go through the tableau's rows (row_step), the field is evaluated for all lanes of a stage at once
+// (LineField::evaluate_lanes) aligned with each lane's tangent at its step's start, and the step control (fixed, or
+// the embedded pair's with Boost.Odeint's rules) and the stops are decided lane by lane.
+template <class Tab> class LaneGroup {
+  public:
+    LaneGroup(const LineField &field, const Resolved &r, const double *starts, std::size_t count,
+              TensorLineObserver *observer, std::size_t first_id, TensorLine *out)
+        : m_field(field), m_r(r), m_starts(starts), m_count(count), m_observer(observer), m_first_id(first_id),
+          m_out(out) {}
+
+    void run() {
+        for (std::size_t l = 0; l < lane_count; ++l) {
+            m_line[l] = none;
+            load(l);
+        }
+        while (true) {
+            bool any = false;
+            for (std::size_t l = 0; l < lane_count; ++l) any = any || m_line[l] != none;
+            if (!any) return;
+            attempt();
+            for (std::size_t l = 0; l < lane_count; ++l)
+                if (m_line[l] != none && decide(l)) load(l);
+        }
+    }
+
+  private:
+    static constexpr int S = Tab::stages;
+    static constexpr bool adaptive = Tab::error != detail::RkError::none;
+    static constexpr std::size_t none = static_cast<std::size_t>(-1);
+
+    // Fills lane l with the next line whose seed is usable (lines ending at their seed are finished on the way).
+    void load(std::size_t l) {
+        m_line[l] = none;
+        while (m_next < m_count) {
+            const std::size_t k = m_next++;
+            const double *st = m_starts + 4 * k;
+            TensorLine &line = m_out[k];
+            const double x0 = st[0], y0 = st[1];
+            if (!std::isfinite(x0) || !std::isfinite(y0)) {
+                line.stop = StopReason::domain_edge;
+                continue;
+            }
+            line.xy = {x0, y0};
+            line.s = {0.0};
+            double tx, ty;
+            const LineStatus s0 = m_field.evaluate(x0, y0, st[2], st[3], tx, ty);
+            if (s0 != LineStatus::ok) {
+                line.stop = stop_for(s0);
+                continue;
+            }
+            m_line[l] = k;
+            m_x0[l] = x0;
+            m_y0[l] = y0;
+            m_rx[l] = x0;
+            m_ry[l] = y0;
+            m_kx[0][l] = m_start_tx[l] = tx;
+            m_ky[0][l] = m_start_ty[l] = ty;
+            m_h[l] = adaptive ? m_r.initial_step : m_r.max_step;
+            m_s[l] = 0.0;
+            m_steps[l] = 0;
+            if (limits_reached(l)) continue;
+            return;
+        }
+    }
+
+    // The step budget and the length: checked before each attempt, as a lone line does. True (and the lane
+    // emptied) when the line ends.
+    bool limits_reached(std::size_t l) {
+        TensorLine &line = m_out[m_line[l]];
+        if (m_steps[l] >= m_r.s.max_steps) {
+            line.stop = StopReason::max_steps;
+        } else if (m_s[l] >= m_r.s.max_length - 1e-9 * m_r.max_step) {
+            // (a step's length, measured between its ends, may fall short of h by a rounding error: a remainder
+            // that small would take steps that no longer move)
+            line.stop = StopReason::max_length;
+        } else {
+            m_h[l] = std::min({m_h[l], m_r.max_step, m_r.s.max_length - m_s[l]});
+            return false;
+        }
+        m_line[l] = none;
+        return true;
+    }
+
+    // One step attempt of every lane (idle lanes compute on harmless numbers): stages, the new point, its error and
+    // the tangent there.
+    void attempt() {
+        std::uint8_t status[lane_count];
+        for (std::size_t l = 0; l < lane_count; ++l) m_fail[l] = 0;
+        for (int i = 1; i < S; ++i) {
+            double px[lane_count], py[lane_count];
+#pragma GCC ivdep
+            for (std::size_t l = 0; l < lane_count; ++l) {
+                px[l] = detail::row_step(Tab::a[i], m_h[l], m_rx[l], [&](int j) { return m_kx[j][l]; });
+                py[l] = detail::row_step(Tab::a[i], m_h[l], m_ry[l], [&](int j) { return m_ky[j][l]; });
+            }
+            m_field.evaluate_lanes(lane_count, px, py, m_kx[0], m_ky[0], m_kx[i], m_ky[i], status);
+            // With FSAL the last stage is the new point: its status is judged apart (below and in decide).
+            if (!Tab::fsal || i < S - 1)
+                for (std::size_t l = 0; l < lane_count; ++l) m_fail[l] = m_fail[l] ? m_fail[l] : status[l];
+        }
+#pragma GCC ivdep
+        for (std::size_t l = 0; l < lane_count; ++l) {
+            m_ox[l] = detail::row_step(Tab::b, m_h[l], m_rx[l], [&](int j) { return m_kx[j][l]; });
+            m_oy[l] = detail::row_step(Tab::b, m_h[l], m_ry[l], [&](int j) { return m_ky[j][l]; });
+        }
+        if constexpr (adaptive) {
+            // Odeint's default error checker: |err| / (atol + rtol (|x| + h |dx/ds|)), the larger component.
+            for (std::size_t l = 0; l < lane_count; ++l) {
+                const double h = m_h[l];
+                const double ex = h * detail::row_sum(Tab::e, [&](int j) { return m_kx[j][l]; });
+                const double ey = h * detail::row_sum(Tab::e, [&](int j) { return m_ky[j][l]; });
+                m_err[l] = std::max(
+                    std::abs(ex) / (m_r.s.atol + m_r.s.rtol * (std::abs(m_rx[l]) + h * std::abs(m_kx[0][l]))),
+                    std::abs(ey) / (m_r.s.atol + m_r.s.rtol * (std::abs(m_ry[l]) + h * std::abs(m_ky[0][l]))));
+            }
+        }
+        if constexpr (Tab::fsal) {
+            // The last stage is the field at the new point, aligned with the step's start: the next step's k1.
+            for (std::size_t l = 0; l < lane_count; ++l) {
+                m_nx[l] = m_kx[S - 1][l];
+                m_ny[l] = m_ky[S - 1][l];
+                m_new_status[l] = status[l];
+            }
+        } else {
+            m_field.evaluate_lanes(lane_count, m_ox, m_oy, m_kx[0], m_ky[0], m_nx, m_ny, m_new_status);
+        }
+    }
+
+    // Lane l's decision on its attempt: retry shorter, accept, or end. True when the line ended.
+    bool decide(std::size_t l) {
+        TensorLine &line = m_out[m_line[l]];
+        const auto end = [&](StopReason why) {
+            line.stop = why;
+            m_line[l] = none;
+            return true;
+        };
+        ++m_steps[l];
+        double &h = m_h[l];
+        const std::uint8_t stage_failure = m_fail[l];
+        if (stage_failure) {
+            // A stage left the usable field: locate the stop to within min_step by halving.
+            if (h <= m_r.min_step) return end(stop_for(static_cast<LineStatus>(stage_failure)));
+            h = std::max(0.5 * h, m_r.min_step);
+            return limits_reached(l);
+        }
+        double next_h = adaptive ? h : std::min(2.0 * h, m_r.max_step); // fixed: back to max_step after a stop
+        if constexpr (adaptive) {
+            const double err = m_err[l];
+            if (err > 1.0) {
+                const double shorter =
+                    h * std::max(0.9 * std::pow(err, -1.0 / (Tab::error_order > 1 ? Tab::error_order - 1 : 1)), 0.2);
+                if (!(shorter < m_r.min_step)) {
+                    h = shorter;
+                    return limits_reached(l);
+                }
+                // The tolerance cannot be met with any useful step (a kink of the interpolated field at a
+                // near-singular cell): take the step at min_step anyway.
+                if (h > m_r.min_step) {
+                    h = m_r.min_step;
+                    m_force[l] = 1;
+                    return limits_reached(l);
+                }
+            } else if (err < 0.5 && !m_force[l]) {
+                const double e = std::max(std::pow(5.0, -Tab::order), err);
+                next_h = h * (0.9 * std::pow(e, -1.0 / Tab::order));
+            }
+            m_force[l] = 0;
+        }
+        const double ox = m_ox[l], oy = m_oy[l];
+        if (!std::isfinite(ox) || !std::isfinite(oy)) return end(StopReason::singular);
+        if (m_new_status[l] != 0) {
+            if (h <= m_r.min_step) return end(stop_for(static_cast<LineStatus>(m_new_status[l])));
+            h = std::max(0.5 * h, m_r.min_step);
+            return limits_reached(l);
+        }
+        const double px = m_rx[l], py = m_ry[l];
+        const double seg = distance(px, py, ox, oy);
+        m_rx[l] = ox;
+        m_ry[l] = oy;
+        m_s[l] += seg;
+        m_kx[0][l] = m_nx[l];
+        m_ky[0][l] = m_ny[l];
+        h = next_h;
+        // Closing on itself: the last segment passes the seed, heading the way the line started.
+        if (m_r.s.detect_closure && m_s[l] >= m_r.closure_min_length &&
+            segment_distance(m_x0[l], m_y0[l], px, py, ox, oy) <= m_r.closure_distance &&
+            m_nx[l] * m_start_tx[l] + m_ny[l] * m_start_ty[l] > 0.0) {
+            line.xy.push_back(m_x0[l]);
+            line.xy.push_back(m_y0[l]);
+            line.s.push_back(m_s[l] - seg + distance(px, py, m_x0[l], m_y0[l]));
+            return end(StopReason::closed);
+        }
+        line.xy.push_back(ox);
+        line.xy.push_back(oy);
+        line.s.push_back(m_s[l]);
+        if (m_observer && m_observer->stop_after(m_first_id + m_line[l], px, py, ox, oy, m_s[l]))
+            return end(StopReason::observer);
+        return limits_reached(l);
+    }
+
+    const LineField &m_field;
+    const Resolved &m_r;
+    const double *m_starts;
+    std::size_t m_count, m_next = 0;
+    TensorLineObserver *m_observer;
+    std::size_t m_first_id;
+    TensorLine *m_out;
+
+    // Per lane (idle lanes keep harmless values: evaluate_lanes accepts any point).
+    std::size_t m_line[lane_count] = {};
+    std::size_t m_steps[lane_count] = {};
+    alignas(64) double m_rx[lane_count] = {}, m_ry[lane_count] = {}, m_h[lane_count] = {}, m_s[lane_count] = {};
+    alignas(64) double m_kx[S][lane_count] = {}, m_ky[S][lane_count] = {};
+    alignas(64) double m_ox[lane_count] = {}, m_oy[lane_count] = {}, m_nx[lane_count] = {}, m_ny[lane_count] = {},
+                       m_err[lane_count] = {};
+    double m_x0[lane_count] = {}, m_y0[lane_count] = {}, m_start_tx[lane_count] = {}, m_start_ty[lane_count] = {};
+    std::uint8_t m_fail[lane_count] = {}, m_new_status[lane_count] = {}, m_force[lane_count] = {};
+};
+
+// Lines per OpenMP work item: up to a few lane groups' worth, so that long and short lines even out within an item,
+// and fewer when the batch is small, so that the items still spread over the threads.
+std::size_t lines_per_item(std::size_t n) {
+    const std::size_t threads = static_cast<std::size_t>(std::max(omp_get_max_threads(), 1));
+    return std::clamp<std::size_t>((n + 2 * threads - 1) / (2 * threads), lane_count, 4 * lane_count);
+}
+
+template <class Tab>
+void run_batch(const LineField &field, const Resolved &r, const std::vector<double> &starts,
+               TensorLineObserver *observer, std::vector<TensorLine> &out) {
+    const std::size_t n = out.size(), per_item = lines_per_item(n);
+    const long long items = static_cast<long long>((n + per_item - 1) / per_item);
+#pragma omp parallel for schedule(dynamic) if (items > 1)
+    for (long long item = 0; item < items; ++item) {
+        const std::size_t first = static_cast<std::size_t>(item) * per_item;
+        const std::size_t count = std::min(per_item, n - first);
+        LaneGroup<Tab>(field, r, starts.data() + 4 * first, count, observer, first, out.data() + first).run();
+    }
+}
+
 } // namespace
+
+const char *to_string(TensorLineMethod method) {
+    switch (method) {
+    case TensorLineMethod::midpoint:
+        return "midpoint";
+    case TensorLineMethod::rk4:
+        return "rk4";
+    case TensorLineMethod::bs32:
+        return "bs32";
+    case TensorLineMethod::dopri5:
+        return "dopri5";
+    }
+    return "?";
+}
+
+TensorLineMethod tensor_line_method(const std::string &name) {
+    for (const TensorLineMethod m :
+         {TensorLineMethod::midpoint, TensorLineMethod::rk4, TensorLineMethod::bs32, TensorLineMethod::dopri5})
+        if (name == to_string(m)) return m;
+    throw std::invalid_argument("tensor-line method \"" + name + "\" is not one of midpoint, rk4, bs32, dopri5");
+}
+
+std::vector<TensorLine> integrate_tensor_lines(const LineField &field, const std::vector<double> &starts,
+                                               const TensorLineSettings &settings, TensorLineObserver *observer) {
+    if (starts.size() % 4 != 0)
+        throw std::invalid_argument("integrate_tensor_lines: starts must hold x, y, dir_x, dir_y for each line");
+    std::vector<TensorLine> out(starts.size() / 4);
+    const Resolved r(field, settings);
+    switch (settings.method) {
+    case TensorLineMethod::midpoint:
+        run_batch<detail::MidpointTableau>(field, r, starts, observer, out);
+        break;
+    case TensorLineMethod::rk4:
+        run_batch<detail::Rk4Tableau>(field, r, starts, observer, out);
+        break;
+    case TensorLineMethod::bs32:
+        run_batch<detail::Bs32Tableau>(field, r, starts, observer, out);
+        break;
+    case TensorLineMethod::dopri5:
+        run_batch<detail::Dopri5Tableau>(field, r, starts, observer, out);
+        break;
+    }
+    return out;
+}
 
 TensorLine integrate_tensor_line(const LineField &field, double x0, double y0, double dir_x, double dir_y,
                                  const TensorLineSettings &settings) {
-    const Grid &g = field.grid();
-    const double h = std::min(g.dx(), g.dy());
-    const double max_step = settings.max_step > 0.0 ? settings.max_step : 0.5 * h;
-    const double min_step = settings.min_step > 0.0 ? settings.min_step : 1e-4 * h;
-    const double closure_distance = settings.closure_distance > 0.0 ? settings.closure_distance : 0.5 * h;
-    const double closure_min_length = settings.closure_min_length > 0.0 ? settings.closure_min_length : 10.0 * h;
-    double dt = std::min(settings.initial_step > 0.0 ? settings.initial_step : 0.1 * h, max_step);
+    return std::move(integrate_tensor_lines(field, {x0, y0, dir_x, dir_y}, settings).front());
+}
 
-    TensorLine line;
-    line.xy = {x0, y0};
-    line.s = {0.0};
-    if (!std::isfinite(x0) || !std::isfinite(y0)) {
-        line.xy.clear();
-        line.s.clear();
-        line.stop = StopReason::domain_edge;
-        return line;
-    }
-    double tx, ty;
-    const LineStatus s0 = field.evaluate(x0, y0, dir_x, dir_y, tx, ty);
-    if (s0 != LineStatus::ok) {
-        line.stop = stop_for(s0);
-        return line;
-    }
-    const double start_tx = tx, start_ty = ty;
-
-    // Cash–Karp 5(4), written out as Boost.Odeint's controlled stepper computes it (same coefficients, sums,
-    // error norm and step-size rules, so the lines are those the extractors were validated with), but with k1
-    // taken from the previous step: the tangent at the current point, aligned with the step before, is the field
-    // there aligned with itself. That and no generic-algebra overhead make a step five field evaluations plus the
-    // new point's tangent, where Odeint needed seven.
-    using V = double;
-    static const V a21 = V(1) / V(5);
-    static const V a31 = V(3) / V(40), a32 = V(9) / V(40);
-    static const V a41 = V(3) / V(10), a42 = V(-9) / V(10), a43 = V(6) / V(5);
-    static const V a51 = V(-11) / V(54), a52 = V(5) / V(2), a53 = V(-70) / V(27), a54 = V(35) / V(27);
-    static const V a61 = V(1631) / V(55296), a62 = V(175) / V(512), a63 = V(575) / V(13824), a64 = V(44275) / V(110592),
-                   a65 = V(253) / V(4096);
-    static const V c1 = V(37) / V(378), c2 = V(0), c3 = V(250) / V(621), c4 = V(125) / V(594), c5 = V(0),
-                   c6 = V(512) / V(1771);
-    static const V d1 = V(37) / V(378) - V(2825) / V(27648), d2 = V(0), d3 = V(250) / V(621) - V(18575) / V(48384),
-                   d4 = V(125) / V(594) - V(13525) / V(55296), d5 = V(-277) / V(14336),
-                   d6 = V(512) / V(1771) - V(1) / V(4);
-    double rx = x0, ry = y0; // the current point
-    double kx = tx, ky = ty; // the tangent there: stage k1 and the reference for aligning the field
-    double s = 0.0;
-    for (std::size_t step = 0;; ++step) {
-        if (step >= settings.max_steps) {
-            line.stop = StopReason::max_steps;
-            return line;
-        }
-        if (s >= settings.max_length) {
-            line.stop = StopReason::max_length;
-            return line;
-        }
-        dt = std::min({dt, max_step, settings.max_length - s});
-        // One Cash–Karp step of length h from the current point; a stage outside the usable field records why.
-        LineStatus failure = LineStatus::ok;
-        const auto stage = [&](double x, double y, double &vx, double &vy) {
-            vx = kx;
-            vy = ky;
-            if (failure != LineStatus::ok) return;
-            const LineStatus st = field.evaluate(x, y, kx, ky, vx, vy);
-            if (st != LineStatus::ok) {
-                failure = st;
-                vx = kx;
-                vy = ky;
+std::vector<TwoWayLine> integrate_tensor_lines_both_ways(const LineField &field, const std::vector<double> &seeds,
+                                                         const TensorLineSettings &settings) {
+    const std::size_t n = seeds.size() / 2;
+    std::vector<TwoWayLine> out(n);
+    // The forward branch starts along the field's vector at the seed (aligned to +x); seeds where the field is not
+    // usable end there.
+    std::vector<double> forward_starts;
+    std::vector<std::size_t> started;
+    for (std::size_t k = 0; k < n; ++k) {
+        const double x0 = seeds[2 * k], y0 = seeds[2 * k + 1];
+        double vx = 0.0, vy = 0.0;
+        const LineStatus st = field.evaluate(x0, y0, 1.0, 0.0, vx, vy);
+        if (st != LineStatus::ok || !std::isfinite(x0) || !std::isfinite(y0)) {
+            TwoWayLine &o = out[k];
+            if (std::isfinite(x0) && std::isfinite(y0)) {
+                o.xy = {x0, y0};
+                o.s = {0.0};
             }
-        };
-        double ox = 0, oy = 0, err = 0;
-        const auto cash_karp = [&](double h) {
-            double k2x, k2y, k3x, k3y, k4x, k4y, k5x, k5y, k6x, k6y;
-            stage(1.0 * rx + a21 * h * kx, 1.0 * ry + a21 * h * ky, k2x, k2y);
-            stage(1.0 * rx + a31 * h * kx + a32 * h * k2x, 1.0 * ry + a31 * h * ky + a32 * h * k2y, k3x, k3y);
-            stage(1.0 * rx + a41 * h * kx + a42 * h * k2x + a43 * h * k3x,
-                  1.0 * ry + a41 * h * ky + a42 * h * k2y + a43 * h * k3y, k4x, k4y);
-            stage(1.0 * rx + a51 * h * kx + a52 * h * k2x + a53 * h * k3x + a54 * h * k4x,
-                  1.0 * ry + a51 * h * ky + a52 * h * k2y + a53 * h * k3y + a54 * h * k4y, k5x, k5y);
-            stage(1.0 * rx + a61 * h * kx + a62 * h * k2x + a63 * h * k3x + a64 * h * k4x + a65 * h * k5x,
-                  1.0 * ry + a61 * h * ky + a62 * h * k2y + a63 * h * k3y + a64 * h * k4y + a65 * h * k5y, k6x, k6y);
-            ox = 1.0 * rx + c1 * h * kx + c2 * h * k2x + c3 * h * k3x + c4 * h * k4x + c5 * h * k5x + c6 * h * k6x;
-            oy = 1.0 * ry + c1 * h * ky + c2 * h * k2y + c3 * h * k3y + c4 * h * k4y + c5 * h * k5y + c6 * h * k6y;
-            const double ex = d1 * h * kx + d2 * h * k2x + d3 * h * k3x + d4 * h * k4x + d5 * h * k5x + d6 * h * k6x;
-            const double ey = d1 * h * ky + d2 * h * k2y + d3 * h * k3y + d4 * h * k4y + d5 * h * k5y + d6 * h * k6y;
-            // Odeint's default error checker: |err| / (atol + rtol (|x| + h |dx/ds|)), the larger component.
-            err = std::max(std::abs(ex) / (settings.atol + settings.rtol * (1.0 * std::abs(rx) + h * std::abs(kx))),
-                           std::abs(ey) / (settings.atol + settings.rtol * (1.0 * std::abs(ry) + h * std::abs(ky))));
-        };
-        cash_karp(dt);
-        if (failure != LineStatus::ok) {
-            // A stage left the usable field: locate the stop to within min_step by halving.
-            if (dt <= min_step) {
-                line.stop = stop_for(failure);
-                return line;
-            }
-            dt = std::max(0.5 * dt, min_step);
+            o.stop_backward = o.stop_forward = st == LineStatus::ok ? StopReason::domain_edge : stop_for(st);
             continue;
         }
-        double next_dt = dt; // Odeint's step adjuster: shrink on failure, grow when the error is below 1/2
-        if (err > 1.0) {
-            const double shorter = dt * std::max(0.9 * std::pow(err, -1.0 / 3.0), 0.2);
-            if (!(shorter < min_step)) {
-                dt = shorter;
-                continue;
-            }
-            // The tolerance cannot be met with any useful step (a kink of the interpolated field at a
-            // near-singular cell): take the step at min_step anyway, if the field allows it.
-            cash_karp(min_step);
-            if (failure != LineStatus::ok) {
-                line.stop = stop_for(failure);
-                return line;
-            }
-            next_dt = min_step;
-        } else if (err < 0.5) {
-            // Grown past max_step the value does not matter (the next step is capped): skip the pow then.
-            const double e = std::max(1.0 / 3125.0, err), cap = 0.9 * dt / max_step;
-            next_dt = e <= cap * cap * cap * cap * cap ? std::max(dt, max_step) : dt * (0.9 * std::pow(e, -0.2));
-        }
-        if (!std::isfinite(ox) || !std::isfinite(oy)) {
-            line.stop = StopReason::singular;
-            return line;
-        }
-        // Tangent at the new point, aligned with the old one; it is the next step's k1 and reference.
-        double nx, ny;
-        const LineStatus st = field.evaluate(ox, oy, kx, ky, nx, ny);
-        if (st != LineStatus::ok) {
-            if (dt <= min_step) {
-                line.stop = stop_for(st);
-                return line;
-            }
-            dt = std::max(0.5 * dt, min_step);
+        forward_starts.insert(forward_starts.end(), {x0, y0, vx, vy});
+        started.push_back(k);
+    }
+    std::vector<TensorLine> forward = integrate_tensor_lines(field, forward_starts, settings);
+    // The backward branches of the lines that did not close on themselves.
+    std::vector<double> backward_starts;
+    std::vector<std::size_t> open;
+    for (std::size_t m = 0; m < started.size(); ++m) {
+        if (forward[m].stop == StopReason::closed) continue;
+        backward_starts.insert(backward_starts.end(), {forward_starts[4 * m], forward_starts[4 * m + 1],
+                                                       -forward_starts[4 * m + 2], -forward_starts[4 * m + 3]});
+        open.push_back(m);
+    }
+    std::vector<TensorLine> backward = integrate_tensor_lines(field, backward_starts, settings);
+    std::size_t next_open = 0;
+    for (std::size_t m = 0; m < started.size(); ++m) {
+        TwoWayLine &o = out[started[m]];
+        TensorLine &fwd = forward[m];
+        if (fwd.stop == StopReason::closed) {
+            o.xy = std::move(fwd.xy);
+            o.s = std::move(fwd.s);
+            o.stop_forward = o.stop_backward = StopReason::closed;
+            o.closed = true;
             continue;
         }
-        const double px = rx, py = ry;
-        const double seg = distance(px, py, ox, oy);
-        rx = ox;
-        ry = oy;
-        s += seg;
-        kx = nx;
-        ky = ny;
-        dt = next_dt;
-        // Closing on itself: the last segment passes the seed, heading the way the line started.
-        if (settings.detect_closure && s >= closure_min_length &&
-            segment_distance(x0, y0, px, py, rx, ry) <= closure_distance && nx * start_tx + ny * start_ty > 0.0) {
-            line.xy.push_back(x0);
-            line.xy.push_back(y0);
-            line.s.push_back(s - seg + distance(px, py, x0, y0));
-            line.stop = StopReason::closed;
-            return line;
+        const TensorLine &bwd = backward[next_open++];
+        const std::size_t nb = bwd.size();
+        const double total_back = nb ? bwd.s.back() : 0.0;
+        o.xy.reserve(2 * (nb + fwd.size()));
+        o.s.reserve(nb + fwd.size());
+        for (std::size_t k = nb; k-- > 1;) { // the backward branch reversed, without its seed
+            o.xy.push_back(bwd.xy[2 * k]);
+            o.xy.push_back(bwd.xy[2 * k + 1]);
+            o.s.push_back(total_back - bwd.s[k]);
         }
-        line.xy.push_back(rx);
-        line.xy.push_back(ry);
-        line.s.push_back(s);
+        o.seed_index = o.s.size();
+        for (std::size_t k = 0; k < fwd.size(); ++k) {
+            o.xy.push_back(fwd.xy[2 * k]);
+            o.xy.push_back(fwd.xy[2 * k + 1]);
+            o.s.push_back(total_back + fwd.s[k]);
+        }
+        o.stop_backward = bwd.stop;
+        o.stop_forward = fwd.stop;
     }
+    (void)next_open;
+    return out;
 }
 
 TwoWayLine integrate_tensor_line_both_ways(const LineField &field, double x0, double y0,
                                            const TensorLineSettings &settings) {
-    TwoWayLine out;
-    double vx = 0.0, vy = 0.0;
-    const LineStatus st = field.evaluate(x0, y0, 1.0, 0.0, vx, vy);
-    if (st != LineStatus::ok || !std::isfinite(x0) || !std::isfinite(y0)) {
-        if (std::isfinite(x0) && std::isfinite(y0)) {
-            out.xy = {x0, y0};
-            out.s = {0.0};
-        }
-        out.stop_backward = out.stop_forward = st == LineStatus::ok ? StopReason::domain_edge : stop_for(st);
-        return out;
-    }
-    const TensorLine fwd = integrate_tensor_line(field, x0, y0, vx, vy, settings);
-    if (fwd.stop == StopReason::closed) {
-        out.xy = fwd.xy;
-        out.s = fwd.s;
-        out.stop_forward = out.stop_backward = StopReason::closed;
-        out.closed = true;
-        return out;
-    }
-    const TensorLine bwd = integrate_tensor_line(field, x0, y0, -vx, -vy, settings);
-    const std::size_t nb = bwd.size();
-    const double total_back = nb ? bwd.s.back() : 0.0;
-    for (std::size_t k = nb; k-- > 1;) { // the backward branch reversed, without its seed
-        out.xy.push_back(bwd.xy[2 * k]);
-        out.xy.push_back(bwd.xy[2 * k + 1]);
-        out.s.push_back(total_back - bwd.s[k]);
-    }
-    out.seed_index = out.s.size();
-    for (std::size_t k = 0; k < fwd.size(); ++k) {
-        out.xy.push_back(fwd.xy[2 * k]);
-        out.xy.push_back(fwd.xy[2 * k + 1]);
-        out.s.push_back(total_back + fwd.s[k]);
-    }
-    out.stop_backward = bwd.stop;
-    out.stop_forward = fwd.stop;
-    return out;
+    return std::move(integrate_tensor_lines_both_ways(field, {x0, y0}, settings).front());
 }
 
 } // namespace geobarrier

@@ -151,76 +151,107 @@ std::vector<Candidate> find_candidates(const CauchyGreenField &cg, const Candida
     return out;
 }
 
-Shot shoot(const LineField &eta, const Section &section, double sigma, const ReturnMapSettings &settings,
-           bool keep_path) {
-    Shot shot;
+namespace {
+
+// Stops each launched shearline at its first crossing of the section in the launch direction (left normal), at
+// least min_return along it and within the section's first 1.5 lengths; records where it crossed.
+class SectionCrossing : public TensorLineObserver {
+  public:
+    SectionCrossing(const Section &section, double min_return, std::size_t lines)
+        : m_section(section), m_min_return(min_return), m_cross(2 * lines, nan_value), m_image(lines, nan_value) {
+        m_len = section.length();
+        m_ux = (section.x1 - section.x0) / m_len;
+        m_uy = (section.y1 - section.y0) / m_len;
+    }
+    bool stop_after(std::size_t line, double ax, double ay, double bx, double by, double s) override {
+        const double nx = -m_uy, ny = m_ux; // left normal: Omega u
+        const double a0 = (ax - m_section.x0) * nx + (ay - m_section.y0) * ny;
+        const double a1 = (bx - m_section.x0) * nx + (by - m_section.y0) * ny;
+        const double s_a = s - std::sqrt((bx - ax) * (bx - ax) + (by - ay) * (by - ay));
+        if (!(s_a >= m_min_return && a0 < 0.0 && a1 >= 0.0)) return false;
+        const double t = a0 / (a0 - a1);
+        const double qx = ax + t * (bx - ax), qy = ay + t * (by - ay);
+        const double sigma = ((qx - m_section.x0) * m_ux + (qy - m_section.y0) * m_uy) / m_len;
+        if (!(sigma > 0.0 && sigma <= 1.5)) return false;
+        m_cross[2 * line] = qx;
+        m_cross[2 * line + 1] = qy;
+        m_image[line] = sigma;
+        return true;
+    }
+    double image(std::size_t line) const { return m_image[line]; }
+    double cross_x(std::size_t line) const { return m_cross[2 * line]; }
+    double cross_y(std::size_t line) const { return m_cross[2 * line + 1]; }
+
+  private:
+    const Section &m_section;
+    double m_min_return, m_len = 1.0, m_ux = 1.0, m_uy = 0.0;
+    std::vector<double> m_cross, m_image;
+};
+
+} // namespace
+
+std::vector<Shot> shoot_all(const LineField &eta, const Section &section, const std::vector<double> &sigmas,
+                            const ReturnMapSettings &settings, bool keep_path) {
+    std::vector<Shot> shots(sigmas.size());
     const Grid &g = eta.grid();
     const double h = grid_spacing(g);
     const double len = section.length();
     const double ux = (section.x1 - section.x0) / len, uy = (section.y1 - section.y0) / len;
     const double nx = -uy, ny = ux; // left normal: Omega u
-    double px, py;
-    section.point(sigma, px, py);
-    double vx, vy;
-    const LineStatus st = eta.evaluate(px, py, nx, ny, vx, vy);
-    if (st != LineStatus::ok) {
-        shot.stop = st == LineStatus::outside  ? StopReason::domain_edge
-                    : st == LineStatus::masked ? StopReason::masked
-                                               : StopReason::singular;
-        return shot;
-    }
-    if (vx * nx + vy * ny < settings.min_transversality) {
-        shot.stop = StopReason::singular; // tangent to the section: no transverse launch
-        return shot;
+    // Launches: transverse to the section, pointing to its left.
+    std::vector<double> starts;
+    std::vector<std::size_t> launched;
+    for (std::size_t k = 0; k < sigmas.size(); ++k) {
+        double px, py, vx, vy;
+        section.point(sigmas[k], px, py);
+        const LineStatus st = eta.evaluate(px, py, nx, ny, vx, vy);
+        if (st != LineStatus::ok) {
+            shots[k].stop = st == LineStatus::outside  ? StopReason::domain_edge
+                            : st == LineStatus::masked ? StopReason::masked
+                                                       : StopReason::singular;
+            continue;
+        }
+        if (vx * nx + vy * ny < settings.min_transversality) {
+            shots[k].stop = StopReason::singular; // tangent to the section: no transverse launch
+            continue;
+        }
+        starts.insert(starts.end(), {px, py, vx, vy});
+        launched.push_back(k);
     }
     const double budget = settings.max_turns * 2.0 * pi * len;
-    const double chunk = std::max(pi * len, 20.0 * h);
-    const double min_return = 2.0 * h;
     TensorLineSettings ls = settings.line;
     ls.detect_closure = false;
-    // A chunk takes about chunk / (h/2) steps where the field is resolved; where it turns too fast for the grid
-    // (chaotic layers) the controller shrinks the steps a hundredfold. Such shearlines cannot close within the
+    ls.max_length = budget;
+    // About chunk / (h/2) steps per length `chunk` where the field is resolved; where it turns too fast for the grid
+    // (chaotic layers) an adaptive method shrinks its steps a hundredfold. Such shearlines cannot close within the
     // field's resolution anyway: give up on them at ten times the resolved step count instead of crawling on.
+    const double chunk = std::max(pi * len, 20.0 * h);
     const double step = settings.line.max_step > 0.0 ? settings.line.max_step : 0.5 * h;
-    ls.max_steps =
-        std::min<std::size_t>(settings.line.max_steps, static_cast<std::size_t>(10.0 * std::ceil(chunk / step)) + 100);
-    shot.xy = {px, py};
-    double travelled = 0.0, dir_x = vx, dir_y = vy, cx = px, cy = py;
-    while (true) {
-        ls.max_length = std::min(chunk, budget - travelled);
-        const TensorLine line = integrate_tensor_line(eta, cx, cy, dir_x, dir_y, ls);
-        const std::size_t m = line.size();
-        for (std::size_t k = 1; k < m; ++k) {
-            const double ax = line.xy[2 * k - 2], ay = line.xy[2 * k - 1], bx = line.xy[2 * k], by = line.xy[2 * k + 1];
-            const double a0 = (ax - section.x0) * nx + (ay - section.y0) * ny;
-            const double a1 = (bx - section.x0) * nx + (by - section.y0) * ny;
-            if (travelled + line.s[k - 1] >= min_return && a0 < 0.0 && a1 >= 0.0) {
-                const double t = a0 / (a0 - a1);
-                const double qx = ax + t * (bx - ax), qy = ay + t * (by - ay);
-                const double s = ((qx - section.x0) * ux + (qy - section.y0) * uy) / len;
-                if (s > 0.0 && s <= 1.5) {
-                    shot.xy.push_back(qx);
-                    shot.xy.push_back(qy);
-                    shot.returned = true;
-                    shot.image = s;
-                    if (!keep_path) shot.xy.clear();
-                    return shot;
-                }
-            }
-            shot.xy.push_back(bx);
-            shot.xy.push_back(by);
+    const double chunks = std::ceil(budget / chunk);
+    ls.max_steps = std::min<std::size_t>(
+        settings.line.max_steps, static_cast<std::size_t>(chunks * (10.0 * std::ceil(chunk / step) + 100.0)));
+    SectionCrossing crossing(section, 2.0 * h, launched.size());
+    std::vector<TensorLine> lines = integrate_tensor_lines(eta, starts, ls, &crossing);
+    for (std::size_t m = 0; m < launched.size(); ++m) {
+        Shot &shot = shots[launched[m]];
+        TensorLine &line = lines[m];
+        shot.returned = line.stop == StopReason::observer;
+        shot.stop = shot.returned ? StopReason::max_length : line.stop;
+        if (shot.returned) {
+            shot.image = crossing.image(m);
+            // The path ends at the crossing point instead of the step's end beyond it.
+            line.xy.resize(line.xy.size() - 2);
+            line.xy.push_back(crossing.cross_x(m));
+            line.xy.push_back(crossing.cross_y(m));
         }
-        if (m > 0) travelled += line.s.back();
-        if (line.stop != StopReason::max_length || travelled >= budget - 1e-12 * budget || m < 2) {
-            shot.stop = line.stop;
-            if (!keep_path) shot.xy.clear();
-            return shot;
-        }
-        cx = line.xy[2 * m - 2];
-        cy = line.xy[2 * m - 1];
-        dir_x = cx - line.xy[2 * m - 4];
-        dir_y = cy - line.xy[2 * m - 3];
+        if (keep_path) shot.xy = std::move(line.xy);
     }
+    return shots;
+}
+
+Shot shoot(const LineField &eta, const Section &section, double sigma, const ReturnMapSettings &settings,
+           bool keep_path) {
+    return std::move(shoot_all(eta, section, {sigma}, settings, keep_path).front());
 }
 
 LineField coarsened(const LineField &field) {
@@ -291,27 +322,40 @@ ReturnMap closed_shearlines(const LineField &eta, int sign, const Section &secti
     std::vector<std::vector<double>> paths(n);        // kept for pictures and for shearlines closed within resolution
     std::vector<std::vector<double>> coarse_paths(n); // the same on the coarse field, where it returned
 
-#pragma omp parallel for schedule(dynamic, 4)
-    for (long long kk = 0; kk < static_cast<long long>(n); ++kk) {
-        const std::size_t k = static_cast<std::size_t>(kk);
-        Shot s = shoot(eta, section, map.sigma[k], settings, true);
+    // Every launch at once, in lockstep lanes.
+    std::vector<Shot> shots = shoot_all(eta, section, map.sigma, settings, true);
+    std::vector<double> gaps(n, nan_value);
+    // Richardson: P_h = P + C h^2, P_2h = P + 4 C h^2, so P = (4 P_h - P_2h) / 3 to higher order; only where the gap
+    // on the grid is below a grid spacing: beyond, the two shearlines cross different cells and the O(h^2) expansion
+    // no longer describes their difference.
+    std::vector<double> coarse_sigma;
+    std::vector<std::size_t> coarse_of;
+    for (std::size_t k = 0; k < n; ++k) {
+        const Shot &s = shots[k];
         if (s.returned) map.image[k] = s.image;
         map.stop[k] = s.stop;
-        double gap = s.returned ? std::abs(s.image - map.sigma[k]) * len : nan_value;
-        // Richardson: P_h = P + C h^2, P_2h = P + 4 C h^2, so P = (4 P_h - P_2h) / 3 to higher order; only where the
-        // gap on the grid is below a grid spacing: beyond, the two shearlines cross different cells and the O(h^2)
-        // expansion no longer describes their difference.
-        if (s.returned && coarse && settings.resolution_gap > 0.0 && gap <= h) {
-            Shot c = shoot(*coarse, section, map.sigma[k], settings, true);
+        gaps[k] = s.returned ? std::abs(s.image - map.sigma[k]) * len : nan_value;
+        if (s.returned && coarse && settings.resolution_gap > 0.0 && gaps[k] <= h) {
+            coarse_sigma.push_back(map.sigma[k]);
+            coarse_of.push_back(k);
+        }
+    }
+    if (!coarse_sigma.empty()) {
+        std::vector<Shot> coarse_shots = shoot_all(*coarse, section, coarse_sigma, settings, true);
+        for (std::size_t m = 0; m < coarse_of.size(); ++m) {
+            const std::size_t k = coarse_of[m];
+            Shot &c = coarse_shots[m];
             if (c.returned && c.xy.size() >= 8) {
-                map.extrapolated[k] = (4.0 * s.image - c.image) / 3.0;
-                gap = std::abs(map.extrapolated[k] - map.sigma[k]) * len;
+                map.extrapolated[k] = (4.0 * shots[k].image - c.image) / 3.0;
+                gaps[k] = std::abs(map.extrapolated[k] - map.sigma[k]) * len;
                 coarse_paths[k] = std::move(c.xy);
             }
         }
+    }
+    for (std::size_t k = 0; k < n; ++k) {
         const bool picture = keep_every && k % keep_every == keep_every / 2;
-        const bool near = s.returned && settings.resolution_gap > 0.0 && gap <= settings.resolution_gap;
-        if (picture || near) paths[k] = std::move(s.xy);
+        const bool near = shots[k].returned && settings.resolution_gap > 0.0 && gaps[k] <= settings.resolution_gap;
+        if (picture || near) paths[k] = std::move(shots[k].xy);
         if (!near) coarse_paths[k].clear();
     }
     for (std::size_t k = 0; k < n; ++k)

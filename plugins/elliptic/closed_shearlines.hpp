@@ -127,6 +127,9 @@ struct Shot {
 };
 Shot shoot(const LineField &eta, const Section &section, double sigma, const ReturnMapSettings &settings,
            bool keep_path);
+// The same from every sigma at once, in lockstep lanes (integrate_tensor_lines).
+std::vector<Shot> shoot_all(const LineField &eta, const Section &section, const std::vector<double> &sigmas,
+                            const ReturnMapSettings &settings, bool keep_path);
 
 // Curve geometry for selecting barriers (x, y interleaved closed polylines, first point not repeated).
 // Even-odd rule: is (x, y) inside the closed curve?

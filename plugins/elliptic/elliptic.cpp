@@ -153,7 +153,10 @@ struct Elliptic {
         integer_param("poincare_iterates", 20, 1, 100000, "Poincare map iterates of each barrier's points"),
         integer_param("poincare_points", 200, 8, 100000, "points per barrier iterated by the Poincare map"),
         integer_param("plot_shearlines", 24, 0, 100000, "launched shearlines drawn per section and family"),
-        real_param("line_rtol", 1e-6, 1e-14, 1e-2, "", "relative tolerance of shearline integration"),
+        string_param("line_method", "midpoint", "midpoint|rk4|bs32|dopri5",
+                     "tensor-line integration: fixed half-cell steps (midpoint, rk4) or adaptive pairs at the tolerance (bs32, dopri5); docs/extractors.md"),
+        real_param("line_rtol", 1e-6, 1e-14, 1e-2, "",
+                   "relative tolerance of shearline integration (adaptive line_method only)"),
         real_param("barrier_spacing", 0.05, 0.0, 1.0, "",
                    "nested barriers of one region and family reported this far apart, as a fraction of the "
                    "outermost's equivalent radius (0 = all)"),
@@ -174,6 +177,9 @@ struct Elliptic {
                    "0: off; > 0: also report each barrier's <d_g> from exact Cauchy-Green tensors on 3 x 3 patches "
                    "this many grid spacings apart around its vertices (mean_geodesic_deviation_exact; selection "
                    "still uses the grid's)"),
+        integer_param("exact_deviation_points", 256, 0, 1000000,
+                      "points per barrier, evenly spaced in arclength, where the exact <d_g> is evaluated (9 "
+                      "trajectories each); 0 = every vertex (their number grows with the grid)"),
         bool_param("extrapolate_gap", true,
                    "compare the Richardson-extrapolated return gap (field at h and 2h) with resolution_gap, not the "
                    "gap on the grid, whose O(h^2) interpolation error grows towards the island's edge"),
@@ -193,7 +199,9 @@ struct Elliptic {
           m_resolution_gap(p.real("resolution_gap")), m_barrier_spacing(p.real("barrier_spacing")),
           m_extrapolate_gap(p.flag("extrapolate_gap")), m_ftle_filter(p.flag("ftle_filter")),
           m_conservative(p.string("conservative")), m_lambda(p.real("lambda")),
-          m_exact_deviation_spacing(p.real("exact_deviation_spacing")) {}
+          m_exact_deviation_spacing(p.real("exact_deviation_spacing")),
+          m_exact_deviation_points(static_cast<std::size_t>(p.integer("exact_deviation_points"))),
+          m_line_method(tensor_line_method(p.string("line_method"))) {}
 
     void extract(const sdk::Host &host, const gb_extract_input &in) const;
 
@@ -210,6 +218,8 @@ struct Elliptic {
     bool m_extrapolate_gap, m_ftle_filter;
     std::string m_conservative;
     double m_lambda, m_exact_deviation_spacing;
+    std::size_t m_exact_deviation_points;
+    TensorLineMethod m_line_method;
 };
 
 void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const {
@@ -279,6 +289,7 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
     rs.launch_points = m_launch_points;
     rs.max_turns = m_max_turns;
     rs.keep_lines = in.plots ? m_plot_shearlines : 0;
+    rs.line.method = m_line_method;
     rs.line.rtol = m_line_rtol;
     rs.line.atol = 1e-5 * h;
     rs.resolution_gap = m_resolution_gap * h;
@@ -295,7 +306,7 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
             const Candidate &cand = candidates[c];
             ReturnMap map = closed_shearlines(eta, sign, cand.section, rs,
                                               m_extrapolate_gap && m_resolution_gap > 0.0 ? &coarse : nullptr);
-            std::size_t stops[6] = {0, 0, 0, 0, 0, 0};
+            std::size_t stops[7] = {0, 0, 0, 0, 0, 0, 0};
             for (std::size_t k = 0; k < map.sigma.size(); ++k)
                 if (!std::isfinite(map.image[k])) ++stops[static_cast<int>(map.stop[k])];
             std::size_t kept_here = 0;
@@ -481,7 +492,11 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
         if (!lambda_lines && m_exact_deviation_spacing > 0.0)
             metrics.emplace_back(
                 "mean_geodesic_deviation_exact",
-                exact_mean_deviation(host, in, f.orbit.xy, f.orbit.sign,
+                exact_mean_deviation(host, in,
+                                     m_exact_deviation_points > 0 && m_exact_deviation_points < f.orbit.xy.size() / 2
+                                         ? resample_polyline(f.orbit.xy, f.length / m_exact_deviation_points, true)
+                                         : f.orbit.xy,
+                                     f.orbit.sign,
                                      m_exact_deviation_spacing * std::min(grid.dx(), grid.dy()),
                                      m_area_preserving ? ShearDeviationForm::area_preserving
                                                        : ShearDeviationForm::general));

@@ -99,6 +99,8 @@ struct Parabolic {
                    "shearline: shearlines stop where lambda2 - lambda1 <= singular_gap lambda2 (eta± undefined)"),
         string_param("deviation_form", "general", "general|area-preserving",
                      "shearline: d_g formula: general (any flow) or the paper's eq. dg_shr (lambda1 lambda2 = 1 only)"),
+        string_param("line_method", "midpoint", "midpoint|rk4|bs32|dopri5",
+                     "tensor-line integration: fixed half-cell steps (midpoint, rk4) or adaptive pairs at the tolerance (bs32, dopri5); docs/extractors.md"),
     };
 
     explicit Parabolic(const sdk::Params &p)
@@ -107,7 +109,8 @@ struct Parabolic {
           m_seed_spacing(static_cast<std::size_t>(p.integer("seed_spacing"))), m_max_length(p.real("max_length")),
           m_min_length(p.real("min_length")), m_neighbour_distance(p.real("neighbour_distance")),
           m_max_barriers(static_cast<std::size_t>(p.integer("max_barriers"))), m_singular_gap(p.real("singular_gap")),
-          m_area_preserving(p.string("deviation_form") == "area-preserving") {}
+          m_area_preserving(p.string("deviation_form") == "area-preserving"),
+          m_line_method(tensor_line_method(p.string("line_method"))) {}
 
     void extract(const sdk::Host &host, const gb_extract_input &in) const;
     void extract_shearless(const sdk::Host &host, const gb_extract_input &in) const;
@@ -121,6 +124,7 @@ struct Parabolic {
     std::size_t m_max_barriers;
     double m_singular_gap;
     bool m_area_preserving;
+    TensorLineMethod m_line_method;
 };
 
 // Jet cores: trenches of the FTLE (a monotone function of lambda2, on a log scale), at least min_length long,
@@ -211,6 +215,7 @@ void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const
             }
         const std::size_t n = seeds.size() / 2;
         TensorLineSettings settings;
+        settings.method = m_line_method;
         settings.max_length = max_length;
         settings.detect_closure = true;
         // Seeds whose grid point a line of this family already passed (its nearest grid point) would give that
@@ -225,12 +230,9 @@ void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const
                 const std::size_t i = static_cast<std::size_t>(std::lround((seeds[2 * k + 1] - g.y_min) / g.dy()));
                 if (!visited[i * g.nx + j]) unvisited_seeds.push_back(k);
             }
-            std::vector<TwoWayLine> block_lines(unvisited_seeds.size());
-#pragma omp parallel for schedule(dynamic)
-            for (std::size_t q = 0; q < unvisited_seeds.size(); ++q) {
-                const std::size_t k = unvisited_seeds[q];
-                block_lines[q] = integrate_tensor_line_both_ways(field, seeds[2 * k], seeds[2 * k + 1], settings);
-            }
+            std::vector<double> block_seeds;
+            for (const std::size_t k : unvisited_seeds) block_seeds.insert(block_seeds.end(), {seeds[2 * k], seeds[2 * k + 1]});
+            std::vector<TwoWayLine> block_lines = integrate_tensor_lines_both_ways(field, block_seeds, settings);
             for (TwoWayLine &line : block_lines) {
                 for (std::size_t p = 0; p + 1 < line.xy.size(); p += 2) {
                     const long j = std::lround((line.xy[p] - g.x_min) / g.dx());

@@ -81,6 +81,13 @@ class LineField {
 
     // The field at (x, y), aligned so that <v, (ref_x, ref_y)> >= 0; a unit vector in (vx, vy) when ok.
     LineStatus evaluate(double x, double y, double ref_x, double ref_y, double &vx, double &vy) const;
+    // The same for n points at once (the lockstep tensor-line integrator, tensor_lines.cpp): the field at (x[k], y[k])
+    // aligned with the nonzero reference (ref_x[k], ref_y[k]), status[k] a LineStatus; where it is not ok, (vx[k],
+    // vy[k]) is the reference, so no NaN reaches a lane's next stage. Any input (outside, NaN) is safe. Written
+    // without branches so that the loop vectorises (gathers of the cell corners); a value equals evaluate's bit for
+    // bit wherever evaluate is given a nonzero finite reference.
+    void evaluate_lanes(std::size_t n, const double *x, const double *y, const double *ref_x, const double *ref_y,
+                        double *vx, double *vy, std::uint8_t *status) const;
     // Status only (is there a usable cell around (x, y)?).
     LineStatus status_at(double x, double y) const;
     // The stored (unaligned) unit vector at grid point (i, j) and whether it may be used.

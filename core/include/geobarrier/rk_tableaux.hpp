@@ -2,7 +2,8 @@
 // the SDK compiles into plugins (sdk.hpp, gb_advance_request): one definition, so both give the same numbers. Public
 // because plugins include it through the SDK; not part of the C ABI. Sparse compile-time rows so that a stage state
 // x + h sum_j a_ij k_j is one vectorisable pass over the block with the zero coefficients left out. Sources: Dormand & Prince 1980 (dopri5), Fehlberg 1968 as in Boost.Odeint's runge_kutta_fehlberg78
-// (rkf78), Hairer, Norsett & Wanner, Solving ODEs I, and their DOP853 code (dop853), Kutta 1901 (rk4).
+// (rkf78), Hairer, Norsett & Wanner, Solving ODEs I, and their DOP853 code (dop853), Kutta 1901 (rk4), Runge 1895
+// (midpoint), Bogacki & Shampine 1989 (bs32); the last two serve the tensor-line integrator only.
 #ifndef GEOBARRIER_RK_TABLEAUX_HPP
 #define GEOBARRIER_RK_TABLEAUX_HPP
 
@@ -76,6 +77,35 @@ struct Rk4Tableau {
     static constexpr RkRow a[stages] = {{0, {}}, {1, {{0, 0.5}}}, {1, {{1, 0.5}}}, {1, {{2, 1.0}}}};
     static constexpr RkRow b = {4, {{0, 1.0 / 6}, {1, 1.0 / 3}, {2, 1.0 / 3}, {3, 1.0 / 6}}};
     static constexpr RkRow e = {0, {}}, e3 = {0, {}};
+};
+
+// The explicit midpoint rule (Runge's second-order method), fixed steps only: the tensor-line integrator's cheapest
+// method (tensor_lines.cpp), for fields that are only piecewise bilinear, where higher orders buy little.
+struct MidpointTableau {
+    static constexpr const char *name = "midpoint";
+    static constexpr int stages = 2, order = 2, error_order = 0;
+    static constexpr bool fsal = false;
+    static constexpr RkError error = RkError::none;
+    static constexpr double c[stages] = {0.0, 0.5};
+    static constexpr RkRow a[stages] = {{0, {}}, {1, {{0, 0.5}}}};
+    static constexpr RkRow b = {1, {{1, 1.0}}};
+    static constexpr RkRow e = {0, {}}, e3 = {0, {}};
+};
+
+// Bogacki & Shampine 3(2), first same as last (stage 3 at the new state, a[3] = b): 3 evaluations per accepted step.
+// Bogacki & Shampine, Appl. Math. Lett. 2 (1989) 321-325.
+struct Bs32Tableau {
+    static constexpr const char *name = "bs32";
+    static constexpr int stages = 4, order = 3, error_order = 2;
+    static constexpr bool fsal = true;
+    static constexpr RkError error = RkError::embedded;
+    static constexpr double c[stages] = {0.0, 0.5, 0.75, 1.0};
+    static constexpr RkRow a[stages] = {
+        {0, {}}, {1, {{0, 0.5}}}, {1, {{1, 0.75}}}, {3, {{0, 2.0 / 9}, {1, 1.0 / 3}, {2, 4.0 / 9}}}};
+    static constexpr RkRow b = a[3];
+    // b - b_hat (b_hat: the 2nd-order weights 7/24, 1/4, 1/3, 1/8).
+    static constexpr RkRow e = {4, {{0, 2.0 / 9 - 7.0 / 24}, {1, 1.0 / 3 - 1.0 / 4}, {2, 4.0 / 9 - 1.0 / 3}, {3, -1.0 / 8}}};
+    static constexpr RkRow e3 = {0, {}};
 };
 
 // Dormand-Prince 5(4), first same as last: stage 6 is evaluated at the new state (a[6] = b), so an accepted step

@@ -232,7 +232,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     if (r.need_cauchy_green || r.need_positions) { // validation products alone need no grid
         StageTimer timer(stages, "flow map"); // with the Cauchy–Green fields, tile by tile
         detail::ProgressBar bar("flow map", !options.quiet);
-        const Dynamics dynamics{&r.system, &r.forcing};
+        const Dynamics dynamics = r.dynamics();
         GridFields computed = compute_grid_fields(dynamics, e.grid, e.t0, e.t1, e.integrator, e.bounds, plan,
                                                   [&](std::size_t done, std::size_t total) {
                                                       bar.update(done, total);
@@ -300,7 +300,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
                           std::uint8_t *mask_out) {
         // The grid's engine and gradient method (flow_map_at_points), so advected points get the same batching and,
         // on the auxiliary grid, the same difference-aware error control; the offset is relative to the grid spacing.
-        const Dynamics dynamics{&r.system, &r.forcing};
+        const Dynamics dynamics = r.dynamics();
         const GradientMethod method = !dF_out ? GradientMethod::none
                                       : r.system.has_jacobian() && r.gradient != GradientMethod::auxiliary_grid
                                           ? GradientMethod::variational
@@ -331,10 +331,11 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
         const std::string out_text = out.string();
         // The system's state names and units (ABI 1.2), "" when undeclared, for the axes of the extractor's pictures.
         const PluginInfo &sys = r.system.info();
-        const std::string names[2] = {sys.state_names.empty() ? "" : sys.state_names[0],
-                                      sys.state_names.empty() ? "" : sys.state_names[1]};
-        const std::string units[2] = {sys.state_units.empty() ? "" : sys.state_units[0],
-                                      sys.state_units.empty() ? "" : sys.state_units[1]};
+        const std::size_t cx = r.plane_component(0), cy = r.plane_component(1); // a slice's axes
+        const std::string names[2] = {sys.state_names.empty() ? "" : sys.state_names[cx],
+                                      sys.state_names.empty() ? "" : sys.state_names[cy]};
+        const std::string units[2] = {sys.state_units.empty() ? "" : sys.state_units[cx],
+                                      sys.state_units.empty() ? "" : sys.state_units[cy]};
         const char *const name_ptrs[2] = {names[0].c_str(), names[1].c_str()};
         const char *const unit_ptrs[2] = {units[0].c_str(), units[1].c_str()};
         const gb_extract_input input{e.grid.x_min, e.grid.x_max, e.grid.y_min, e.grid.y_max,
@@ -359,7 +360,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
         report("validation", 0, 1);
         StageTimer timer(stages, "validation");
         ValidationInput input;
-        input.dynamics = Dynamics{&r.system, &r.forcing};
+        input.dynamics = r.dynamics();
         input.integrator = e.integrator;
         input.bounds = e.bounds;
         input.t0 = e.t0;
@@ -377,7 +378,14 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     // folder with a manifest is a finished run.
     throw_if_cancelled("before writing the output files");
     std::vector<FieldVariable> variables;
-    const StateAxes state_axes{r.system.info().state_names, r.system.info().state_units};
+    // The grid's two axes: the system's first two components, or a slice's axes.
+    StateAxes state_axes;
+    for (std::size_t i = 0; i < 2; ++i) {
+        const PluginInfo &sys = r.system.info();
+        const std::size_t c = r.plane_component(i);
+        if (c < sys.state_names.size()) state_axes.names.push_back(sys.state_names[c]);
+        if (c < sys.state_units.size()) state_axes.units.push_back(sys.state_units[c]);
+    }
     try {
         StageTimer timer(stages, "output");
         for (const auto &product : known_products()) {
@@ -403,6 +411,11 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
                                {"t1", e.t1},
                                {"gradient_method", to_string(gradient)},
                                {"experiment", r.resolved.dump()}};
+            if (e.slice) { // the slice: its axes (the coordinates x and y), tensor and fixed components
+                attributes["slice_axes"] = e.slice->axes[0] + " " + e.slice->axes[1];
+                attributes["slice_tensor"] = r.resolved["cauchy_green"].value("slice_tensor", "full");
+                for (const auto &[name, value] : e.slice->fixed) attributes["slice_fixed_" + name] = value;
+            }
             if (options.keep_results) summary.field_attributes = attributes;
             if (options.write_files) {
                 const fs::path file = out / "fields.nc";
@@ -415,8 +428,8 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
             plot.title = "FTLE, " + r.system.info().name + " + " + r.forcing.info().name + ", t = " +
                          fmt::format("{:g}", e.t0) + " to " + fmt::format("{:g}", e.t1);
             plot.colorbar_label = "FTLE";
-            plot.x_label = state_axis_label(r.system.info(), 0);
-            plot.y_label = state_axis_label(r.system.info(), 1);
+            plot.x_label = state_axis_label(r.system.info(), r.plane_component(0));
+            plot.y_label = state_axis_label(r.system.info(), r.plane_component(1));
             const fs::path file = out / "ftle.png";
             plot_field_png(file, e.grid, cg.ftle, mask, plot);
             summary.files.push_back(file);

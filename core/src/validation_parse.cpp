@@ -161,6 +161,47 @@ ValidationSpec parse_validation(const json &j, const std::string &path) {
                               "no seeds: give \"seeds\": [[x, y], ...], a \"lattice\" or \"barrier_points\" > 0");
         spec.poincare = p;
     }
+    if (root.has("section")) {
+        Reader r(root.get("section"), root.child("section"));
+        SectionSpec s;
+        const auto numbers = [](const json &v, const std::string &where, const char *what) {
+            if (!v.is_array() || v.size() < 2)
+                throw ConfigError(where, short_dump(v) + " must be " + what + " (an array of numbers, one per state "
+                                                                              "component)");
+            std::vector<double> out;
+            for (std::size_t i = 0; i < v.size(); ++i) {
+                if (!v[i].is_number() || !std::isfinite(v[i].get<double>()))
+                    throw ConfigError(where + "/" + std::to_string(i), short_dump(v[i]) + " must be a finite number");
+                out.push_back(v[i].get<double>());
+            }
+            return out;
+        };
+        s.normal = numbers(r.get("normal"), r.child("normal"), "the plane's normal");
+        if (std::all_of(s.normal.begin(), s.normal.end(), [](double v) { return v == 0.0; }))
+            throw ConfigError(r.child("normal"), "is zero; the plane needs a normal");
+        s.offset = r.number("offset", 0.0);
+        const double direction = r.number("direction", 1.0);
+        if (direction != 1.0 && direction != -1.0 && direction != 0.0)
+            throw ConfigError(r.child("direction"), short_dump(r.get("direction")) + " must be 1 (normal . x "
+                                                    "increasing), -1 (decreasing) or 0 (both)");
+        s.direction = static_cast<int>(direction);
+        const json &seeds = r.get("seeds");
+        if (!seeds.is_array() || seeds.empty())
+            throw ConfigError(r.child("seeds"), short_dump(seeds) + " must be a non-empty array of whole states");
+        for (std::size_t i = 0; i < seeds.size(); ++i) {
+            const std::string where = r.child("seeds") + "/" + std::to_string(i);
+            s.seeds.push_back(numbers(seeds[i], where, "a whole state"));
+            if (s.seeds.back().size() != s.normal.size())
+                throw ConfigError(where, "has " + std::to_string(s.seeds.back().size()) + " components and the "
+                                         "normal " + std::to_string(s.normal.size()));
+        }
+        s.t_start = r.optional_number("t_start");
+        s.t_end = r.optional_number("t_end");
+        s.crossings = r.count("crossings", s.crossings, 1, 10000000);
+        s.sample = r.positive("sample", s.sample);
+        r.finish();
+        spec.section = s;
+    }
     if (root.has("tracers")) {
         const json &t = root.get("tracers");
         if (t.is_array()) {
@@ -220,7 +261,7 @@ ValidationSpec parse_validation(const json &j, const std::string &path) {
     }
     root.finish();
     if (spec.empty())
-        throw ConfigError(path, "{} asks for nothing; give one of poincare, tracers, trajectories, forcing, "
+        throw ConfigError(path, "{} asks for nothing; give one of poincare, section, tracers, trajectories, forcing, "
                                 "advect_barriers");
     return spec;
 }
@@ -252,6 +293,13 @@ json validation_to_json(const ValidationSpec &spec, double t0, double t1) {
         if (!p.seeds.empty()) j["seeds"] = points_json(p.seeds);
         if (p.lattice) j["lattice"] = lattice_json(*p.lattice);
         out["poincare"] = j;
+    }
+    if (spec.section) {
+        const SectionSpec &s = *spec.section;
+        out["section"] = {{"normal", s.normal},       {"offset", s.offset},
+                          {"direction", s.direction}, {"seeds", s.seeds},
+                          {"t_start", s.t_start.value_or(t0)}, {"t_end", s.t_end.value_or(t1)},
+                          {"crossings", s.crossings}, {"sample", s.sample}};
     }
     if (!spec.tracers.empty()) {
         json clouds = json::array();

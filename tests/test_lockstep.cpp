@@ -419,3 +419,47 @@ TEST_CASE("checked fixed steps: a system too stiff for the smallest sub-step is 
     CHECK(advice.find("rosenbrock4") != std::string::npos);
     CHECK(advice.find("\"adaptive\": true") != std::string::npos);
 }
+
+TEST_CASE("draft preset: the damped attractor in backward time meets draft's stated accuracy (FTLE mean <= 1e-3)") {
+    // The accuracy suite's row that draft failed with step_tolerance 1e-2 (mean 1.0e-3 at 41 x 41): damped Duffing
+    // delta = 0.15, A = 0.3, T = -8 pi, with the suite's bounds. Backward in time the damping is an anti-damping, so
+    // trajectories accelerate and the checked steps must refine; 3e-3 holds the mean at 4e-4 there, with W's steps
+    // still passing unrefined (docs/performance.md, suite section).
+    const System duffing = make_system("duffing", {{"alpha", 1}, {"beta", 1}, {"delta", 0.15}});
+    const Forcing cosine = make_forcing("cosine", {{"amplitude", 0.3}});
+    const Dynamics dyn{&duffing, &cosine};
+    const Grid grid{-1.8, 1.8, -1.2, 1.2, 41, 41};
+    const double T = -8 * pi;
+    const Bounds bounds{-20, 20, -20, 20};
+    const IntegratorSettings draft = quality_preset("draft");
+    IntegratorSettings tight;
+    tight.method = "rkf78";
+    tight.rtol = tight.atol = 1e-12;
+    const GridFlowMap ours = compute_grid_flow_map(dyn, grid, 0.0, T, draft, GradientMethod::variational, 0.0, false,
+                                                   bounds);
+    const GridFlowMap exact = compute_grid_flow_map(dyn, grid, 0.0, T, tight, GradientMethod::variational, 0.0, false,
+                                                    bounds);
+    const auto f_ours = cauchy_green_field(grid, ours.dF, ours.mask, -T, ours.dF_exponent, ours.log_det).ftle;
+    const auto f_exact = cauchy_green_field(grid, exact.dF, exact.mask, -T, exact.dF_exponent, exact.log_det).ftle;
+    double mean = 0.0, worst = 0.0;
+    std::size_t counted = 0, masked_only_ours = 0;
+    for (std::size_t p = 0; p < grid.size(); ++p) {
+        if (!std::isfinite(f_exact[p])) continue; // left the bounds in the reference too
+        if (!std::isfinite(f_ours[p])) {
+            ++masked_only_ours;
+            continue;
+        }
+        const double e = std::abs(f_ours[p] - f_exact[p]);
+        mean += e;
+        worst = std::max(worst, e);
+        ++counted;
+    }
+    REQUIRE(counted > grid.size() / 2);
+    mean /= static_cast<double>(counted);
+    MESSAGE("draft, damped attractor: " << ours.stats.steps << " steps for " << ours.stats.planned_steps
+                                        << " planned; FTLE error mean " << mean << ", max " << worst);
+    CHECK(ours.stats.steps > ours.stats.planned_steps); // the checked steps refined
+    CHECK(masked_only_ours <= grid.size() / 100);      // no more than 1% masked beyond the reference's own
+    CHECK(mean <= 1e-3);                               // draft's stated accuracy (mean / max: 1e-3 / 0.3)
+    CHECK(worst <= 0.3);
+}

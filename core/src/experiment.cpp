@@ -101,7 +101,7 @@ IntegratorSettings quality_preset(const std::string &quality) {
     if (quality == "draft") {
         s.adaptive = false;
         s.step = 0.6;
-        s.step_tolerance = 1e-2;
+        s.step_tolerance = 3e-3;
         s.rtol = 1e-6;
         s.atol = 1e-8;
     } else if (quality == "standard") {

@@ -8,6 +8,13 @@
 #include <geobarrier/flow_map.hpp>
 #include <geobarrier/rk_tableaux.hpp>
 
+// GCC 12 reports -Wmaybe-uninitialized inside its own AVX-512 intrinsics (the undefined pass-through operand of
+// _mm512_max_pd and _mm512_extractf64x4_pd) wherever Eigen's packet reductions are inlined: a false positive, silenced
+// for the intrinsics' own lines only.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmaybe-uninitialized"
+#include <Eigen/Core>
+#pragma GCC diagnostic pop
 #include <boost/numeric/odeint/stepper/rosenbrock4.hpp>
 #include <boost/numeric/odeint/stepper/runge_kutta4.hpp>
 #include <boost/numeric/odeint/stepper/runge_kutta_dopri5.hpp>
@@ -67,6 +74,21 @@ template <unsigned N> struct LaneLayout {
     static constexpr std::size_t position_components = N, variational_components = N + N * N + 1;
     static constexpr std::size_t comp_f11 = N, comp_log_det = N + N * N;
 };
+
+// ---- reductions over a batch's lanes, once per step
+// Eigen's vectorised reductions (packet max and sum, reassociated), where `#pragma omp simd reduction(max : ...)`
+// compiled to masked gathers from a stack copy of the accumulators (perf on W with the checked steps: that one loop
+// was 40% of run_checked's samples, 5% of the whole run) and GCC keeps a plain loop's floating-point sum in order.
+using LaneArray = Eigen::Map<const Eigen::ArrayXd>;
+
+// NaN exactly when some entry of v is NaN or Inf: v * 0 is NaN there and 0 elsewhere, and a NaN survives any sum.
+template <class Lanes> double non_finite_probe(const Eigen::ArrayBase<Lanes> &v) { return (v * 0.0).sum(); }
+
+// Whether any of v[0 .. size) is NaN or Inf.
+bool any_non_finite(const double *v, std::size_t size) {
+    const double probe = non_finite_probe(LaneArray(v, static_cast<Eigen::Index>(size)));
+    return probe != probe;
+}
 
 enum class Method { dopri5, rkf78, rk4, rosenbrock4, dop853 };
 
@@ -650,14 +672,7 @@ template <unsigned N> class BatchIntegrator {
 
     // True when some entry of v is NaN or Inf (|v| <= DBL_MAX fails for both). One vectorisable pass, no branches;
     // an OR of comparisons, not a floating-point sum, so that the reduction is no chain of dependent additions.
-    static bool has_non_finite(const State &v) {
-        constexpr double largest = std::numeric_limits<double>::max();
-        int bad = 0;
-        const double *p = v.data();
-        const std::size_t size = v.size();
-        for (std::size_t i = 0; i < size; ++i) bad |= !(std::abs(p[i]) <= largest);
-        return bad != 0;
-    }
+    static bool has_non_finite(const State &v) { return any_non_finite(v.data(), v.size()); }
 
     // After an accepted step: blown-up lanes and lanes outside the bounds box are frozen.
     // One branch-free, vectorisable pass finds whether any lane needs it; lanes are visited only then (frozen lanes
@@ -710,16 +725,14 @@ template <unsigned N> class BatchIntegrator {
     double error_norm(const State &xerr, bool &suspect) const {
         const double atol = m_settings.atol, rtol = m_rtol;
         const double *xo = m_x.data(), *xn = m_x_new.data(), *xe = xerr.data();
-        const std::size_t size = xerr.size();
-        double err = 0.0, probe = 0.0;
-        // The reductions may be reordered (simd): max is exact in any order, and the probe is NaN in any order.
-#pragma omp simd reduction(max : err) reduction(+ : probe)
-        for (std::size_t i = 0; i < size; ++i) {
-            // DBL_MIN floor: an exactly zero scale (atol = 0 at x = 0) must not give 0/0 = NaN.
-            const double scale = std::max(atol + rtol * std::max(std::abs(xo[i]), std::abs(xn[i])), min_scale);
-            err = std::max(err, std::abs(xe[i]) / scale);
-            probe += (xn[i] + xe[i]) * 0.0;
-        }
+        const auto size = static_cast<Eigen::Index>(xerr.size());
+        const LaneArray old_state(xo, size), new_state(xn, size), error(xe, size);
+        // DBL_MIN floor: an exactly zero scale (atol = 0 at x = 0) must not give 0/0 = NaN. A NaN or Inf leaves err
+        // meaningless; the probe reports it.
+        double err = size == 0 ? 0.0
+                               : (error.abs() / (atol + rtol * old_state.abs().max(new_state.abs())).max(min_scale))
+                                     .maxCoeff();
+        const double probe = non_finite_probe(new_state + error);
         suspect = probe != probe;
         if (m_differences.per_point > 0) err = std::max(err, difference_error_norm(xerr));
         return err;
@@ -995,12 +1008,8 @@ template <unsigned N> class BatchIntegrator {
         const double h_min = h_full * min_step_fraction;
         // The estimate's own order (lane_error_estimate): DOP853's 5th-order row alone is O(h^6).
         const double exponent = -1.0 / (Tab::error == detail::RkError::dop853 ? 6 : Tab::error_order + 1);
-        gb_advance_request request{};
+        gb_advance_request request = fused_request(GB_ADVANCE_DOP853_CHECKED);
         if (fused) {
-            request.method = GB_ADVANCE_DOP853_CHECKED;
-            request.variational = m_ctx.variational ? 1 : 0;
-            request.n = request.ld = n;
-            request.lane_status = m_ctx.lane_status.data();
             request.lane_error = m_lane_error.data();
         } else {
             m_k.assign(static_cast<std::size_t>(Tab::stages) * stride, 0.0);
@@ -1024,26 +1033,9 @@ template <unsigned N> class BatchIntegrator {
             const double h = lands ? remaining : remaining / pieces;
             m_ctx.clear_invalid();
             if (fused) {
-                request.forcing = whole ? stage_forcing<Tab>(static_cast<std::size_t>(i), count, t, h)
-                                        : substep_forcing<Tab>(t, h);
-                request.t = t;
-                request.h = h;
-                request.x = m_x.data();
-                request.x_out = m_x_new.data();
-                if (m_ctx.variational) {
-                    request.df = m_x.data() + comp_f11 * n;
-                    request.log_det = m_x.data() + comp_log_det * n;
-                    request.df_out = m_x_new.data() + comp_f11 * n;
-                    request.log_det_out = m_x_new.data() + comp_log_det * n;
-                }
-                std::fill(m_ctx.lane_status.begin(), m_ctx.lane_status.end(), GB_OK);
-                if (!m_ctx.system->advance(request)) {
-                    if (attempts == 0) return false;
-                    throw PluginError("system '" + m_ctx.system->info().name +
-                                      "': advance() declined a method it had accepted on earlier steps");
-                }
-                m_ctx.note_lane_status();
-                m_ctx.rhs_calls += Tab::stages;
+                const double *forcing = whole ? stage_forcing<Tab>(static_cast<std::size_t>(i), count, t, h)
+                                              : substep_forcing<Tab>(t, h);
+                if (!fused_step<Tab>(request, forcing, t, h, attempts == 0)) return false;
                 for (std::size_t k : m_ctx.frozen) { // frozen lanes stay put, with no error
                     copy_lane(m_x_new, m_x, k);
                     m_lane_error[k] = 0.0;
@@ -1125,15 +1117,10 @@ template <unsigned N> class BatchIntegrator {
     double batch_error(bool suspect) {
         const std::size_t n = m_ctx.n;
         const double *e = m_lane_error.data();
-        double err = 0.0;
-        int bad = 0;
-        // max is exact in any order; a NaN fails the comparison into `bad` whatever the order.
-#pragma omp simd reduction(max : err) reduction(| : bad)
-        for (std::size_t k = 0; k < n; ++k) {
-            bad |= !(e[k] <= std::numeric_limits<double>::max());
-            err = std::max(err, e[k]);
-        }
-        if (!bad && !suspect && !m_ctx.any_invalid) return err;
+        const LaneArray errors(e, static_cast<Eigen::Index>(n));
+        const double probe = non_finite_probe(errors);
+        double err = n == 0 ? 0.0 : errors.maxCoeff();
+        if (probe == probe && !suspect && !m_ctx.any_invalid) return err;
         const std::size_t comps = m_ctx.components;
         for (std::size_t k = 0; k < n; ++k) {
             if (m_ctx.mask[k] != 0) continue;
@@ -1173,6 +1160,44 @@ template <unsigned N> class BatchIntegrator {
         return m_substep_forcing.data();
     }
 
+    // The parts of a fused-step request (ABI 1.2 advance) that stay the same for every step of a batch.
+    gb_advance_request fused_request(std::int32_t method) {
+        gb_advance_request request{};
+        request.method = method;
+        request.variational = m_ctx.variational ? 1 : 0;
+        request.n = request.ld = m_ctx.n;
+        request.lane_status = m_ctx.lane_status.data();
+        return request;
+    }
+
+    // One step of the plugin's fused kernel from (t, m_x) into m_x_new, with the forcing at the step's stage times.
+    // False when the plugin declines the method on the batch's first step (nothing has moved: the core's own kernel
+    // takes over); declining later, after it took earlier steps, is the plugin's error.
+    template <class Tab>
+    bool fused_step(gb_advance_request &request, const double *forcing, double t, double h, bool first) {
+        const std::size_t n = m_ctx.n;
+        request.forcing = forcing;
+        request.t = t;
+        request.h = h;
+        request.x = m_x.data();
+        request.x_out = m_x_new.data();
+        if (m_ctx.variational) {
+            request.df = m_x.data() + comp_f11 * n;
+            request.log_det = m_x.data() + comp_log_det * n;
+            request.df_out = m_x_new.data() + comp_f11 * n;
+            request.log_det_out = m_x_new.data() + comp_log_det * n;
+        }
+        std::fill(m_ctx.lane_status.begin(), m_ctx.lane_status.end(), GB_OK);
+        if (!m_ctx.system->advance(request)) {
+            if (first) return false;
+            throw PluginError("system '" + m_ctx.system->info().name +
+                              "': advance() declined a method it had accepted on earlier steps");
+        }
+        m_ctx.note_lane_status();
+        m_ctx.rhs_calls += Tab::stages;
+        return true;
+    }
+
     bool try_fused() {
         if (!m_settings.fused || !m_ctx.system->has_advance()) return false;
         switch (m_method) {
@@ -1182,18 +1207,14 @@ template <unsigned N> class BatchIntegrator {
         }
     }
     template <class Tab> bool run_fused(std::int32_t method) {
-        const std::size_t n = m_ctx.n, stride = m_x.size();
+        const std::size_t stride = m_x.size();
         m_x_new.assign(stride, 0.0);
         m_dxdt.assign(stride, 0.0); // screen_trial zeroes frozen lanes here
         const double span = m_t1 - m_t0;
         const double ratio = std::abs(span) / m_settings.step;
         const double count = std::max(1.0, std::ceil(ratio - 1e-9 * ratio));
         const double h_fixed = span / count;
-        gb_advance_request request{};
-        request.method = method;
-        request.variational = m_ctx.variational ? 1 : 0;
-        request.n = request.ld = n;
-        request.lane_status = m_ctx.lane_status.data();
+        gb_advance_request request = fused_request(method);
         for (double i = 0; m_active > 0 && i < count;) {
             if (const int signal = cancel_requested()) throw Cancelled(signal, "while integrating trajectories");
             if (m_steps >= m_settings.max_steps) {
@@ -1203,26 +1224,10 @@ template <unsigned N> class BatchIntegrator {
             const bool last = i + 1 >= count;
             const double t = m_t0 + i * h_fixed; // step times t0 + i h, not accumulated
             const double h = (last ? m_t1 : m_t0 + (i + 1) * h_fixed) - t;
-            request.forcing = stage_forcing<Tab>(static_cast<std::size_t>(i), count, t, h);
-            request.t = t;
-            request.h = h;
-            request.x = m_x.data();
-            request.x_out = m_x_new.data();
-            if (m_ctx.variational) {
-                request.df = m_x.data() + comp_f11 * n;
-                request.log_det = m_x.data() + comp_log_det * n;
-                request.df_out = m_x_new.data() + comp_f11 * n;
-                request.log_det_out = m_x_new.data() + comp_log_det * n;
-            }
             m_ctx.clear_invalid();
-            std::fill(m_ctx.lane_status.begin(), m_ctx.lane_status.end(), GB_OK);
-            if (!m_ctx.system->advance(request)) {
-                if (m_steps == 0) return false;
-                throw PluginError("system '" + m_ctx.system->info().name +
-                                  "': advance() declined a method it had accepted on earlier steps");
-            }
-            m_ctx.note_lane_status();
-            m_ctx.rhs_calls += Tab::stages;
+            if (!fused_step<Tab>(request, stage_forcing<Tab>(static_cast<std::size_t>(i), count, t, h), t, h,
+                                 m_steps == 0))
+                return false;
             for (std::size_t k : m_ctx.frozen) copy_lane(m_x_new, m_x, k);
             screen_trial(has_non_finite(m_x_new), nullptr, nullptr);
             m_x.swap(m_x_new);

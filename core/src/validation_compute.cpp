@@ -144,10 +144,8 @@ Snapshots advect_snapshots(const Dynamics &dynamics, const IntegratorSettings &s
                     std::vector<std::uint8_t> mask;
                     std::vector<double> moved;
                     if (slice) {
-                        Dynamics whole = dynamics;
-                        whole.slice = nullptr;
-                        const StateFlowMap a = flow_map_of_states(
-                            whole, alive.size(),
+                        const StateFlowMap a = flow_map_of_states( // the slice only places the bounds box
+                            dynamics, alive.size(),
                             [&](std::size_t q, double *x) {
                                 std::copy_n(current.begin() + dim * alive[q], dim, x);
                             },
@@ -198,8 +196,7 @@ SectionCrossings section_crossings(const Dynamics &dynamics, const IntegratorSet
                                    const std::optional<Bounds> &bounds, const std::vector<double> &seeds,
                                    double t_start, double t_end, const std::vector<double> &normal, double offset,
                                    int direction, std::size_t max_crossings, double sample) {
-    Dynamics whole = dynamics;
-    whole.slice = nullptr;
+    const Dynamics &whole = dynamics; // whole states; a slice only places the bounds box
     const std::size_t dim = dynamics.system->dimension();
     if (normal.size() != dim)
         throw Error("section_crossings: a normal of " + std::to_string(normal.size()) + " components for a system of "

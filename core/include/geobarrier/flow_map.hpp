@@ -72,7 +72,8 @@ constexpr double min_rtol = 1e-14;
 // auxiliary-grid group) at a time.
 std::size_t lanes_per_batch(const IntegratorSettings &settings);
 
-// An optional box: trajectories that leave it are masked (mask_left_bounds).
+// An optional box: trajectories that leave it are masked (mask_left_bounds). It limits state components 0 and 1, or a
+// slice's two axes (Dynamics::slice).
 struct Bounds {
     double x_min, x_max, y_min, y_max;
 };
@@ -131,9 +132,9 @@ AdvectResult advect_points(const Dynamics &dynamics, const std::vector<double> &
                            double t0, double t1, const IntegratorSettings &settings, bool variational,
                            const std::optional<Bounds> &bounds = std::nullopt, const ProgressFn &progress = {});
 
-// The flow map of whole states of a system of any dimension 2 .. max_dimension (no slice): point k starts at the
-// state `start` writes (dimension values), and the result holds every component of the final state and, with
-// `variational`, the whole n x n DF. Points next to each other share a batch. Every point masked is a result, not an
+// The flow map of whole states of a system of any dimension 2 .. max_dimension: point k starts at the state `start`
+// writes (dimension values), and the result holds every component of the final state and, with `variational`, the
+// whole n x n DF. Dynamics::slice, if any, only says which two components the bounds box limits (else 0 and 1). Points next to each other share a batch. Every point masked is a result, not an
 // error. The auxiliary grid is planar only (use the variational equations).
 struct StateFlowMap {
     unsigned dimension = 0;

@@ -362,6 +362,13 @@ std::vector<Case> battery() {
                       j["products"] = {"ftle", "eigenvectors"};
                   },
                   2, {"/cauchy_green/slice_tensor", "\"eigenvectors\"", "\"restricted\""}));
+    add(json_case("slice: an extractor with the restricted tensor",
+                  [coupled](json &j) {
+                      coupled(j);
+                      j["cauchy_green"] = {{"slice_tensor", "restricted"}};
+                      j["extractors"] = {{{"plugin", "hyperbolic"}}};
+                  },
+                  2, {"/extractors/0", "two-dimensional flow map", "\"projected\""}));
     add(json_case("a system of dimension 7, over the engine's limit",
                   [nan_lib](json &j) {
                       j["system"] = {{"plugin", "seven-dimensional"}};

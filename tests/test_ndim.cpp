@@ -193,7 +193,7 @@ TEST_CASE("energy is conserved along Hamiltonian trajectories in four dimensions
     }
     {
         const double g = 1.0, k = 4.0, L0 = 1.0;
-        const System sys = make_system("spring-pendulum", {{"g", g}, {"k", k}, {"L0", L0}});
+        const System sys = make_system("spring-pendulum", {{"g", g}, {"k", k}, {"rest_length", L0}});
         const Dynamics dyn{&sys, &none};
         const auto energy = [&](const double *x) {
             return 0.5 * (x[1] * x[1] + x[0] * x[0] * x[3] * x[3]) - g * x[0] * std::cos(x[2]) +

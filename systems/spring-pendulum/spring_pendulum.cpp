@@ -1,4 +1,4 @@
-// The forced spring (elastic) pendulum: a mass on a spring of stiffness k and rest length L0, swinging in a plane
+// The forced spring (elastic) pendulum: a mass on a spring of stiffness k and rest length L0 (rest_length), swinging in a plane
 // under gravity g, with the spring's length forced by f(t). State (r, vr, theta, omega): the spring's length, its
 // rate, the angle from the downward vertical and the angular velocity,
 //   r' = vr,          vr' = r omega^2 + g cos(theta) - k (r - L0) - damping vr + f(t)
@@ -22,17 +22,18 @@ struct SpringPendulum {
     static constexpr unsigned dimension = 4;
     static constexpr const char *state_names[] = {"r", "vr", "theta", "omega"},
                                 *state_units[] = {"length", "length/time", "rad", "rad/time"};
-    static constexpr double domain_min[] = {1e-3, -100.0, -10.0, -100.0};
-    static constexpr double domain_max[] = {100.0, 100.0, 10.0, 100.0};
+    // Where the model is meant to be used: the spring neither collapses nor runs away.
+    static constexpr double domain_min[] = {0.25, -3.0, -3.2, -3.0};
+    static constexpr double domain_max[] = {3.0, 3.0, 3.2, 3.0};
     static constexpr gb_param_spec params[] = {
         real_param("g", 1.0, 0.0, HUGE_VAL, "length/time^2", "gravity"),
         real_param("k", 4.0, 0.0, HUGE_VAL, "1/time^2", "spring stiffness per unit mass"),
-        real_param("L0", 1.0, 0.0, HUGE_VAL, "length", "rest length of the spring"),
+        real_param("rest_length", 1.0, 0.0, HUGE_VAL, "length", "rest length L0 of the spring"),
         real_param("damping", 0.0, -HUGE_VAL, HUGE_VAL, "1/time", "linear damping of vr and omega"),
     };
 
     explicit SpringPendulum(const Params &p)
-        : m_g(p.real("g")), m_k(p.real("k")), m_rest(p.real("L0")), m_damping(p.real("damping")) {}
+        : m_g(p.real("g")), m_k(p.real("k")), m_rest(p.real("rest_length")), m_damping(p.real("damping")) {}
 
     // One lane at a time; the SDK derives the Jacobian (automatic differentiation) and the fused step.
     template <class Real> void field(double, const Real *s, double f, Real *dsdt) const {

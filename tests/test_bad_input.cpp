@@ -178,15 +178,10 @@ std::vector<Case> equations_battery() {
     return cases;
 }
 
-std::vector<Case> battery() {
-    const std::string nan_lib = (bad_plugin_dir / "geobarrier-bad-input.so").string();
-    const std::string throwing_entry = (bad_plugin_dir / "geobarrier-entry-throws.so").string();
-    const std::string wrong_abi = (geobarrier::test::test_plugin_dir() / "geobarrier-wrong-abi.so").string();
-    const std::string not_a_library = (geobarrier::test::test_plugin_dir() / "not-a-plugin.so").string();
+// The file itself: not JSON, not an object, not there.
+std::vector<Case> file_battery() {
     std::vector<Case> cases;
     auto add = [&](Case c) { cases.push_back(std::move(c)); };
-
-    // ---- the file itself
     add(text_case("malformed JSON (a missing comma)", "{\n  \"system\": {\"plugin\": \"duffing\"}\n  \"grid\": {}\n}\n",
                   2, {"exp.json:3:", "not valid JSON"}));
     add(text_case("truncated JSON", "{\"system\": {\"plugin\": \"duff", 2, {"exp.json:1:", "not valid JSON"}));
@@ -210,7 +205,13 @@ std::vector<Case> battery() {
         c.prefix = "rm exp.json && mkdir exp.json;";
         add(c);
     }
-    // ---- structure and types
+    return cases;
+}
+
+// Structure and types: missing keys, wrong types, unknown keys and products.
+std::vector<Case> structure_battery() {
+    std::vector<Case> cases;
+    auto add = [&](Case c) { cases.push_back(std::move(c)); };
     add(json_case("missing system", [](json &j) { j.erase("system"); }, 2, {"missing required key \"system\""}));
     add(json_case("missing grid", [](json &j) { j.erase("grid"); }, 2, {"missing required key \"grid\""}));
     add(json_case("missing time/t1", [](json &j) { j["time"].erase("t1"); }, 2, {"/time", "\"t1\""}));
@@ -236,7 +237,13 @@ std::vector<Case> battery() {
     add(json_case("unknown product, with a hint", [](json &j) { j["products"] = {"ftel"}; }, 2,
                   {"/products/0", "did you mean \"ftle\""}));
     add(json_case("nothing to compute", [](json &j) { j["products"] = json::array(); }, 2, {"/products"}));
-    // ---- values
+    return cases;
+}
+
+// Values outside their rules: non-finite numbers, empty boxes and grids, tolerances, steps, offsets.
+std::vector<Case> values_battery() {
+    std::vector<Case> cases;
+    auto add = [&](Case c) { cases.push_back(std::move(c)); };
     add(json_case("parameter outside the schema's range",
                   [](json &j) {
                       j["system"] = {{"plugin", "pendulum"}, {"params", {{"omega0", -1.0}}}};
@@ -301,7 +308,17 @@ std::vector<Case> battery() {
                   2, {"/cauchy_green/offset"}));
     add(json_case("empty output folder name", [](json &j) { j["output"] = {{"dir", ""}}; }, 2, {"/output/dir"}));
     add(json_case("plugin_paths holds a number", [](json &j) { j["plugin_paths"] = {3}; }, 2, {"/plugin_paths/0"}));
-    // ---- plugins
+    return cases;
+}
+
+// Plugins: unknown, of another ABI, not a library, failing, without the Jacobian a setting needs.
+std::vector<Case> plugin_battery() {
+    const std::string nan_lib = (bad_plugin_dir / "geobarrier-bad-input.so").string();
+    const std::string throwing_entry = (bad_plugin_dir / "geobarrier-entry-throws.so").string();
+    const std::string wrong_abi = (geobarrier::test::test_plugin_dir() / "geobarrier-wrong-abi.so").string();
+    const std::string not_a_library = (geobarrier::test::test_plugin_dir() / "not-a-plugin.so").string();
+    std::vector<Case> cases;
+    auto add = [&](Case c) { cases.push_back(std::move(c)); };
     add(json_case("unknown plugin, listing the known ones", [](json &j) { j["system"]["plugin"] = "dufing"; }, 2,
                   {"/system/plugin", "dufing", "duffing"}));
     add(json_case("a plugin of another ABI major version",
@@ -319,7 +336,112 @@ std::vector<Case> battery() {
                       j["system"] = {{"plugin", throwing_entry}};
                   },
                   2, {"/system/plugin", "geobarrier-entry-throws.so", "deliberate failure in the plugin entry"}));
-    // ---- systems of more than two state components: grids over slices (docs/experiment-format.md)
+    add(json_case("a plugin whose factory throws",
+                  [nan_lib](json &j) {
+                      j["system"] = {{"plugin", "throwing-factory"}};
+                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
+                  },
+                  1, {"throwing-factory", "deliberate failure in the factory"}));
+    add(json_case("a plugin whose right-hand side throws",
+                  [nan_lib](json &j) {
+                      j["system"] = {{"plugin", "throwing-system"}};
+                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
+                  },
+                  1, {"throwing-system", "deliberate failure in rhs"}));
+    add(json_case("a system that returns NaN everywhere",
+                  [nan_lib](json &j) {
+                      j["system"] = {{"plugin", "nan-system"}};
+                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
+                      j["cauchy_green"] = {{"method", "auxiliary-grid"}};
+                  },
+                  1, {"every one of the 99 grid points was masked", "non-finite"}));
+    add(json_case("a forcing that returns NaN everywhere",
+                  [nan_lib](json &j) {
+                      j["system"] = {{"plugin", "forced-oscillator"}};
+                      j["forcing"] = {{"plugin", "nan-forcing"}};
+                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
+                  },
+                  1, {"every one of the 99 grid points was masked", "non-finite"}));
+    add(json_case("rosenbrock4 for a system without a Jacobian",
+                  [nan_lib](json &j) {
+                      j["system"] = {{"plugin", "forced-oscillator"}};
+                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
+                      j["integrator"] = {{"method", "rosenbrock4"}};
+                  },
+                  2, {"/integrator/method", "rosenbrock4", "Jacobian"}));
+    add(json_case("variational gradient for a system without a Jacobian",
+                  [nan_lib](json &j) {
+                      j["system"] = {{"plugin", "forced-oscillator"}};
+                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
+                      j["cauchy_green"] = {{"method", "variational"}};
+                  },
+                  2, {"/cauchy_green/method", "Jacobian"}));
+    return cases;
+}
+
+// Computations that cannot give an answer (exit 1).
+std::vector<Case> computation_battery() {
+    std::vector<Case> cases;
+    auto add = [&](Case c) { cases.push_back(std::move(c)); };
+    add(json_case("bounds that exclude the whole grid",
+                  [](json &j) {
+                      j["bounds"] = {{"x", {5, 6}}, {"y", {5, 6}}};
+                  },
+                  1, {"every one of the 99 grid points was masked", "left the bounds"}));
+    add(json_case("every trajectory blows up (beta < 0, huge forcing)",
+                  [](json &j) {
+                      j["system"]["params"] = {{"alpha", 1}, {"beta", -1}, {"delta", 0}};
+                      j["forcing"]["params"] = {{"amplitude", 1e6}};
+                      j["time"]["t1"] = 20;
+                  },
+                  1, {"every one of the 99 grid points was masked", "blew up"}));
+    add(json_case("a stiff system for an explicit stepper (step limit)",
+                  [](json &j) {
+                      j["system"]["params"] = {{"alpha", 1}, {"beta", 1}, {"delta", 1000}};
+                      j["grid"]["n"] = {3, 3};
+                      j["time"]["t1"] = 4000;
+                      j["integrator"] = {{"method", "dopri5"}, {"batch", 9}};
+                  },
+                  1, {"every one of the 9 grid points was masked", "dopri5 reached its step limit", "rosenbrock4"}));
+    return cases;
+}
+
+// Where the output goes: a folder that cannot be created or written, a full disk.
+std::vector<Case> output_battery() {
+    std::vector<Case> cases;
+    auto add = [&](Case c) { cases.push_back(std::move(c)); };
+    {
+        Case c =
+            json_case("an output folder below a regular file", [](json &) {}, 1, {"cannot create the output folder"});
+        c.prefix = "touch blocker;";
+        c.out_dir = "blocker/out";
+        add(c);
+    }
+    {
+        Case c = json_case("an output folder on a read-only file system (/proc)", [](json &) {}, 1,
+                           {"/proc/geobarrier-out", "output folder"});
+        c.out_dir = "/proc/geobarrier-out";
+        add(c);
+    }
+    {
+        // A full disk, simulated with a file-size limit (RLIMIT_FSIZE, 2 x 512 bytes in sh): writes past it fail
+        // with EFBIG once the program ignores SIGXFSZ, as it does.
+        Case c = json_case("a full disk (file-size limit of 1 KiB)",
+                           [](json &j) {
+                               j["grid"]["n"] = {101, 81};
+                           },
+                           1, {"fields.nc", "files are limited to 1.0 KiB (ulimit -f)"});
+        c.prefix = "ulimit -f 2;";
+        add(c);
+    }
+    return cases;
+}
+
+// Systems of more than two state components: grids over slices (docs/experiment-format.md, grids as slices).
+std::vector<Case> slice_battery() {
+    const std::string nan_lib = (bad_plugin_dir / "geobarrier-bad-input.so").string();
+    std::vector<Case> cases;
+    auto add = [&](Case c) { cases.push_back(std::move(c)); };
     const auto coupled = [](json &j) {
         j["system"] = {{"plugin", "coupled-duffing"}};
         j["grid"] = {{"axes", {"x1", "v1"}}, {"x1", {-1.5, 1.5}}, {"v1", {-1, 1}}, {"n", {11, 9}},
@@ -375,94 +497,14 @@ std::vector<Case> battery() {
                       j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
                   },
                   2, {"/system/plugin", "dimension 7", "2 to 6"}));
-    add(json_case("a plugin whose factory throws",
-                  [nan_lib](json &j) {
-                      j["system"] = {{"plugin", "throwing-factory"}};
-                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
-                  },
-                  1, {"throwing-factory", "deliberate failure in the factory"}));
-    add(json_case("a plugin whose right-hand side throws",
-                  [nan_lib](json &j) {
-                      j["system"] = {{"plugin", "throwing-system"}};
-                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
-                  },
-                  1, {"throwing-system", "deliberate failure in rhs"}));
-    add(json_case("a system that returns NaN everywhere",
-                  [nan_lib](json &j) {
-                      j["system"] = {{"plugin", "nan-system"}};
-                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
-                      j["cauchy_green"] = {{"method", "auxiliary-grid"}};
-                  },
-                  1, {"every one of the 99 grid points was masked", "non-finite"}));
-    add(json_case("a forcing that returns NaN everywhere",
-                  [nan_lib](json &j) {
-                      j["system"] = {{"plugin", "forced-oscillator"}};
-                      j["forcing"] = {{"plugin", "nan-forcing"}};
-                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
-                  },
-                  1, {"every one of the 99 grid points was masked", "non-finite"}));
-    add(json_case("rosenbrock4 for a system without a Jacobian",
-                  [nan_lib](json &j) {
-                      j["system"] = {{"plugin", "forced-oscillator"}};
-                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
-                      j["integrator"] = {{"method", "rosenbrock4"}};
-                  },
-                  2, {"/integrator/method", "rosenbrock4", "Jacobian"}));
-    add(json_case("variational gradient for a system without a Jacobian",
-                  [nan_lib](json &j) {
-                      j["system"] = {{"plugin", "forced-oscillator"}};
-                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
-                      j["cauchy_green"] = {{"method", "variational"}};
-                  },
-                  2, {"/cauchy_green/method", "Jacobian"}));
-    // ---- computations that cannot give an answer
-    add(json_case("bounds that exclude the whole grid",
-                  [](json &j) {
-                      j["bounds"] = {{"x", {5, 6}}, {"y", {5, 6}}};
-                  },
-                  1, {"every one of the 99 grid points was masked", "left the bounds"}));
-    add(json_case("every trajectory blows up (beta < 0, huge forcing)",
-                  [](json &j) {
-                      j["system"]["params"] = {{"alpha", 1}, {"beta", -1}, {"delta", 0}};
-                      j["forcing"]["params"] = {{"amplitude", 1e6}};
-                      j["time"]["t1"] = 20;
-                  },
-                  1, {"every one of the 99 grid points was masked", "blew up"}));
-    add(json_case("a stiff system for an explicit stepper (step limit)",
-                  [](json &j) {
-                      j["system"]["params"] = {{"alpha", 1}, {"beta", 1}, {"delta", 1000}};
-                      j["grid"]["n"] = {3, 3};
-                      j["time"]["t1"] = 4000;
-                      j["integrator"] = {{"method", "dopri5"}, {"batch", 9}};
-                  },
-                  1, {"every one of the 9 grid points was masked", "dopri5 reached its step limit", "rosenbrock4"}));
-    // ---- where the output goes
-    {
-        Case c =
-            json_case("an output folder below a regular file", [](json &) {}, 1, {"cannot create the output folder"});
-        c.prefix = "touch blocker;";
-        c.out_dir = "blocker/out";
-        add(c);
-    }
-    {
-        Case c = json_case("an output folder on a read-only file system (/proc)", [](json &) {}, 1,
-                           {"/proc/geobarrier-out", "output folder"});
-        c.out_dir = "/proc/geobarrier-out";
-        add(c);
-    }
-    {
-        // A full disk, simulated with a file-size limit (RLIMIT_FSIZE, 2 x 512 bytes in sh): writes past it fail
-        // with EFBIG once the program ignores SIGXFSZ, as it does.
-        Case c = json_case("a full disk (file-size limit of 1 KiB)",
-                           [](json &j) {
-                               j["grid"]["n"] = {101, 81};
-                           },
-                           1, {"fields.nc", "files are limited to 1.0 KiB (ulimit -f)"});
-        c.prefix = "ulimit -f 2;";
-        add(c);
-    }
-    // ---- the equations system: expressions and names
-    for (Case &c : equations_battery()) add(std::move(c));
+    return cases;
+}
+
+std::vector<Case> battery() {
+    std::vector<Case> cases;
+    for (auto section : {file_battery, structure_battery, values_battery, plugin_battery, slice_battery,
+                         computation_battery, output_battery, equations_battery})
+        for (Case &c : section()) cases.push_back(std::move(c));
     return cases;
 }
 

@@ -83,7 +83,23 @@ TEST_CASE("command-line typos exit 2 with one line and a did-you-mean") {
                           Case{"--verison", "did you mean '--version'?"},
                           Case{"check-plugin duffing --t-min -5 --tmax 5", "did you mean '--t-max'?"},
                           Case{"run exp.json --threads 0", "--threads"},
-                          Case{"", "subcommand"}}) {
+                          Case{"", "subcommand"},
+                          // Every command's name misspelt, in another case, or cut short.
+                          Case{"swep s.json", "'swep' is not a geobarrier command; did you mean 'sweep'? (commands: "
+                                              "run, validate, sweep, plugins, check-plugin)"},
+                          Case{"check-plugins duffing", "did you mean 'check-plugin'?"},
+                          Case{"plugin", "did you mean 'plugins'?"},
+                          Case{"RUN exp.json", "did you mean 'run'?"},
+                          // Every command's options misspelt, and an option of another command.
+                          Case{"sweep s.json --proceses 2", "unknown option '--proceses' for geobarrier sweep; did "
+                                                            "you mean '--processes'?"},
+                          Case{"plugins --json --plugin-pth x", "did you mean '--plugin-path'?"},
+                          Case{"check-plugin --al", "did you mean '--all'?"},
+                          Case{"validate exp.json --quiet", "unknown option '--quiet' for geobarrier validate"},
+                          // Values and arguments missing or too many.
+                          Case{"run exp.json --out", "--out"},
+                          Case{"run", "file is required"},
+                          Case{"run exp.json extra.json", "extra.json"}}) {
         const Result r = run(c.args);
         CHECK_MESSAGE(r.status == 2, c.args);
         CHECK_MESSAGE(contains(r.output, "geobarrier: error: "), c.args, r.output);

@@ -305,3 +305,21 @@ TEST_CASE("FTLE of the paper's first example agrees with an independent rkf78 1e
     CHECK(floor.mean < 1e-3);
     CHECK(floor.max < 0.1);
 }
+
+// The experiment layer maps what the flow-map engine refuses to the setting's JSON path when it resolves an
+// experiment, before anything runs: an Experiment built in code, past the parser's own checks.
+TEST_CASE("resolving refuses the engine's bad settings at their JSON paths") {
+    Experiment e = parse_experiment(minimal_experiment());
+    e.integrator.rtol = 1.0;
+    try {
+        resolve_experiment(e);
+        FAIL("rtol = 1 resolved");
+    } catch (const ConfigError &c) {
+        CHECK(c.json_path() == "/integrator/rtol");
+        CHECK(std::string(c.what()) == "/integrator/rtol: 1.000000 must be between 0 and 1 (exclusive)");
+    }
+    e = parse_experiment(minimal_experiment());
+    e.integrator.engine = "warp";
+    CHECK_THROWS_WITH_AS(resolve_experiment(e), "/integrator/engine: unknown engine \"warp\"; expected lockstep or odeint",
+                         ConfigError);
+}

@@ -2,12 +2,13 @@
 // that C = I, lambda1 many orders below lambda2, stiff systems and rosenbrock4, tolerances and grids at and past
 // their limits, escaping trajectories, singular points of the line fields, and cancellation. Every bound is derived
 // in the comment beside it.
+#include "resources.hpp"
+
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/flow_map.hpp>
-#include <geobarrier/resources.hpp>
 #include <geobarrier/tensor_lines.hpp>
 
 #include <boost/numeric/odeint.hpp>
@@ -493,7 +494,7 @@ TEST_CASE("tolerances: rtol below 1e-14 is clamped with a warning; rtol outside 
     CHECK(r1.stats.steps == r2.stats.steps);
     IntegratorSettings bad = floor;
     bad.rtol = 1.0;
-    CHECK_THROWS_AS(advect_points(Dynamics{&saddle, nullptr}, {0.1}, {0.2}, 0.0, 1.0, bad, false), ConfigError);
+    CHECK_THROWS_AS(advect_points(Dynamics{&saddle, nullptr}, {0.1}, {0.2}, 0.0, 1.0, bad, false), EngineSettingError);
 }
 
 // ------------------------------------------------------------------------------------------------------- grids

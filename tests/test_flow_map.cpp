@@ -2,6 +2,7 @@
 // closed-form flows: the linear saddle, a rigid rotation, and invariants of the Duffing oscillator.
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/errors.hpp>
+#include <geobarrier/experiment.hpp>
 #include <geobarrier/flow_map.hpp>
 
 #include <test_support.hpp>
@@ -531,7 +532,7 @@ TEST_CASE("step limit and progress: no hang, remaining lanes masked, progress re
     CHECK(id.dF[3] == 1.0);
 }
 
-TEST_CASE("configuration errors name their JSON path") {
+TEST_CASE("the engine names a bad setting; the experiment layer maps it to its JSON path") {
     const System saddle = make_system("linear-saddle");
     const Dynamics dyn{&saddle, nullptr};
     const std::vector<double> x0 = {0.1}, y0 = {0.2};
@@ -540,8 +541,17 @@ TEST_CASE("configuration errors name their JSON path") {
     try {
         advect_points(dyn, x0, y0, 0.0, 1.0, s, false);
         FAIL("no error for an unknown method");
-    } catch (const ConfigError &e) {
-        CHECK(e.json_path() == "/integrator/method");
+    } catch (const EngineSettingError &e) {
+        CHECK(e.setting() == EngineSetting::method);
+        CHECK(std::string(e.what()) == "method: " + e.message());
+        // The same refusal through the experiment layer: the JSON path, then the engine's message.
+        try {
+            with_json_paths([&] { advect_points(dyn, x0, y0, 0.0, 1.0, s, false); });
+            FAIL("with_json_paths let the refusal through");
+        } catch (const ConfigError &c) {
+            CHECK(c.json_path() == "/integrator/method");
+            CHECK(std::string(c.what()) == "/integrator/method: " + e.message());
+        }
     }
     CHECK(parse_gradient_method("auxiliary-grid") == GradientMethod::auxiliary_grid);
     CHECK(parse_gradient_method("variational") == GradientMethod::variational);
@@ -550,14 +560,25 @@ TEST_CASE("configuration errors name their JSON path") {
     try {
         parse_gradient_method("finite-differences");
         FAIL("no error for an unknown gradient method");
-    } catch (const ConfigError &e) {
-        CHECK(e.json_path() == "/cauchy_green/method");
+    } catch (const EngineSettingError &e) {
+        CHECK(e.setting() == EngineSetting::gradient);
+        CHECK(json_path_of(e.setting()) == "/cauchy_green/method");
     }
     IntegratorSettings bad;
     bad.step = 0.0;
-    CHECK_THROWS_AS(advect_points(dyn, x0, y0, 0.0, 1.0, bad, false), ConfigError);
+    try {
+        check_flow_map_settings(dyn, 0.0, 1.0, bad, GradientMethod::none);
+        FAIL("no error for a zero step");
+    } catch (const EngineSettingError &e) {
+        CHECK(e.setting() == EngineSetting::step);
+        CHECK(json_path_of(e.setting()) == "/integrator/step");
+    }
+    CHECK_THROWS_AS(advect_points(dyn, x0, y0, 0.0, 1.0, bad, false), EngineSettingError);
     Grid grid;
     CHECK_THROWS_AS(compute_grid_flow_map(dyn, grid, 0.0, 1.0, IntegratorSettings{}, GradientMethod::auxiliary_grid,
                                           0.0, false),
-                    ConfigError);
+                    EngineSettingError);
+    // Every setting has a path in the experiment file.
+    for (int k = 0; k <= static_cast<int>(EngineSetting::grid); ++k)
+        CHECK(json_path_of(static_cast<EngineSetting>(k)).rfind('/', 0) == 0);
 }

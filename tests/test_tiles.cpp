@@ -2,12 +2,13 @@
 // numbers of the untiled computation bit for bit, keep only the planned fields, count progress across tiles, and
 // the tiled memory estimate is what the up-front refusal uses. Also the flow map at arbitrary points
 // (flow_map_at_points), which the extractors' advection shares with the grid.
+#include "resources.hpp"
+#include "tiles.hpp"
+
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/flow_map.hpp>
-#include <geobarrier/resources.hpp>
-#include <geobarrier/tiles.hpp>
 
 #include <test_support.hpp>
 

@@ -7,6 +7,8 @@
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/output.hpp>
 
+#include "peak_rate.hpp"
+
 #include <CLI/CLI.hpp>
 #include <netcdf.h>
 #include <nlohmann/json.hpp>
@@ -32,6 +34,7 @@
 
 namespace fs = std::filesystem;
 using nlohmann::json;
+using geobarrier::bench::peak_lane_fma_rate;
 
 namespace {
 
@@ -855,115 +858,93 @@ void equations_markdown(std::ostream &md, const EquationsTiming &t) {
           "the built-in plugin computes at run time.\n\n";
 }
 
-int main(int argc, char **argv) {
-    CLI::App app{"geobarrier-bench: speed and accuracy of the flow-map engine on workload W"};
-    std::size_t n = 1000, memory_n = 4000, scipy_n = 0, extraction_n = 1000;
-    std::string out_dir = "out/bench", peers_dir, peers_source, program, machine, source = ".";
-    std::string sections_text;
+namespace {
+
+// The command line of the bench.
+struct BenchOptions {
+    std::size_t n = 1000, memory_n = 4000, scipy_n = 0, extraction_n = 1000, suite_n = 0;
+    std::string out_dir = "out/bench", peers_dir, peers_source, program, machine, source = ".", program_avx2;
+    std::set<std::string> sections;
     std::vector<std::string> tries;
     bool quick = false;
     int repeat = 0;
-    app.add_option("--n", n, "grid points per direction of the headline runs")->check(CLI::Range(10, 20000));
-    app.add_option("--out", out_dir, "folder for bench.csv, bench.md, pareto.png, the cached exact fields and scratch");
-    app.add_option("--peers", peers_dir, "folder with the built peers (reference, odeint_baseline)")->required();
-    app.add_option("--peers-source", peers_source, "folder with the baselines' sources (scipy_baseline.py)");
-    app.add_option("--program", program, "the geobarrier program")->required();
-    app.add_option("--source", source, "the source tree (experiments/ for the extraction section)");
-    app.add_option("--machine", machine, "one line describing the machine, for the report");
-    app.add_option("--memory-n", memory_n, "grid points per direction of the memory run");
-    app.add_option("--scipy-n", scipy_n, "grid of the SciPy comparison (default: --n; 300 with --quick)");
-    app.add_option("--extraction-n", extraction_n, "grid points per direction of the extraction runs");
+
+    bool wants(const char *section) const { return sections.count(section) > 0; }
+    // Runs per configuration, the fastest kept: --repeat, else `fallback`.
+    int best_of(int fallback) const { return repeat > 0 ? repeat : fallback; }
+};
+
+// Parses the command line into `o`; returns the exit code when the program should stop (--help, a bad option).
+std::optional<int> parse_options(int argc, char **argv, BenchOptions &o) {
+    CLI::App app{"geobarrier-bench: speed and accuracy of the flow-map engine on workload W"};
+    std::string sections_text;
+    app.add_option("--n", o.n, "grid points per direction of the headline runs")->check(CLI::Range(10, 20000));
+    app.add_option("--out", o.out_dir,
+                   "folder for bench.csv, bench.md, pareto.png, the cached exact fields and scratch");
+    app.add_option("--peers", o.peers_dir, "folder with the built peers (reference, odeint_baseline)")->required();
+    app.add_option("--peers-source", o.peers_source, "folder with the baselines' sources (scipy_baseline.py)");
+    app.add_option("--program", o.program, "the geobarrier program")->required();
+    app.add_option("--source", o.source, "the source tree (experiments/ for the extraction section)");
+    app.add_option("--machine", o.machine, "one line describing the machine, for the report");
+    app.add_option("--memory-n", o.memory_n, "grid points per direction of the memory run");
+    app.add_option("--scipy-n", o.scipy_n, "grid of the SciPy comparison (default: --n; 300 with --quick)");
+    app.add_option("--extraction-n", o.extraction_n, "grid points per direction of the extraction runs");
     app.add_option("--sections", sections_text,
                    "comma-separated: headline,threads,widths,scaling,memory,extraction,scipy,equations,suite,ndim,"
                    "sweep,gyre (default: all but sweep and gyre with --quick, all without); suite, ndim or equations "
                    "alone need no baseline");
-    app.add_option("--repeat", repeat,
+    app.add_option("--repeat", o.repeat,
                    "runs per configuration, the fastest kept (default: 2 for threads and scaling, 1 elsewhere)");
-    app.add_option("--try", tries,
+    app.add_option("--try", o.tries,
                    "NAME=JSON: also run W with this patch merged into the experiment (RFC 7386, e.g. "
                    "'step 0.4={\"integrator\":{\"step\":0.4}}'), next to the headline; repeatable");
-    std::size_t suite_n = 0;
-    std::string program_avx2;
-    app.add_option("--suite-n", suite_n, "grid points per direction of the accuracy suite (default 101)");
-    app.add_option("--program-avx2", program_avx2,
+    app.add_option("--suite-n", o.suite_n, "grid points per direction of the accuracy suite (default 101)");
+    app.add_option("--program-avx2", o.program_avx2,
                    "the geobarrier program of an AVX2-only build (-march=x86-64-v3) of the same source: section "
                    "'widths' times W's default with it beside the native build");
-    app.add_flag("--quick", quick, "the short run for the docs (a few minutes): no sweep, no double gyre");
-    CLI11_PARSE(app, argc, argv);
-
-    std::set<std::string> sections;
-    {
-        std::string text = sections_text.empty()
-                               ? std::string(quick ? "headline,threads,widths,scaling,memory,extraction,scipy,equations,suite,ndim"
-                                                   : "headline,threads,widths,scaling,memory,extraction,scipy,equations,suite,"
-                                                     "ndim,sweep,gyre")
-                               : sections_text;
-        std::istringstream in(text);
-        for (std::string s; std::getline(in, s, ',');) sections.insert(s);
+    app.add_flag("--quick", o.quick, "the short run for the docs (a few minutes): no sweep, no double gyre");
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError &e) {
+        return app.exit(e);
     }
-    const auto wants = [&](const char *s) { return sections.count(s) > 0; };
-    if (scipy_n == 0) scipy_n = quick ? 300 : n;
-    const int best_of1 = repeat > 0 ? repeat : 1, best_of2 = repeat > 0 ? repeat : 2;
+    const std::string text =
+        sections_text.empty()
+            ? std::string(o.quick ? "headline,threads,widths,scaling,memory,extraction,scipy,equations,suite,ndim"
+                                  : "headline,threads,widths,scaling,memory,extraction,scipy,equations,suite,ndim,"
+                                    "sweep,gyre")
+            : sections_text;
+    std::istringstream in(text);
+    for (std::string section; std::getline(in, section, ',');) o.sections.insert(section);
+    if (o.scipy_n == 0) o.scipy_n = o.quick ? 300 : o.n;
+    return std::nullopt;
+}
 
-    Bench bench;
-    bench.out = fs::absolute(out_dir);
-    bench.peers = fs::absolute(peers_dir);
-    bench.program = fs::absolute(program);
-    bench.source = fs::absolute(source);
-    bench.set_peers_source(peers_source.empty() ? bench.source / "apps" / "bench" / "baselines" : fs::path(peers_source));
-    fs::create_directories(bench.out);
-    bench.csv.open(bench.out / "bench.csv");
-    bench.csv << "section,workload,name,nx,ny,threads,wall_seconds,flow_map_seconds,peak_mib,rhs_evaluations,steps,"
-                 "ratio_to_baseline,mean_error,p99_error,max_error,interior_max_error,missing,note\n";
-    const std::string load_before = load_average();
-    const auto bench_start = std::chrono::steady_clock::now();
-    std::ostringstream &md = bench.md;
+// The rows of every section, for the report.
+struct BenchResults {
+    std::vector<double> exact; // W's exact FTLE at N
+    Row base;                  // the naive Boost.Odeint baseline at N
+    std::vector<Row> headline, scipy, threads, widths, scaling, extraction, sweep, gyre;
+    std::optional<Row> default_row, memory;
+    std::string suite_md, ndim_md;
+    std::optional<EquationsTiming> equations;
+};
 
-    // --- The equations system against the built-in plugin; alone, it needs neither the reference nor the baseline.
-    std::optional<EquationsTiming> equations_timing;
-    if (wants("equations")) {
-        equations_timing = equations_section(bench, n, best_of2);
-        if (sections.size() == 1) {
-            equations_markdown(md, *equations_timing);
-            std::ofstream(bench.out / "bench.md") << md.str();
-            std::cerr << "wrote " << (bench.out / "bench.md").string() << "\n";
-            return 0;
-        }
-    }
-
-    // --- The accuracy suite alone (--sections suite) needs no baseline and no peers' reference. ---
-    std::string suite_md;
-    if (wants("suite")) suite_md = suite_section(bench, suite_n > 0 ? suite_n : 101);
-    if (sections == std::set<std::string>{"suite"}) {
-        std::ofstream(bench.out / "bench.md") << suite_md;
-        std::cerr << "wrote " << (bench.out / "bench.csv").string() << " and bench.md\n";
-        return 0;
-    }
-
-    // --- Systems of more than two components (section "ndim"); alone, it needs no baseline either. ---
-    std::string ndim_md;
-    if (wants("ndim")) ndim_md = ndim_section(bench, std::min<std::size_t>(n, 300), best_of2);
-    if (sections == std::set<std::string>{"ndim"}) {
-        std::ofstream(bench.out / "bench.md") << ndim_md;
-        std::cerr << "wrote " << (bench.out / "bench.csv").string() << " and bench.md\n";
-        return 0;
-    }
-
-    // --- Headline: W at N, the baseline and the defaults, presets and paper settings, side by side. ---
-    std::vector<double> exact = bench.exact_w(n, true);
-    Row base = bench.baseline("headline", n, exact);
-    bench.add(base);
-    std::vector<Row> headline = {base};
-    std::optional<Row> default_row;
-    if (wants("headline")) {
+// Headline: W at N, the baseline and the defaults, presets and paper settings, side by side; and the --try patches.
+void headline_section(Bench &bench, const BenchOptions &o, BenchResults &res) {
+    res.exact = bench.exact_w(o.n, true);
+    res.base = bench.baseline("headline", o.n, res.exact);
+    bench.add(res.base);
+    res.headline = {res.base};
+    if (o.wants("headline")) {
         for (const Config &c : headline_configs()) {
-            Row r = bench.run("headline", "W", workload_w(n), c, exact, base.wall, best_of1);
+            Row r = bench.run("headline", "W", workload_w(o.n), c, res.exact, res.base.wall, o.best_of(1));
             bench.add(r);
-            headline.push_back(r);
-            if (c.name == "default") default_row = r;
+            res.headline.push_back(r);
+            if (c.name == "default") res.default_row = r;
         }
     }
-    for (const std::string &t : tries) {
+    for (const std::string &t : o.tries) {
         const std::size_t eq = t.find('=');
         if (eq == std::string::npos || eq == 0) throw std::runtime_error("--try " + t + ": expected NAME=JSON");
         json patch;
@@ -972,296 +953,391 @@ int main(int argc, char **argv) {
         } catch (const json::parse_error &e) {
             throw std::runtime_error("--try " + t.substr(0, eq) + ": the patch is not JSON (" + e.what() + ")");
         }
-        Row r = bench.run("headline", "W", workload_w(n), {t.substr(0, eq), patch, 2}, exact, base.wall, best_of1);
+        Row r = bench.run("headline", "W", workload_w(o.n), {t.substr(0, eq), patch, 2}, res.exact, res.base.wall,
+                          o.best_of(1));
         bench.add(r);
-        headline.push_back(r);
+        res.headline.push_back(r);
     }
+}
 
-    // --- SciPy, when installed, with the baseline and the default at the same grid. ---
-    std::vector<Row> scipy_rows;
-    if (wants("scipy")) {
-        const std::vector<double> exact_s = scipy_n == n ? exact : bench.exact_w(scipy_n, true);
-        if (std::optional<Row> s = bench.scipy("scipy", scipy_n, exact_s)) {
-            Row b = scipy_n == n ? base : bench.baseline("scipy", scipy_n, exact_s);
-            Row d = scipy_n == n && default_row
-                        ? *default_row
-                        : bench.run("scipy", "W", workload_w(scipy_n), {"default", json::object(), 2}, exact_s, b.wall);
-            s->ratio = b.wall / s->wall;
-            for (Row *r : {&b, &d, &*s}) {
-                r->section = "scipy";
-                bench.add(*r);
-                scipy_rows.push_back(*r);
-            }
-            if (scipy_n == n) headline.push_back(*s);
-        } else {
-            std::cerr << "SciPy is not installed (python3-scipy): no SciPy baseline\n";
-        }
+// SciPy, when installed, with the baseline and the default at the same grid.
+void scipy_section(Bench &bench, const BenchOptions &o, BenchResults &res) {
+    const std::size_t n = o.scipy_n;
+    const std::vector<double> exact_s = n == o.n ? res.exact : bench.exact_w(n, true);
+    std::optional<Row> s = bench.scipy("scipy", n, exact_s);
+    if (!s) {
+        std::cerr << "SciPy is not installed (python3-scipy): no SciPy baseline\n";
+        return;
     }
+    Row b = n == o.n ? res.base : bench.baseline("scipy", n, exact_s);
+    Row d = n == o.n && res.default_row
+                ? *res.default_row
+                : bench.run("scipy", "W", workload_w(n), {"default", json::object(), 2}, exact_s, b.wall);
+    s->ratio = b.wall / s->wall;
+    for (Row *r : {&b, &d, &*s}) {
+        r->section = "scipy";
+        bench.add(*r);
+        res.scipy.push_back(*r);
+    }
+    if (n == o.n) res.headline.push_back(*s);
+}
 
-    // --- Threads: the default on 1 and 2 threads, best of two runs each (ratios between runs are the point). ---
-    std::vector<Row> thread_rows;
-    if (wants("threads")) {
-        for (int t : {1, 2}) {
-            Row r =
-                bench.run("threads", "W", workload_w(n), {"default", json::object(), t}, exact, base.wall, best_of2);
-            r.name = "default, " + std::to_string(t) + (t == 1 ? " thread" : " threads");
+// Threads: the default on 1 and 2 threads, best of two runs each (ratios between runs are the point).
+void threads_section(Bench &bench, const BenchOptions &o, BenchResults &res) {
+    for (int t : {1, 2}) {
+        Row r = bench.run("threads", "W", workload_w(o.n), {"default", json::object(), t}, res.exact, res.base.wall,
+                          o.best_of(2));
+        r.name = "default, " + std::to_string(t) + (t == 1 ? " thread" : " threads");
+        bench.add(r);
+        res.threads.push_back(r);
+    }
+}
+
+// Vector widths: W's default on the native build and on an AVX2-only build of the same source.
+void widths_section(Bench &bench, const BenchOptions &o, BenchResults &res) {
+    const fs::path native = bench.program;
+    for (const auto &[label, program_path] :
+         {std::pair<std::string, fs::path>{"default, native build", native},
+          std::pair<std::string, fs::path>{"default, AVX2-only build (-march=x86-64-v3)",
+                                           fs::absolute(o.program_avx2)}}) {
+        bench.program = program_path;
+        Row r = bench.run("widths", "W", workload_w(o.n), {label, json::object(), 2}, res.exact, res.base.wall,
+                          o.best_of(2));
+        bench.add(r);
+        res.widths.push_back(r);
+    }
+    bench.program = native;
+}
+
+// Scaling in the number of grid points: the default from N = 200 to 2000, best of two runs each (five below
+// N = 1000: a run of a few tens of milliseconds on a shared machine needs more tries to show its cost), with errors
+// where an exact field is cached or cheap enough to compute. The interior max error is set by a handful of points on
+// razor-thin FTLE ridges, so which grid lands on them is luck: N = 700 and 1400 are always checked besides the
+// headline's N (their exact fields are computed once, then cached).
+void scaling_section(Bench &bench, const BenchOptions &o, BenchResults &res) {
+    for (std::size_t s : {200, 400, 700, 1000, 1400, 2000}) {
+        const std::vector<double> e = s == o.n ? res.exact : bench.exact_w(s, !o.quick || s == 700 || s == 1400);
+        Row r = bench.run("scaling", "W", workload_w(s), {"default", json::object(), 2}, e, nan_value,
+                          o.best_of(s < 1000 ? 5 : 2));
+        bench.add(r);
+        res.scaling.push_back(r);
+    }
+}
+
+// Extraction costs: the paper's hyperbolic and elliptic experiments with the grid overridden.
+void extraction_section(Bench &bench, const BenchOptions &o, BenchResults &res) {
+    for (const char *name : {"duffing-damped-attractor", "duffing-kam"}) {
+        const fs::path file = bench.source / "experiments" / (std::string(name) + ".json");
+        json base_experiment = json::parse(std::ifstream(file));
+        base_experiment["grid"]["n"] = {o.extraction_n, o.extraction_n};
+        base_experiment["output"]["plots"] = false;
+        // As written (the experiments' adaptive dopri5 at 1e-8), and with the default integrator, where the flow
+        // map is faster and the extraction stands out.
+        json with_defaults = base_experiment;
+        with_defaults.erase("integrator");
+        using Labelled = std::pair<const char *, const json &>;
+        for (const auto &[label, experiment] :
+             {Labelled{"as written", base_experiment}, Labelled{"default integrator", with_defaults}}) {
+            Row r = bench.run("extraction", name, experiment, {label, json::object(), 2}, {});
             bench.add(r);
-            thread_rows.push_back(r);
+            res.extraction.push_back(r);
         }
     }
+}
 
-    // --- Vector widths: W's default on the native build and on an AVX2-only build of the same source. ---
-    std::vector<Row> width_rows;
-    if (wants("widths") && !program_avx2.empty()) {
-        const fs::path native = bench.program;
-        for (const auto &[label, program_path] :
-             {std::pair<std::string, fs::path>{"default, native build", native},
-              std::pair<std::string, fs::path>{"default, AVX2-only build (-march=x86-64-v3)", fs::absolute(program_avx2)}}) {
-            bench.program = program_path;
-            Row r = bench.run("widths", "W", workload_w(n), {label, json::object(), 2}, exact, base.wall, best_of2);
-            bench.add(r);
-            width_rows.push_back(r);
-        }
-        bench.program = native;
+// The double gyre: the default and the paper-like settings against its exact field.
+void gyre_section(Bench &bench, const BenchOptions &o, BenchResults &res) {
+    const std::vector<double> exact_g = bench.exact_gyre(o.n);
+    for (const Config &c : std::vector<Config>{
+             {"default", json::object(), 2},
+             {"quality draft", {{"quality", "draft"}}, 2},
+             {"dopri5 1e-6/1e-4, aux 1e-4", with(integrator("dopri5", 1e-6, 1e-4), aux(1e-4)), 2},
+             {"dopri5 1e-6/1e-4, variational", with(integrator("dopri5", 1e-6, 1e-4), variational), 2},
+             {"dopri5 1e-8/1e-10, variational", with(integrator("dopri5", 1e-8, 1e-10), variational), 2}}) {
+        Row r = bench.run("gyre", "double gyre", workload_gyre(o.n), c, exact_g, nan_value, o.best_of(1));
+        bench.add(r);
+        res.gyre.push_back(r);
     }
+}
 
-    // --- Scaling in the number of grid points: the default from N = 200 to 2000, best of two runs each (five below
-    // N = 1000: a run of a few tens of milliseconds on a shared machine needs more tries to show its cost), with errors
-    // where an exact field is cached or cheap enough to compute. The interior max error is set by a handful of
-    // points on razor-thin FTLE ridges, so which grid lands on them is luck: N = 700 and 1400 are always checked
-    // besides the headline's N (their exact fields cost about 30 s and 2 min once, then are cached). ---
-    std::vector<Row> scaling_rows;
-    if (wants("scaling")) {
-        for (std::size_t s : {200, 400, 700, 1000, 1400, 2000}) {
-            const std::vector<double> e = s == n ? exact : bench.exact_w(s, !quick || s == 700 || s == 1400);
-            const int tries = repeat > 0 ? repeat : s < 1000 ? 5 : 2;
-            Row r = bench.run("scaling", "W", workload_w(s), {"default", json::object(), 2}, e, nan_value, tries);
-            bench.add(r);
-            scaling_rows.push_back(r);
-        }
-    }
-
-    // --- Memory: a large grid of W (FTLE only, no picture) with the defaults. ---
-    std::optional<Row> memory_row;
-    if (wants("memory")) {
-        memory_row = bench.run("memory", "W", workload_w(memory_n), {"default", json::object(), 2}, {});
-        bench.add(*memory_row);
-    }
-
-    // --- Extraction costs: the paper's hyperbolic and elliptic experiments with the grid overridden. ---
-    std::vector<Row> extraction_rows;
-    if (wants("extraction")) {
-        for (const char *name : {"duffing-damped-attractor", "duffing-kam"}) {
-            const fs::path file = bench.source / "experiments" / (std::string(name) + ".json");
-            json base_experiment = json::parse(std::ifstream(file));
-            base_experiment["grid"]["n"] = {extraction_n, extraction_n};
-            base_experiment["output"]["plots"] = false;
-            // As written (the experiments' adaptive dopri5 at 1e-8), and with the default integrator, where the flow
-            // map is an order of magnitude faster and the extraction stands out.
-            json with_defaults = base_experiment;
-            with_defaults.erase("integrator");
-            using Labelled = std::pair<const char *, const json &>;
-            for (const auto &[label, experiment] :
-                 {Labelled{"as written", base_experiment}, Labelled{"default integrator", with_defaults}}) {
-                Row r = bench.run("extraction", name, experiment, {label, json::object(), 2}, {});
-                bench.add(r);
-                extraction_rows.push_back(r);
-            }
-        }
-    }
-
-    // --- The full sweep (tolerance, stepper, gradient method, offset, rk4 steps, block size) at N. ---
-    std::vector<Row> sweep_rows;
-    if (wants("sweep")) {
-        for (const Config &c : sweep_configs()) {
-            Row r = bench.run("sweep", "W", workload_w(n), c, exact, base.wall, best_of1);
-            bench.add(r);
-            sweep_rows.push_back(r);
-        }
-    }
-
-    // --- The double gyre: the default and the paper-like settings against its exact field. ---
-    std::vector<Row> gyre_rows;
-    if (wants("gyre")) {
-        const std::vector<double> exact_g = bench.exact_gyre(n);
-        for (const Config &c : std::vector<Config>{
-                 {"default", json::object(), 2},
-                 {"quality draft", {{"quality", "draft"}}, 2},
-                 {"dopri5 1e-6/1e-4, aux 1e-4", with(integrator("dopri5", 1e-6, 1e-4), aux(1e-4)), 2},
-                 {"dopri5 1e-6/1e-4, variational", with(integrator("dopri5", 1e-6, 1e-4), variational), 2},
-                 {"dopri5 1e-8/1e-10, variational", with(integrator("dopri5", 1e-8, 1e-10), variational), 2}}) {
-            Row r = bench.run("gyre", "double gyre", workload_gyre(n), c, exact_g, nan_value, best_of1);
-            bench.add(r);
-            gyre_rows.push_back(r);
-        }
-    }
-    const double bench_minutes =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - bench_start).count() / 60;
-
-    // --- The report. ---
+// The report's opening: the run's conditions and the headline's verdicts (also on stdout).
+void report_headline(std::ostream &md, const BenchOptions &o, const BenchResults &res, const std::string &load_before,
+                     double bench_minutes) {
+    const std::size_t n = o.n;
     md << "Workload W at N = " << n << " (" << n * n << " grid points), T = 8π";
-    if (!machine.empty()) md << ", on " << machine;
+    if (!o.machine.empty()) md << ", on " << o.machine;
     md << ". Load average " << load_before << " before the bench, " << load_average() << " after; the bench took "
-       << fixed(bench_minutes, 1) << " min" << (quick ? " (--quick)" : "") << ".";
+       << fixed(bench_minutes, 1) << " min" << (o.quick ? " (--quick)" : "") << ".";
     if (std::stod(load_before) > static_cast<double>(::sysconf(_SC_NPROCESSORS_ONLN)))
         md << " **The machine was busy** (load above its core count): times are inflated and thread ratios "
               "understated; the ratios between rows of one table are what to compare.";
     md << "\n\n";
-    if (default_row) {
-        const Row &d = *default_row;
+    const std::optional<Row> &memory_row = res.memory;
+    if (res.default_row) {
+        const Row &d = *res.default_row;
         const bool fast = d.ratio >= 30, accurate = d.err.mean <= 1e-4 && d.err.interior_max <= 0.05;
         md << "**Headline.** The default (no `integrator`, no `cauchy_green` keys) at N = " << n << ": "
            << fixed(d.wall, 2) << " s for the whole process, " << fixed(d.ratio, 1)
-           << "× faster than the naive Boost.Odeint baseline (" << fixed(base.wall, 2)
+           << "× faster than the naive Boost.Odeint baseline (" << fixed(res.base.wall, 2)
            << " s, same run; target ≥ 30×: " << (fast ? "met" : "NOT met") << "); FTLE error mean " << sci(d.err.mean)
            << ", interior max " << sci(d.err.interior_max)
            << " (targets ≤ 1e-4 and ≤ 0.05: " << (accurate ? "met" : "NOT met") << ").";
         if (memory_row)
-            md << " The " << memory_n << " × " << memory_n << " grid: peak resident memory "
+            md << " The " << o.memory_n << " × " << o.memory_n << " grid: peak resident memory "
                << fixed(memory_row->peak_mib, 0) << " MiB (target < 2048 MiB: "
                << (std::isfinite(memory_row->peak_mib) && memory_row->peak_mib < 2048 ? "met" : "NOT met") << "), "
                << fixed(memory_row->wall, 1) << " s.";
         md << "\n\n";
         std::cout << "default at N = " << n << ": " << fixed(d.wall, 2) << " s, " << fixed(d.ratio, 1)
-                  << "x the baseline (" << fixed(base.wall, 2) << " s), FTLE error mean " << sci(d.err.mean)
+                  << "x the baseline (" << fixed(res.base.wall, 2) << " s), FTLE error mean " << sci(d.err.mean)
                   << ", interior max " << sci(d.err.interior_max) << "\n";
     }
     if (memory_row)
-        std::cout << memory_n << " x " << memory_n << " grid: peak " << fixed(memory_row->peak_mib, 0) << " MiB, "
+        std::cout << o.memory_n << " x " << o.memory_n << " grid: peak " << fixed(memory_row->peak_mib, 0) << " MiB, "
                   << fixed(memory_row->wall, 1) << " s" << (memory_row->note.empty() ? "" : " " + memory_row->note)
                   << "\n";
+}
 
-    md << "## The trade at N = " << n
+// The trade at N (the headline rows and the sweep), and SciPy.
+void report_trade(Bench &bench, const BenchOptions &o, const BenchResults &res) {
+    std::ostream &md = bench.md;
+    md << "## The trade at N = " << o.n
        << "\n\nWall time of the whole process (start-up, plugin loading and NetCDF output included); flow map = "
           "the manifest's flow-map stage (trajectories, gradient and Cauchy–Green fields); × baseline = baseline "
           "wall time / this wall time. Errors against the exact field (rkf78 1e-12, variational); interior leaves "
           "out 2% of the box on each side.\n\n";
     md << "![FTLE error against wall time, log-log](images/performance-pareto.png)\n\n";
-    bench.table(headline);
-    if (!sweep_rows.empty()) {
+    bench.table(res.headline);
+    if (!res.sweep.empty()) {
         md << "### The sweep: tolerance, stepper, gradient method, offset, fixed steps, block size\n\n";
-        bench.table(sweep_rows);
+        bench.table(res.sweep);
     }
-    if (!scipy_rows.empty()) {
-        md << "## SciPy at N = " << scipy_n
+    if (!res.scipy.empty()) {
+        md << "## SciPy at N = " << o.scipy_n
            << "\n\nSciPy's `solve_ivp` (RK45 at the paper's tolerances, one stacked "
               "solve over all auxiliary trajectories, one thread), the Boost.Odeint "
               "baseline and the default on the same grid in the same run.\n\n";
-        bench.table(scipy_rows);
+        bench.table(res.scipy);
     }
-    if (!thread_rows.empty() && thread_rows.size() == 2) {
-        const double speedup = thread_rows[0].wall / thread_rows[1].wall;
-        const double engine = thread_rows[0].flow_map / thread_rows[1].flow_map;
-        md << "## Threads\n\nThe default at N = " << n
-           << " on 1 and 2 threads (best of two runs each): " << fixed(speedup, 2) << "× for the whole process, "
-           << fixed(engine, 2) << "× for the flow-map stage (target ≥ 1.8×).\n\n";
-        bench.table(thread_rows);
-        std::cout << "threads: 2 vs 1 at N = " << n << ": " << fixed(speedup, 2) << "x (flow map " << fixed(engine, 2)
-                  << "x)\n";
+}
+
+void report_threads(Bench &bench, const BenchOptions &o, const std::vector<Row> &thread_rows) {
+    if (thread_rows.size() != 2) return;
+    const double speedup = thread_rows[0].wall / thread_rows[1].wall;
+    const double engine = thread_rows[0].flow_map / thread_rows[1].flow_map;
+    bench.md << "## Threads\n\nThe default at N = " << o.n << " on 1 and 2 threads (best of two runs each): "
+             << fixed(speedup, 2) << "× for the whole process, " << fixed(engine, 2)
+             << "× for the flow-map stage (target ≥ 1.8×).\n\n";
+    bench.table(thread_rows);
+    std::cout << "threads: 2 vs 1 at N = " << o.n << ": " << fixed(speedup, 2) << "x (flow map " << fixed(engine, 2)
+              << "x)\n";
+}
+
+void report_widths(std::ostream &md, std::size_t n, const std::vector<Row> &width_rows) {
+    if (width_rows.size() != 2) return;
+    // The machine's limit: the fused dop853 step with the variational equations of Duffing costs, per trajectory
+    // and step, 58 multiply-adds per component for the stage states and the new state (the tableau's nonzero
+    // a_ij and b_j) x 7 components, plus about 10 operations per stage for the field, the Jacobian and DF' =
+    // Dv DF over 12 stages, plus 17 for the step check: about 543 vector-lane operations. The floor is that
+    // many lane operations at the core's peak rate of lane multiply-adds, measured here for each width
+    // (peak_rate.cpp): data sheets do not say how many 512-bit FMA units a given model, or a virtual machine's
+    // share of it, has.
+    const double ops = 58.0 * 7 + 10.0 * 12 + 17.0;
+    const double lane_steps = static_cast<double>(n) * static_cast<double>(n) * 77.0;
+    const double peak[2] = {peak_lane_fma_rate(8), peak_lane_fma_rate(4)};
+    md << "## Vector widths and the machine's limit\n\nW's default at N = " << n
+       << " on the native build and on an AVX2-only build (`-march=x86-64-v3 -ffp-contract=off`, "
+          "`GEOBARRIER_NATIVE=OFF`) of the same source, same run, best of two. The fused dop853 step "
+          "(Duffing, variational) costs about "
+       << fixed(ops, 0)
+       << " vector-lane operations (multiply-adds counted once) per trajectory-step. The floor is that many "
+          "operations at the core's peak rate of lane multiply-adds, measured in the same run for each width "
+          "(independent FMA chains on one core, best slice): "
+       << sci(peak[0]) << " per second with 8-lane (AVX-512) vectors, " << sci(peak[1])
+       << " with 4-lane (AVX2) vectors"
+       << (peak[0] > 0 && peak[0] < 1.5 * peak[1]
+               ? " — no faster than AVX2 per core on this CPU (one 512-bit FMA unit, or a throttled clock), "
+                 "so the AVX2 build loses nothing here"
+               : "")
+       << ". The share of the floor below is what the step achieves of it; the rest is what scheduling could "
+          "still win (the 12 stages x 7 components of live values exceed the 32 vector registers, so stages "
+          "spill to memory, and not every operation is a multiply-add). Beyond the floor, speed can only come "
+          "from fewer operations per trajectory (fewer stages or steps for the same accuracy).\n\n| build | wall "
+          "(s) | flow map (s) | × baseline | lane-steps per core-second | floor (peak / ops) | share of the floor "
+          "|\n|---|---|---|---|---|---|---|\n";
+    for (std::size_t i = 0; i < width_rows.size(); ++i) {
+        const Row &r = width_rows[i];
+        const double rate = lane_steps / (r.flow_map * r.threads), floor_rate = peak[i] / ops;
+        md << "| " << r.name << " | " << fixed(r.wall, 2) << " | " << fixed(r.flow_map, 2) << " | "
+           << fixed(r.ratio, 1) << " | " << sci(rate) << " | " << sci(floor_rate) << " | "
+           << (floor_rate > 0 ? fixed(100 * rate / floor_rate, 0) + "%" : std::string("–")) << " |\n";
     }
-    if (width_rows.size() == 2) {
-        // The machine's limit: the fused dop853 step with the variational equations of Duffing costs, per trajectory
-        // and step, 58 multiply-adds per component for the stage states and the new state (the tableau's nonzero
-        // a_ij and b_j) x 7 components, plus about 10 operations per stage for the field, the Jacobian and DF' =
-        // Dv DF over 12 stages, plus 17 for the step check: about 543 vector-lane operations. At 2 FMA ports x 8
-        // lanes (AVX-512) or x 4 lanes (AVX2) per cycle that is the floor in core-seconds per trajectory-step.
-        const double ops = 58.0 * 7 + 10.0 * 12 + 17.0, clock = 2.8e9;
-        const double lane_steps = static_cast<double>(n) * static_cast<double>(n) * 77.0;
-        md << "## Vector widths and the machine's limit\n\nW's default at N = " << n
-           << " on the native build and on an AVX2-only build (`-march=x86-64-v3 -ffp-contract=off`, "
-              "`GEOBARRIER_NATIVE=OFF`) of the same source, same run, best of two. The fused dop853 step "
-              "(Duffing, variational) costs about "
-           << fixed(ops, 0)
-           << " vector-lane operations (multiply-adds counted once) per trajectory-step; the floor is that at two "
-              "vector multiply-adds per cycle (8 lanes with AVX-512, 4 with AVX2) at the nominal 2.8 GHz. Further "
-              "speed must come from fewer operations per trajectory (fewer stages or steps for the same accuracy), "
-              "not from scheduling.\n\n| build | wall (s) | flow map (s) | × baseline | lane-steps per core-second | "
-              "floor (lanes x 2 FMA x clock / ops) | share of the floor |\n|---|---|---|---|---|---|---|\n";
-        for (std::size_t i = 0; i < width_rows.size(); ++i) {
-            const Row &r = width_rows[i];
-            const double lanes = i == 0 ? 8.0 : 4.0;
-            const double rate = lane_steps / (r.flow_map * r.threads), floor_rate = lanes * 2 * clock / ops;
-            md << "| " << r.name << " | " << fixed(r.wall, 2) << " | " << fixed(r.flow_map, 2) << " | "
-               << fixed(r.ratio, 1) << " | " << sci(rate) << " | " << sci(floor_rate) << " | "
-               << fixed(100 * rate / floor_rate, 0) << "% |\n";
+    md << "\n";
+}
+
+void report_scaling(std::ostream &md, const std::vector<Row> &scaling_rows) {
+    if (scaling_rows.empty()) return;
+    md << "## Scaling in the number of grid points\n\nThe default on 2 threads (best of five runs below N = 1000, of "
+          "two from there). Time per point should not depend on N (linear within 15%); the flow-map stage leaves "
+          "out the process start-up and the output, which weigh on small grids. The errors at N = 700 and 1400 "
+          "check that the default's accuracy is no accident of the headline grid: the interior max comes from "
+          "one or two points on razor-thin FTLE ridges.\n\n"
+          "| N | points | wall (s) | flow map (s) | µs per point (wall) | µs per point "
+          "(flow map) | flow map per point / N = 1000's | peak RSS (MiB) | mean err | interior max |\n"
+          "|---|---|---|---|---|---|---|---|---|---|\n";
+    double reference = nan_value;
+    for (const Row &r : scaling_rows)
+        if (r.nx == 1000) reference = r.flow_map / 1e6;
+    double lo = HUGE_VAL, hi = 0;
+    for (const Row &r : scaling_rows) {
+        const double points = static_cast<double>(r.nx * r.ny), per = r.flow_map / points;
+        md << "| " << r.nx << " | " << r.nx * r.ny << " | " << fixed(r.wall, 2) << " | " << fixed(r.flow_map, 2)
+           << " | " << fixed(1e6 * r.wall / points, 3) << " | " << fixed(1e6 * per, 3) << " | "
+           << fixed(per / reference, 2) << " | " << fixed(r.peak_mib, 0) << " | " << sci(r.err.mean) << " | "
+           << sci(r.err.interior_max) << " |\n";
+        if (std::isfinite(per)) {
+            lo = std::min(lo, per);
+            hi = std::max(hi, per);
         }
-        md << "\n";
     }
-    if (!suite_md.empty()) md << suite_md;
-    if (!ndim_md.empty()) md << ndim_md;
-    if (!scaling_rows.empty()) {
-        md << "## Scaling in the number of grid points\n\nThe default on 2 threads (best of five runs below N = 1000, of "
-              "two from there). Time per point should not depend on N (linear within 15%); the flow-map stage leaves "
-              "out the process start-up and the output, which weigh on small grids. The errors at N = 700 and 1400 "
-              "check that the default's accuracy is no accident of the headline grid: the interior max comes from "
-              "one or two points on razor-thin FTLE ridges.\n\n"
-              "| N | points | wall (s) | flow map (s) | µs per point (wall) | µs per point "
-              "(flow map) | flow map per point / N = 1000's | peak RSS (MiB) | mean err | interior max |\n"
-              "|---|---|---|---|---|---|---|---|---|---|\n";
-        double reference = nan_value;
-        for (const Row &r : scaling_rows)
-            if (r.nx == 1000) reference = r.flow_map / 1e6;
-        double lo = HUGE_VAL, hi = 0;
-        for (const Row &r : scaling_rows) {
-            const double points = static_cast<double>(r.nx * r.ny), per = r.flow_map / points;
-            md << "| " << r.nx << " | " << r.nx * r.ny << " | " << fixed(r.wall, 2) << " | " << fixed(r.flow_map, 2)
-               << " | " << fixed(1e6 * r.wall / points, 3) << " | " << fixed(1e6 * per, 3) << " | "
-               << fixed(per / reference, 2) << " | " << fixed(r.peak_mib, 0) << " | " << sci(r.err.mean) << " | "
-               << sci(r.err.interior_max) << " |\n";
-            if (std::isfinite(per)) {
-                lo = std::min(lo, per);
-                hi = std::max(hi, per);
-            }
+    md << "\nFlow-map time per point varies by " << fixed(100 * (hi / lo - 1), 0)
+       << "% between the fastest and the slowest N.\n\n";
+    std::cout << "scaling 200..2000: flow-map time per point varies by " << fixed(100 * (hi / lo - 1), 0) << "%\n";
+}
+
+void report_extraction(std::ostream &md, std::size_t extraction_n, const std::vector<Row> &extraction_rows) {
+    if (extraction_rows.empty()) return;
+    md << "## Extraction costs\n\nThe paper's hyperbolic (`experiments/duffing-damped-attractor.json`) and "
+          "elliptic (`experiments/duffing-kam.json`) experiments with the grid overridden to "
+       << extraction_n << " × " << extraction_n
+       << " and pictures off, as written (adaptive dopri5 at rtol 1e-8) and with the default integrator; stage "
+          "times from the manifest, next to the flow map of the same run.\n\n"
+          "| experiment | integrator | wall (s) | stage | seconds | × flow map |\n|---|---|---|---|---|---|\n";
+    for (const Row &r : extraction_rows) {
+        if (!r.note.empty()) {
+            md << "| " << r.workload << " | " << r.name << " | – | " << r.note << " | – | – |\n";
+            continue;
         }
-        md << "\nFlow-map time per point varies by " << fixed(100 * (hi / lo - 1), 0)
-           << "% between the fastest and the slowest N.\n\n";
-        std::cout << "scaling 200..2000: flow-map time per point varies by " << fixed(100 * (hi / lo - 1), 0) << "%\n";
+        for (const auto &s : r.stages) {
+            const double t = s["wall_seconds"].get<double>();
+            md << "| " << r.workload << " | " << r.name << " | " << fixed(r.wall, 2) << " | "
+               << s["stage"].get<std::string>() << " | " << fixed(t, 2) << " | " << fixed(t / r.flow_map, 2)
+               << " |\n";
+            if (s["stage"].get<std::string>().rfind("extractor", 0) == 0)
+                std::cout << r.workload << " (" << r.name << "): " << s["stage"].get<std::string>() << " "
+                          << fixed(t, 2) << " s = " << fixed(t / r.flow_map, 2) << "x the flow map ("
+                          << fixed(r.flow_map, 2) << " s)\n";
+        }
     }
-    if (memory_row) {
-        md << "## Memory\n\nW on a " << memory_n << " × " << memory_n
+    md << "\n";
+}
+
+// The report after the headline: every section that ran, in the order of docs/performance.md.
+void report_sections(Bench &bench, const BenchOptions &o, const BenchResults &res) {
+    std::ostream &md = bench.md;
+    report_trade(bench, o, res);
+    report_threads(bench, o, res.threads);
+    report_widths(md, o.n, res.widths);
+    if (!res.suite_md.empty()) md << res.suite_md;
+    if (!res.ndim_md.empty()) md << res.ndim_md;
+    report_scaling(md, res.scaling);
+    if (res.memory) {
+        md << "## Memory\n\nW on a " << o.memory_n << " × " << o.memory_n
            << " grid (FTLE only, no picture), the defaults, 2 threads; flow map and Cauchy–Green fields computed in "
               "tiles of grid rows, only the FTLE kept for the whole grid. Peak resident memory by GNU time.\n\n";
-        bench.table({*memory_row});
+        bench.table({*res.memory});
     }
-    if (!extraction_rows.empty()) {
-        md << "## Extraction costs\n\nThe paper's hyperbolic (`experiments/duffing-damped-attractor.json`) and "
-              "elliptic (`experiments/duffing-kam.json`) experiments with the grid overridden to "
-           << extraction_n << " × " << extraction_n
-           << " and pictures off, as written (adaptive dopri5 at rtol 1e-8) and with the default integrator; stage "
-              "times from the manifest, next to the flow map of the same run.\n\n"
-              "| experiment | integrator | wall (s) | stage | seconds | × flow map |\n|---|---|---|---|---|---|\n";
-        for (const Row &r : extraction_rows) {
-            if (!r.note.empty()) {
-                md << "| " << r.workload << " | " << r.name << " | – | " << r.note << " | – | – |\n";
-                continue;
-            }
-            for (const auto &s : r.stages) {
-                const double t = s["wall_seconds"].get<double>();
-                md << "| " << r.workload << " | " << r.name << " | " << fixed(r.wall, 2) << " | "
-                   << s["stage"].get<std::string>() << " | " << fixed(t, 2) << " | " << fixed(t / r.flow_map, 2)
-                   << " |\n";
-                if (s["stage"].get<std::string>().rfind("extractor", 0) == 0)
-                    std::cout << r.workload << " (" << r.name << "): " << s["stage"].get<std::string>() << " "
-                              << fixed(t, 2) << " s = " << fixed(t / r.flow_map, 2) << "x the flow map ("
-                              << fixed(r.flow_map, 2) << " s)\n";
-            }
-        }
-        md << "\n";
-    }
-    if (!gyre_rows.empty()) {
-        md << "## The double gyre\n\n`experiments/double-gyre.json` (A = 0.1, ε = 0.25, ω = 2π/10, T = 15) on an " << n
-           << " × " << n / 2
+    report_extraction(md, o.extraction_n, res.extraction);
+    if (!res.gyre.empty()) {
+        md << "## The double gyre\n\n`experiments/double-gyre.json` (A = 0.1, ε = 0.25, ω = 2π/10, T = 15) on an "
+           << o.n << " × " << o.n / 2
            << " grid, against its exact field (geobarrier, rkf78 at 1e-12 on the variational equations).\n\n";
-        bench.table(gyre_rows);
+        bench.table(res.gyre);
     }
-    if (equations_timing) equations_markdown(md, *equations_timing);
+    if (res.equations) equations_markdown(md, *res.equations);
+}
+
+// Opens the output folder and bench.csv with its header.
+void open_bench(Bench &bench, const BenchOptions &o) {
+    bench.out = fs::absolute(o.out_dir);
+    bench.peers = fs::absolute(o.peers_dir);
+    bench.program = fs::absolute(o.program);
+    bench.source = fs::absolute(o.source);
+    bench.set_peers_source(o.peers_source.empty() ? bench.source / "apps" / "bench" / "baselines"
+                                                  : fs::path(o.peers_source));
+    fs::create_directories(bench.out);
+    bench.csv.open(bench.out / "bench.csv");
+    bench.csv << "section,workload,name,nx,ny,threads,wall_seconds,flow_map_seconds,peak_mib,rhs_evaluations,steps,"
+                 "ratio_to_baseline,mean_error,p99_error,max_error,interior_max_error,missing,note\n";
+}
+
+} // namespace
+
+int main(int argc, char **argv) {
+    BenchOptions o;
+    if (const std::optional<int> code = parse_options(argc, argv, o)) return *code;
+    Bench bench;
+    open_bench(bench, o);
+    const std::string load_before = load_average();
+    const auto bench_start = std::chrono::steady_clock::now();
+    BenchResults res;
+
+    // The equations system against the built-in plugin; alone, it needs neither the reference nor the baseline.
+    if (o.wants("equations")) {
+        res.equations = equations_section(bench, o.n, o.best_of(2));
+        if (o.sections.size() == 1) {
+            equations_markdown(bench.md, *res.equations);
+            std::ofstream(bench.out / "bench.md") << bench.md.str();
+            std::cerr << "wrote " << (bench.out / "bench.md").string() << "\n";
+            return 0;
+        }
+    }
+    // The accuracy suite alone (--sections suite) needs no baseline and no peers' reference.
+    if (o.wants("suite")) res.suite_md = suite_section(bench, o.suite_n > 0 ? o.suite_n : 101);
+    if (o.sections == std::set<std::string>{"suite"}) {
+        std::ofstream(bench.out / "bench.md") << res.suite_md;
+        std::cerr << "wrote " << (bench.out / "bench.csv").string() << " and bench.md\n";
+        return 0;
+    }
+
+    // Systems of more than two components (section "ndim"); alone, it needs no baseline either.
+    if (o.wants("ndim")) res.ndim_md = ndim_section(bench, std::min<std::size_t>(o.n, 300), o.best_of(2));
+    if (o.sections == std::set<std::string>{"ndim"}) {
+        std::ofstream(bench.out / "bench.md") << res.ndim_md;
+        std::cerr << "wrote " << (bench.out / "bench.csv").string() << " and bench.md\n";
+        return 0;
+    }
+
+    headline_section(bench, o, res);
+    if (o.wants("scipy")) scipy_section(bench, o, res);
+    if (o.wants("threads")) threads_section(bench, o, res);
+    if (o.wants("widths") && !o.program_avx2.empty()) widths_section(bench, o, res);
+    if (o.wants("scaling")) scaling_section(bench, o, res);
+    if (o.wants("memory")) { // a large grid of W (FTLE only, no picture) with the defaults
+        res.memory = bench.run("memory", "W", workload_w(o.memory_n), {"default", json::object(), 2}, {});
+        bench.add(*res.memory);
+    }
+    if (o.wants("extraction")) extraction_section(bench, o, res);
+    if (o.wants("sweep")) { // the full sweep (tolerance, stepper, gradient method, offset, rk4 steps, block size)
+        for (const Config &c : sweep_configs()) {
+            Row r = bench.run("sweep", "W", workload_w(o.n), c, res.exact, res.base.wall, o.best_of(1));
+            bench.add(r);
+            res.sweep.push_back(r);
+        }
+    }
+    if (o.wants("gyre")) gyre_section(bench, o, res);
+    const double bench_minutes =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - bench_start).count() / 60;
+
+    report_headline(bench.md, o, res, load_before, bench_minutes);
+    report_sections(bench, o, res);
     const fs::path picture = bench.out / "pareto.png";
     try {
-        pareto_picture(picture, bench.rows, n);
+        pareto_picture(picture, bench.rows, o.n);
     } catch (const std::exception &e) {
         std::cerr << "no Pareto picture: " << e.what() << "\n";
     }
-    std::ofstream(bench.out / "bench.md") << md.str();
+    std::ofstream(bench.out / "bench.md") << bench.md.str();
     std::cerr << "wrote " << (bench.out / "bench.csv").string() << ", bench.md and pareto.png\n";
     return 0;
 }

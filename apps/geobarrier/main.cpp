@@ -1,10 +1,11 @@
 // The geobarrier command-line program: run and validate experiments, list plugins.
+#include "mpi.hpp"
+
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/conformance.hpp>
 #include <geobarrier/equations.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
-#include <geobarrier/mpi.hpp>
 #include <geobarrier/plugin.hpp>
 #include <geobarrier/sweep.hpp>
 

@@ -5,7 +5,7 @@
 #include <geobarrier/errors.hpp>
 #include <geobarrier/line_field.hpp>
 #include <geobarrier/shear.hpp>
-#include <geobarrier/tiles.hpp>
+#include "tiles.hpp"
 #include <geobarrier/rk_tableaux.hpp>
 #include <geobarrier/sdk.hpp>
 

@@ -6,8 +6,8 @@
 #include <geobarrier/experiment.hpp>
 
 #include "json_reader.hpp"
-#include <geobarrier/resources.hpp>
-#include <geobarrier/tiles.hpp>
+#include "resources.hpp"
+#include "tiles.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -142,6 +142,232 @@ double default_aux_offset(const IntegratorSettings &integrator, const Grid &grid
     return std::min(0.5, std::max(1e-3, rounding));
 }
 
+std::string json_path_of(EngineSetting setting) {
+    switch (setting) {
+    case EngineSetting::system: return "/system/plugin";
+    case EngineSetting::method: return "/integrator/method";
+    case EngineSetting::engine: return "/integrator/engine";
+    case EngineSetting::rtol: return "/integrator/rtol";
+    case EngineSetting::atol: return "/integrator/atol";
+    case EngineSetting::step: return "/integrator/step";
+    case EngineSetting::batch: return "/integrator/batch";
+    case EngineSetting::max_steps: return "/integrator/max_steps";
+    case EngineSetting::time: return "/time";
+    case EngineSetting::gradient: return "/cauchy_green/method";
+    case EngineSetting::offset: return "/cauchy_green/offset";
+    case EngineSetting::grid: return "/grid/n";
+    }
+    return "";
+}
+
+namespace {
+
+// The sections of an experiment file, one reader each, in the order parse_experiment reads them.
+
+// `slice` receives the grid's "axes" and "fixed" when it names axes.
+Grid read_grid(const json &section, std::optional<GridSliceSpec> &slice_out) {
+    ObjectReader g(section, "/grid");
+    Grid grid;
+    // A slice names its two axes (state components, checked against the system's names in resolve_experiment)
+    // and gives their intervals under those names; a planar grid uses "x" and "y".
+    std::array<std::string, 2> axis_keys{"x", "y"};
+    if (g.has("axes")) {
+        const json &axes = g.get("axes");
+        if (!axes.is_array() || axes.size() != 2 || !axes[0].is_string() || !axes[1].is_string())
+            throw ConfigError("/grid/axes", short_dump(axes) + " must be an array of two state component names");
+        GridSliceSpec slice;
+        for (int k = 0; k < 2; ++k) slice.axes[k] = axes[k].get<std::string>();
+        if (slice.axes[0] == slice.axes[1])
+            throw ConfigError("/grid/axes/1", "\"" + slice.axes[1] + "\" is the grid's first axis too; name two "
+                                              "different state components");
+        for (int k = 0; k < 2; ++k)
+            if (slice.axes[k] == "axes" || slice.axes[k] == "n" || slice.axes[k] == "fixed")
+                throw ConfigError("/grid/axes/" + std::to_string(k),
+                                  "\"" + slice.axes[k] + "\" is a key of the grid, not a state component name");
+        axis_keys = slice.axes;
+        if (g.has("fixed")) {
+            const json &fixed = g.get("fixed");
+            if (!fixed.is_object())
+                throw ConfigError("/grid/fixed", short_dump(fixed) + " must be an object {component: value}");
+            for (const auto &[name, value] : fixed.items()) {
+                const std::string path = "/grid/fixed/" + name;
+                if (name == slice.axes[0] || name == slice.axes[1])
+                    throw ConfigError(path, "fixes \"" + name + "\", which is an axis of the grid; a component "
+                                            "is either on an axis or fixed");
+                if (!value.is_number() || !std::isfinite(value.get<double>()))
+                    throw ConfigError(path, short_dump(value) + " must be a finite number");
+                slice.fixed.emplace_back(name, value.get<double>());
+            }
+        }
+        slice_out = slice;
+    } else if (g.has("fixed")) {
+        throw ConfigError("/grid/fixed", "fixes components of a grid that names no \"axes\"; give \"axes\": "
+                                         "[the two components the grid spans]");
+    }
+    std::tie(grid.x_min, grid.x_max) = g.interval(axis_keys[0]);
+    std::tie(grid.y_min, grid.y_max) = g.interval(axis_keys[1]);
+    const json &n = g.get("n");
+    if (!n.is_array() || n.size() != 2 || !n[0].is_number_integer() || !n[1].is_number_integer())
+        throw ConfigError("/grid/n", short_dump(n) + " must be an array of two integers [nx, ny]");
+    // At least 3 points per direction: the centred differences of the fields (gradient of lambda2, curvatures
+    // of the line fields) need a neighbour on each side.
+    for (int k = 0; k < 2; ++k)
+        if (n[k].get<long long>() < 3 || n[k].get<long long>() > 100000)
+            throw ConfigError("/grid/n/" + std::to_string(k),
+                              short_dump(n[k]) + " must be between 3 and 100000 (points, endpoints included)");
+    grid.nx = n[0].get<std::size_t>();
+    grid.ny = n[1].get<std::size_t>();
+    g.finish();
+    return grid;
+}
+
+void read_time(const json &section, Experiment &e) {
+    ObjectReader t(section, "/time");
+    e.t0 = t.number("t0");
+    e.t1 = t.number("t1");
+    if (e.t1 == e.t0) throw ConfigError("/time/t1", "equals t0; the interval must have nonzero length");
+    t.finish();
+}
+
+Bounds read_bounds(const json &section, const std::optional<GridSliceSpec> &slice) {
+    ObjectReader b(section, "/bounds");
+    Bounds box{};
+    // Over a slice the box limits the grid's axes, named as in the grid.
+    std::tie(box.x_min, box.x_max) = b.interval(slice ? slice->axes[0] : "x");
+    std::tie(box.y_min, box.y_max) = b.interval(slice ? slice->axes[1] : "y");
+    b.finish();
+    return box;
+}
+
+// The experiment's own integrator keys, applied one by one over the quality preset's settings `s`; `warnings` gets
+// what was adjusted.
+void read_integrator(const json &section, IntegratorSettings &s, std::vector<std::string> &warnings) {
+    ObjectReader r(section, "/integrator");
+    s.method = r.string("method", s.method, {"dop853", "dopri5", "rkf78", "rk4", "rosenbrock4"});
+    s.engine = r.string("engine", s.engine, {"lockstep", "odeint"});
+    // Naming a method with an error estimate, or a tolerance, asks for adaptive steps unless "adaptive" says
+    // otherwise; rk4 is fixed-step only and rosenbrock4 adaptive only.
+    if (r.has("method") || r.has("rtol") || r.has("atol")) s.adaptive = s.method != "rk4";
+    s.adaptive = r.boolean("adaptive", s.adaptive);
+    if (s.adaptive && s.method == "rk4")
+        throw ConfigError("/integrator/adaptive", "true, but rk4 has no error estimate: it runs fixed steps; use "
+                                                  "dop853, dopri5 or rkf78 for adaptive steps");
+    if (!s.adaptive && s.method == "rosenbrock4")
+        throw ConfigError("/integrator/adaptive", "false, but rosenbrock4 runs adaptive steps only");
+    if (s.engine == "odeint" && s.method == "dop853")
+        throw ConfigError("/integrator/engine", "\"odeint\" has no dop853; use \"lockstep\" or the method dopri5, "
+                                                "rkf78 or rk4");
+    s.rtol = r.positive("rtol", s.rtol);
+    if (s.rtol >= 1.0)
+        throw ConfigError("/integrator/rtol", short_dump(r.get("rtol")) + " must be below 1 (a relative tolerance)");
+    if (s.rtol < min_rtol) {
+        // Double precision cannot honour it: each step's rounding error alone is ~1e-16 |x|.
+        warnings.push_back("/integrator/rtol: " + short_dump(r.get("rtol")) + " is below what double precision "
+                           "can honour; clamped to 1e-14");
+        s.rtol = min_rtol;
+    }
+    s.atol = r.positive("atol", s.atol);
+    s.step = r.positive("step", s.step);
+    if (r.has("step_tolerance")) {
+        s.step_tolerance = r.number("step_tolerance");
+        if (!(s.step_tolerance >= 0.0 && s.step_tolerance < 1.0))
+            throw ConfigError("/integrator/step_tolerance", short_dump(r.get("step_tolerance")) +
+                                                                " must be in [0, 1) (0 turns the step check off)");
+    }
+    s.batch = r.count("batch", s.batch, 1);
+    s.max_steps = r.count("max_steps", s.max_steps, 1);
+    if (s.method == "rk4" && !r.has("step"))
+        throw ConfigError("/integrator", "method \"rk4\" is fixed-step: give \"step\" (a time step, e.g. 0.01)");
+    r.finish();
+}
+
+void read_cauchy_green(const json &section, Experiment &e) {
+    ObjectReader r(section, "/cauchy_green");
+    e.gradient_method = r.string("method", e.gradient_method, {"auto", "auxiliary-grid", "variational"});
+    if (r.has("slice_tensor")) {
+        const std::string tensor = r.string("slice_tensor", "full", {"full", "restricted", "projected"});
+        if (!e.slice)
+            throw ConfigError("/cauchy_green/slice_tensor", "\"" + tensor + "\" applies to grids over a slice "
+                                                            "(\"grid\": {\"axes\": ...}), and this grid names no axes");
+        e.slice->tensor = tensor == "restricted" ? SliceTensor::restricted
+                        : tensor == "projected"  ? SliceTensor::projected
+                                                 : SliceTensor::full;
+    }
+    e.aux_offset = r.positive("offset", default_aux_offset(e.integrator, e.grid));
+    if (e.aux_offset > 0.5)
+        throw ConfigError("/cauchy_green/offset",
+                          std::to_string(e.aux_offset) + " must be at most 0.5 (a fraction of the grid spacing)");
+    r.finish();
+}
+
+// The requested products, each once, in the order written.
+std::vector<std::string> read_products(const json &p) {
+    if (!p.is_array()) throw ConfigError("/products", short_dump(p) + " must be an array of product names");
+    std::vector<std::string> names, products;
+    for (const auto &info : known_products()) names.push_back(info.name);
+    for (std::size_t i = 0; i < p.size(); ++i) {
+        const std::string path = "/products/" + std::to_string(i);
+        if (!p[i].is_string()) throw ConfigError(path, short_dump(p[i]) + " must be a product name (a string)");
+        const std::string name = p[i].get<std::string>();
+        if (std::find(names.begin(), names.end(), name) == names.end()) {
+            std::string msg = "unknown product \"" + name + "\"";
+            const std::string hint = did_you_mean(name, names);
+            if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
+            msg += " (known:";
+            for (const auto &n : names) msg += " " + n;
+            throw ConfigError(path, msg + ")");
+        }
+        if (std::find(products.begin(), products.end(), name) == products.end()) products.push_back(name);
+    }
+    return products;
+}
+
+std::vector<PluginUse> read_extractors(const json &x) {
+    if (!x.is_array()) throw ConfigError("/extractors", short_dump(x) + " must be an array of {\"plugin\": ...}");
+    std::vector<PluginUse> extractors;
+    for (std::size_t i = 0; i < x.size(); ++i)
+        extractors.push_back(read_plugin_use(x[i], "/extractors/" + std::to_string(i)));
+    return extractors;
+}
+
+void read_validation(const json &section, Experiment &e) {
+    e.validation = parse_validation(section, "/validation");
+    // Products built on the found barriers need an extractor to find them.
+    const bool barrier_seeds = e.validation.poincare && e.validation.poincare->barrier_points > 0;
+    if ((e.validation.advect_barriers || barrier_seeds) && e.extractors.empty())
+        throw ConfigError(barrier_seeds ? "/validation/poincare/barrier_points" : "/validation/advect_barriers",
+                          "works on the barriers the extractors find, and there is no extractor: add one to "
+                          "\"extractors\" (e.g. {\"plugin\": \"elliptic\"})");
+}
+
+// Folders relative to the experiment's folder `base`.
+std::vector<fs::path> read_plugin_paths(const json &p, const fs::path &base) {
+    if (!p.is_array()) throw ConfigError("/plugin_paths", short_dump(p) + " must be an array of folder paths");
+    std::vector<fs::path> folders;
+    for (std::size_t i = 0; i < p.size(); ++i) {
+        if (!p[i].is_string())
+            throw ConfigError("/plugin_paths/" + std::to_string(i), short_dump(p[i]) + " must be a folder path");
+        const fs::path folder = p[i].get<std::string>();
+        folders.push_back(folder.is_absolute() ? folder : base / folder);
+    }
+    return folders;
+}
+
+void read_output(const ObjectReader &root, const fs::path &file, Experiment &e) {
+    const std::string stem = file.empty() ? std::string("experiment") : file.stem().string();
+    if (!root.has("output")) {
+        e.output_dir = "out/" + stem;
+        return;
+    }
+    ObjectReader o(root.get("output"), "/output");
+    e.output_dir = o.string("dir", "out/" + stem);
+    if (e.output_dir.empty()) throw ConfigError("/output/dir", "\"\" is empty; expected a folder path");
+    e.plots = o.boolean("plots", e.plots);
+    o.finish();
+}
+
+}  // namespace
+
 Experiment parse_experiment(const json &j, const fs::path &file) {
     Experiment e;
     e.file = file;
@@ -153,197 +379,20 @@ Experiment parse_experiment(const json &j, const fs::path &file) {
     e.system = read_plugin_use(root.get("system"), "/system");
     if (root.has("forcing")) e.forcing = read_plugin_use(root.get("forcing"), "/forcing", 0);
     else e.forcing = PluginUse{"none", json::object(), "/forcing", {}, ""};
-
-    {
-        ObjectReader g(root.get("grid"), "/grid");
-        // A slice names its two axes (state components, checked against the system's names in resolve_experiment)
-        // and gives their intervals under those names; a planar grid uses "x" and "y".
-        std::array<std::string, 2> axis_keys{"x", "y"};
-        if (g.has("axes")) {
-            const json &axes = g.get("axes");
-            if (!axes.is_array() || axes.size() != 2 || !axes[0].is_string() || !axes[1].is_string())
-                throw ConfigError("/grid/axes", short_dump(axes) + " must be an array of two state component names");
-            GridSliceSpec slice;
-            for (int k = 0; k < 2; ++k) slice.axes[k] = axes[k].get<std::string>();
-            if (slice.axes[0] == slice.axes[1])
-                throw ConfigError("/grid/axes/1", "\"" + slice.axes[1] + "\" is the grid's first axis too; name two "
-                                                  "different state components");
-            for (int k = 0; k < 2; ++k)
-                if (slice.axes[k] == "axes" || slice.axes[k] == "n" || slice.axes[k] == "fixed")
-                    throw ConfigError("/grid/axes/" + std::to_string(k),
-                                      "\"" + slice.axes[k] + "\" is a key of the grid, not a state component name");
-            axis_keys = slice.axes;
-            if (g.has("fixed")) {
-                const json &fixed = g.get("fixed");
-                if (!fixed.is_object())
-                    throw ConfigError("/grid/fixed", short_dump(fixed) + " must be an object {component: value}");
-                for (const auto &[name, value] : fixed.items()) {
-                    const std::string path = "/grid/fixed/" + name;
-                    if (name == slice.axes[0] || name == slice.axes[1])
-                        throw ConfigError(path, "fixes \"" + name + "\", which is an axis of the grid; a component "
-                                                "is either on an axis or fixed");
-                    if (!value.is_number() || !std::isfinite(value.get<double>()))
-                        throw ConfigError(path, short_dump(value) + " must be a finite number");
-                    slice.fixed.emplace_back(name, value.get<double>());
-                }
-            }
-            e.slice = slice;
-        } else if (g.has("fixed")) {
-            throw ConfigError("/grid/fixed", "fixes components of a grid that names no \"axes\"; give \"axes\": "
-                                             "[the two components the grid spans]");
-        }
-        std::tie(e.grid.x_min, e.grid.x_max) = g.interval(axis_keys[0]);
-        std::tie(e.grid.y_min, e.grid.y_max) = g.interval(axis_keys[1]);
-        const json &n = g.get("n");
-        if (!n.is_array() || n.size() != 2 || !n[0].is_number_integer() || !n[1].is_number_integer())
-            throw ConfigError("/grid/n", short_dump(n) + " must be an array of two integers [nx, ny]");
-        // At least 3 points per direction: the centred differences of the fields (gradient of lambda2, curvatures
-        // of the line fields) need a neighbour on each side.
-        for (int k = 0; k < 2; ++k)
-            if (n[k].get<long long>() < 3 || n[k].get<long long>() > 100000)
-                throw ConfigError("/grid/n/" + std::to_string(k),
-                                  short_dump(n[k]) + " must be between 3 and 100000 (points, endpoints included)");
-        e.grid.nx = n[0].get<std::size_t>();
-        e.grid.ny = n[1].get<std::size_t>();
-        g.finish();
-    }
-    {
-        ObjectReader t(root.get("time"), "/time");
-        e.t0 = t.number("t0");
-        e.t1 = t.number("t1");
-        if (e.t1 == e.t0) throw ConfigError("/time/t1", "equals t0; the interval must have nonzero length");
-        t.finish();
-    }
-    if (root.has("bounds")) {
-        ObjectReader b(root.get("bounds"), "/bounds");
-        Bounds box{};
-        // Over a slice the box limits the grid's axes, named as in the grid.
-        std::tie(box.x_min, box.x_max) = b.interval(e.slice ? e.slice->axes[0] : "x");
-        std::tie(box.y_min, box.y_max) = b.interval(e.slice ? e.slice->axes[1] : "y");
-        b.finish();
-        e.bounds = box;
-    }
+    e.grid = read_grid(root.get("grid"), e.slice);
+    read_time(root.get("time"), e);
+    if (root.has("bounds")) e.bounds = read_bounds(root.get("bounds"), e.slice);
     // The quality preset sets the integrator; the experiment's own integrator keys override it one by one.
     e.quality = root.string("quality", e.quality, {"draft", "standard", "publication"});
     e.integrator = quality_preset(e.quality);
-    if (root.has("integrator")) {
-        ObjectReader r(root.get("integrator"), "/integrator");
-        IntegratorSettings &s = e.integrator;
-        s.method = r.string("method", s.method, {"dop853", "dopri5", "rkf78", "rk4", "rosenbrock4"});
-        s.engine = r.string("engine", s.engine, {"lockstep", "odeint"});
-        // Naming a method with an error estimate, or a tolerance, asks for adaptive steps unless "adaptive" says
-        // otherwise; rk4 is fixed-step only and rosenbrock4 adaptive only.
-        if (r.has("method") || r.has("rtol") || r.has("atol")) s.adaptive = s.method != "rk4";
-        s.adaptive = r.boolean("adaptive", s.adaptive);
-        if (s.adaptive && s.method == "rk4")
-            throw ConfigError("/integrator/adaptive", "true, but rk4 has no error estimate: it runs fixed steps; use "
-                                                      "dop853, dopri5 or rkf78 for adaptive steps");
-        if (!s.adaptive && s.method == "rosenbrock4")
-            throw ConfigError("/integrator/adaptive", "false, but rosenbrock4 runs adaptive steps only");
-        if (s.engine == "odeint" && s.method == "dop853")
-            throw ConfigError("/integrator/engine", "\"odeint\" has no dop853; use \"lockstep\" or the method dopri5, "
-                                                    "rkf78 or rk4");
-        s.rtol = r.positive("rtol", s.rtol);
-        if (s.rtol >= 1.0)
-            throw ConfigError("/integrator/rtol",
-                              short_dump(r.get("rtol")) + " must be below 1 (a relative tolerance)");
-        if (s.rtol < min_rtol) {
-            // Double precision cannot honour it: each step's rounding error alone is ~1e-16 |x|.
-            e.warnings.push_back("/integrator/rtol: " + short_dump(r.get("rtol")) + " is below what double precision "
-                                 "can honour; clamped to 1e-14");
-            s.rtol = min_rtol;
-        }
-        s.atol = r.positive("atol", s.atol);
-        s.step = r.positive("step", s.step);
-        if (r.has("step_tolerance")) {
-            s.step_tolerance = r.number("step_tolerance");
-            if (!(s.step_tolerance >= 0.0 && s.step_tolerance < 1.0))
-                throw ConfigError("/integrator/step_tolerance", short_dump(r.get("step_tolerance")) +
-                                                                    " must be in [0, 1) (0 turns the step check off)");
-        }
-        s.batch = r.count("batch", s.batch, 1);
-        s.max_steps = r.count("max_steps", s.max_steps, 1);
-        if (s.method == "rk4" && !r.has("step"))
-            throw ConfigError("/integrator", "method \"rk4\" is fixed-step: give \"step\" (a time step, e.g. 0.01)");
-        r.finish();
-    }
-    if (root.has("cauchy_green")) {
-        ObjectReader r(root.get("cauchy_green"), "/cauchy_green");
-        e.gradient_method = r.string("method", e.gradient_method, {"auto", "auxiliary-grid", "variational"});
-        if (r.has("slice_tensor")) {
-            const std::string tensor = r.string("slice_tensor", "full", {"full", "restricted", "projected"});
-            if (!e.slice)
-                throw ConfigError("/cauchy_green/slice_tensor", "\"" + tensor + "\" applies to grids over a slice "
-                                                                "(\"grid\": {\"axes\": ...}), and this grid names no axes");
-            e.slice->tensor = tensor == "restricted" ? SliceTensor::restricted
-                            : tensor == "projected"  ? SliceTensor::projected
-                                                     : SliceTensor::full;
-        }
-        e.aux_offset = r.positive("offset", default_aux_offset(e.integrator, e.grid));
-        if (e.aux_offset > 0.5)
-            throw ConfigError("/cauchy_green/offset",
-                              std::to_string(e.aux_offset) + " must be at most 0.5 (a fraction of the grid spacing)");
-        r.finish();
-    } else {
-        e.aux_offset = default_aux_offset(e.integrator, e.grid);
-    }
-    if (root.has("products")) {
-        const json &p = root.get("products");
-        if (!p.is_array()) throw ConfigError("/products", short_dump(p) + " must be an array of product names");
-        std::vector<std::string> names;
-        for (const auto &info : known_products()) names.push_back(info.name);
-        for (std::size_t i = 0; i < p.size(); ++i) {
-            const std::string path = "/products/" + std::to_string(i);
-            if (!p[i].is_string()) throw ConfigError(path, short_dump(p[i]) + " must be a product name (a string)");
-            const std::string name = p[i].get<std::string>();
-            if (std::find(names.begin(), names.end(), name) == names.end()) {
-                std::string msg = "unknown product \"" + name + "\"";
-                const std::string hint = did_you_mean(name, names);
-                if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
-                msg += " (known:";
-                for (const auto &n : names) msg += " " + n;
-                throw ConfigError(path, msg + ")");
-            }
-            if (!e.wants(name)) e.products.push_back(name);
-        }
-    }
-    if (root.has("extractors")) {
-        const json &x = root.get("extractors");
-        if (!x.is_array()) throw ConfigError("/extractors", short_dump(x) + " must be an array of {\"plugin\": ...}");
-        for (std::size_t i = 0; i < x.size(); ++i)
-            e.extractors.push_back(read_plugin_use(x[i], "/extractors/" + std::to_string(i)));
-    }
-    if (root.has("validation")) {
-        e.validation = parse_validation(root.get("validation"), "/validation");
-        // Products built on the found barriers need an extractor to find them.
-        const bool barrier_seeds = e.validation.poincare && e.validation.poincare->barrier_points > 0;
-        if ((e.validation.advect_barriers || barrier_seeds) && e.extractors.empty())
-            throw ConfigError(barrier_seeds ? "/validation/poincare/barrier_points" : "/validation/advect_barriers",
-                              "works on the barriers the extractors find, and there is no extractor: add one to "
-                              "\"extractors\" (e.g. {\"plugin\": \"elliptic\"})");
-    }
-    if (root.has("plugin_paths")) {
-        const json &p = root.get("plugin_paths");
-        if (!p.is_array()) throw ConfigError("/plugin_paths", short_dump(p) + " must be an array of folder paths");
-        for (std::size_t i = 0; i < p.size(); ++i) {
-            if (!p[i].is_string())
-                throw ConfigError("/plugin_paths/" + std::to_string(i), short_dump(p[i]) + " must be a folder path");
-            const fs::path folder = p[i].get<std::string>();
-            e.plugin_paths.push_back(folder.is_absolute() ? folder : base / folder);
-        }
-    }
-    {
-        const std::string stem = file.empty() ? std::string("experiment") : file.stem().string();
-        if (root.has("output")) {
-            ObjectReader o(root.get("output"), "/output");
-            e.output_dir = o.string("dir", "out/" + stem);
-            if (e.output_dir.empty()) throw ConfigError("/output/dir", "\"\" is empty; expected a folder path");
-            e.plots = o.boolean("plots", e.plots);
-            o.finish();
-        } else {
-            e.output_dir = "out/" + stem;
-        }
-    }
+    if (root.has("integrator")) read_integrator(root.get("integrator"), e.integrator, e.warnings);
+    if (root.has("cauchy_green")) read_cauchy_green(root.get("cauchy_green"), e);
+    else e.aux_offset = default_aux_offset(e.integrator, e.grid);
+    if (root.has("products")) e.products = read_products(root.get("products"));
+    if (root.has("extractors")) e.extractors = read_extractors(root.get("extractors"));
+    if (root.has("validation")) read_validation(root.get("validation"), e);
+    if (root.has("plugin_paths")) e.plugin_paths = read_plugin_paths(root.get("plugin_paths"), base);
+    read_output(root, file, e);
     if (e.products.empty() && e.extractors.empty() && e.validation.empty())
         throw ConfigError("/products", "nothing to compute: request at least one product (e.g. [\"ftle\"]), an "
                                        "extractor or a validation product");
@@ -454,6 +503,105 @@ bool is_cauchy_green_field(const std::string &name) {
 
 namespace {
 
+// Creates the plugins an experiment names, each from the registry with its parameters checked against its schema
+// (string parameters with the unit "path" made absolute against the experiment's folder).
+class PluginMaker {
+  public:
+    explicit PluginMaker(ResolvedExperiment &r)
+        : m_r(r), m_base(r.experiment.file.empty() ? fs::current_path()
+                                                   : fs::absolute(r.experiment.file).parent_path()) {}
+
+    std::pair<const PluginHandle *, ParamValues> create(PluginKind kind, const PluginUse &use) const {
+        const PluginHandle &h = m_r.registry.find(kind, use.plugin, use.json_path + "/plugin");
+        return {&h,
+                validate_params(h.info, resolve_path_params(h.info, use.params, m_base), use.json_path + "/params")};
+    }
+
+    // The system; `echo` receives its resolved form for the manifest.
+    System system(const PluginUse &use, json &echo) const {
+        if (use.plugin == equations::plugin_name) {
+            // Written in the experiment: compiled (or found in the cache) and loaded like any plugin (equations.hpp).
+            const equations::Compiled compiled = equations::compile(use.params, use.json_path + "/params");
+            json params = use.params;
+            params["constants"] = params_to_json(compiled.handle.info, compiled.values);
+            echo = {{"plugin", equations::plugin_name}, {"params", params}, {"compiled", compiled.record}};
+            return System(compiled.handle, compiled.values);
+        }
+        auto [h, values] = create(PluginKind::system, use);
+        echo = {{"plugin", h->info.name}, {"params", params_to_json(h->info, values)}};
+        return System(*h, values);
+    }
+
+    // A forcing. A composite forcing's terms are created first and handed to it (plugin.hpp, Forcing): the core
+    // evaluates them, plugins never call each other. `echo` receives the resolved tree for the manifest.
+    Forcing forcing(const PluginUse &use, json &echo) const {
+        auto [h, values] = create(PluginKind::forcing, use);
+        const PluginInfo &info = h->info;
+        echo = {{"plugin", info.name}, {"params", params_to_json(info, values)}};
+        if (!info.composite()) {
+            if (use.terms.empty()) return Forcing(*h, values);
+            throw ConfigError(use.json_path + "/" + use.terms_key,
+                              "forcing '" + info.name + "' is not a composite forcing and takes no \"" + use.terms_key +
+                                  "\" (composite forcings here: " + composite_forcings() + ")");
+        }
+        check_term_count(info, use);
+        std::vector<Forcing> terms;
+        json echo_terms = json::array();
+        for (const PluginUse &term : use.terms) {
+            json term_echo;
+            terms.push_back(forcing(term, term_echo));
+            echo_terms.push_back(term_echo);
+        }
+        if (use.terms_key == "base") echo["base"] = echo_terms[0];
+        else echo["terms"] = echo_terms;
+        return Forcing(*h, values, std::move(terms));
+    }
+
+    // The extractors; `echo` receives their resolved forms.
+    std::vector<Extractor> extractors(const std::vector<PluginUse> &uses, json &echo) const {
+        std::vector<Extractor> out;
+        echo = json::array();
+        for (const PluginUse &use : uses) {
+            auto [h, values] = create(PluginKind::extractor, use);
+            for (const auto &field : h->info.required_fields)
+                if (!is_cauchy_green_field(field))
+                    throw ConfigError(use.json_path + "/plugin",
+                                      "extractor '" + h->info.name + "' needs field \"" + field +
+                                          "\", which this version of the core cannot compute");
+            out.emplace_back(*h, values);
+            echo.push_back({{"plugin", h->info.name}, {"params", params_to_json(h->info, values)}});
+        }
+        return out;
+    }
+
+  private:
+    std::string composite_forcings() const {
+        std::string composites;
+        for (const PluginHandle &other : m_r.registry.plugins())
+            if (other.info.kind == PluginKind::forcing && other.info.composite())
+                composites += (composites.empty() ? "" : ", ") + other.info.name;
+        return composites.empty() ? "none" : composites;
+    }
+
+    static void check_term_count(const PluginInfo &info, const PluginUse &use) {
+        const std::string range = info.min_terms == info.max_terms
+                                      ? std::to_string(info.min_terms)
+                                      : std::to_string(info.min_terms) + " to " + std::to_string(info.max_terms);
+        if (use.terms.size() < info.min_terms)
+            throw ConfigError(use.json_path, "forcing '" + info.name + "' combines " + range + " other forcing(s), " +
+                                                 "found " + std::to_string(use.terms.size()) + ": give " +
+                                                 (info.max_terms == 1 ? "\"base\": {\"plugin\": ...}"
+                                                                      : "\"terms\": [{\"plugin\": ...}, ...]"));
+        if (use.terms.size() > info.max_terms)
+            throw ConfigError(use.terms[info.max_terms].json_path,
+                              "forcing '" + info.name + "' combines " + range + " other forcing(s), found " +
+                                  std::to_string(use.terms.size()));
+    }
+
+    ResolvedExperiment &m_r;
+    fs::path m_base;
+};
+
 // The names an experiment gives a system's state components: the declared ones, else x, y (planar) or x1 .. xn.
 std::vector<std::string> state_component_names(const PluginInfo &system) {
     std::vector<std::string> names;
@@ -511,106 +659,20 @@ std::optional<Slice> resolve_slice(const Experiment &e, const PluginInfo &system
     return slice;
 }
 
-}  // namespace
-
-ResolvedExperiment resolve_experiment(const Experiment &experiment) {
-    ResolvedExperiment r{experiment, PluginRegistry(PluginRegistry::default_folders(experiment.plugin_paths)),
-                         {}, {}, {}, {}, GradientMethod::none, false, false, json::object()};
+// What to compute: the gradient only for Cauchy–Green products or extractors, the positions only for the flow_map
+// product; the gradient's method, checked against the system.
+void plan_stages(ResolvedExperiment &r) {
     const Experiment &e = r.experiment;
-    const fs::path base = e.file.empty() ? fs::current_path() : fs::absolute(e.file).parent_path();
-    auto create = [&](PluginKind kind, const PluginUse &use) -> std::pair<const PluginHandle *, ParamValues> {
-        const PluginHandle &h = r.registry.find(kind, use.plugin, use.json_path + "/plugin");
-        return {&h, validate_params(h.info, resolve_path_params(h.info, use.params, base), use.json_path + "/params")};
-    };
-    json resolved = e.source;
-
-    if (e.system.plugin == equations::plugin_name) {
-        // Written in the experiment: compiled (or found in the cache) and loaded like any plugin (equations.hpp).
-        const equations::Compiled compiled = equations::compile(e.system.params, e.system.json_path + "/params");
-        r.system = System(compiled.handle, compiled.values);
-        json params = e.system.params;
-        params["constants"] = params_to_json(compiled.handle.info, compiled.values);
-        resolved["system"] = {{"plugin", equations::plugin_name}, {"params", params}, {"compiled", compiled.record}};
-    } else {
-        auto [sys_handle, sys_values] = create(PluginKind::system, e.system);
-        r.system = System(*sys_handle, sys_values);
-        resolved["system"] = {{"plugin", sys_handle->info.name},
-                              {"params", params_to_json(sys_handle->info, sys_values)}};
-    }
-    const std::string &system_name = r.system.info().name;
-    r.slice = resolve_slice(e, r.system.info());
-    if (e.validation.section && e.validation.section->normal.size() != r.system.dimension())
-        throw ConfigError("/validation/section/normal",
-                          "has " + std::to_string(e.validation.section->normal.size()) + " components, and system '" +
-                              system_name + "' has " + std::to_string(r.system.dimension()) + " (the seeds likewise)");
-
-    // A composite forcing's terms are created first and handed to it (plugin.hpp, Forcing): the core evaluates
-    // them, plugins never call each other. `echo` receives the resolved tree for the manifest.
-    std::function<Forcing(const PluginUse &, json &)> make_forcing = [&](const PluginUse &use, json &echo) {
-        auto [h, values] = create(PluginKind::forcing, use);
-        const PluginInfo &info = h->info;
-        echo = {{"plugin", info.name}, {"params", params_to_json(info, values)}};
-        if (!info.composite()) {
-            if (use.terms.empty()) return Forcing(*h, values);
-            std::string composites;
-            for (const PluginHandle &other : r.registry.plugins())
-                if (other.info.kind == PluginKind::forcing && other.info.composite())
-                    composites += (composites.empty() ? "" : ", ") + other.info.name;
-            throw ConfigError(use.json_path + "/" + use.terms_key,
-                              "forcing '" + info.name + "' is not a composite forcing and takes no \"" + use.terms_key +
-                                  "\" (composite forcings here: " + (composites.empty() ? "none" : composites) + ")");
-        }
-        const std::string range = info.min_terms == info.max_terms
-                                      ? std::to_string(info.min_terms)
-                                      : std::to_string(info.min_terms) + " to " + std::to_string(info.max_terms);
-        if (use.terms.size() < info.min_terms)
-            throw ConfigError(use.json_path, "forcing '" + info.name + "' combines " + range + " other forcing(s), " +
-                                                 "found " + std::to_string(use.terms.size()) + ": give " +
-                                                 (info.max_terms == 1 ? "\"base\": {\"plugin\": ...}"
-                                                                      : "\"terms\": [{\"plugin\": ...}, ...]"));
-        if (use.terms.size() > info.max_terms)
-            throw ConfigError(use.terms[info.max_terms].json_path,
-                              "forcing '" + info.name + "' combines " + range + " other forcing(s), found " +
-                                  std::to_string(use.terms.size()));
-        std::vector<Forcing> terms;
-        json echo_terms = json::array();
-        for (const PluginUse &term : use.terms) {
-            json term_echo;
-            terms.push_back(make_forcing(term, term_echo));
-            echo_terms.push_back(term_echo);
-        }
-        if (use.terms_key == "base") echo["base"] = echo_terms[0];
-        else echo["terms"] = echo_terms;
-        return Forcing(*h, values, std::move(terms));
-    };
-    json forcing_echo;
-    r.forcing = make_forcing(e.forcing, forcing_echo);
-    resolved["forcing"] = forcing_echo;
-
-    json extractors = json::array();
-    for (const PluginUse &use : e.extractors) {
-        auto [h, values] = create(PluginKind::extractor, use);
-        for (const auto &field : h->info.required_fields)
-            if (!is_cauchy_green_field(field))
-                throw ConfigError(use.json_path + "/plugin",
-                                  "extractor '" + h->info.name + "' needs field \"" + field +
-                                      "\", which this version of the core cannot compute");
-        r.extractors.emplace_back(*h, values);
-        extractors.push_back({{"plugin", h->info.name}, {"params", params_to_json(h->info, values)}});
-    }
-    resolved["extractors"] = extractors;
-
-    // Model only what is asked: the gradient only for Cauchy–Green products or
-    // extractors, the positions only for the flow_map product.
     r.need_cauchy_green = e.wants("ftle") || e.wants("eigenvalues") || e.wants("eigenvectors") ||
                           e.wants("strain_deviation") || e.wants("shear_deviation_plus") ||
                           e.wants("shear_deviation_minus") || !e.extractors.empty();
     r.need_positions = e.wants("flow_map");
+    const std::string &system_name = r.system.info().name;
     if (r.need_cauchy_green) {
         if (e.gradient_method == "auto")
             r.gradient = r.system.has_jacobian() ? GradientMethod::variational : GradientMethod::auxiliary_grid;
         else
-            r.gradient = parse_gradient_method(e.gradient_method);
+            r.gradient = with_json_paths([&] { return parse_gradient_method(e.gradient_method); });
         if (r.gradient == GradientMethod::variational && !r.system.has_jacobian())
             throw ConfigError("/cauchy_green/method", "\"variational\" needs the system's Jacobian, and system '" +
                                                           system_name + "' provides none; use \"auxiliary-grid\"");
@@ -651,8 +713,16 @@ ResolvedExperiment resolve_experiment(const Experiment &experiment) {
     if (e.integrator.method == "rosenbrock4" && !r.system.has_jacobian())
         throw ConfigError("/integrator/method", "\"rosenbrock4\" needs the system's Jacobian, and system '" +
                                                     system_name + "' provides none; use \"dopri5\"");
-    // Refuse up front a grid the machine cannot hold (the estimate of the tiled run errs on the high side).
-    check_memory(estimate_run_memory(e.grid, e.integrator, plan_fields(r)), available_memory(), e.grid);
+    // What the flow-map engine would refuse, refused now (geobarrier validate computes nothing).
+    with_json_paths([&] {
+        check_flow_map_settings(r.dynamics(), e.t0, e.t1, e.integrator,
+                                r.need_cauchy_green ? r.gradient : GradientMethod::none);
+    });
+}
+
+// The experiment's settings with every default filled in, into `resolved` (the manifest's "resolved").
+void echo_settings(const ResolvedExperiment &r, json &resolved) {
+    const Experiment &e = r.experiment;
     if (e.slice) {
         json fixed = json::object();
         for (const auto &[name, value] : e.slice->fixed) fixed[name] = value;
@@ -690,6 +760,29 @@ ResolvedExperiment resolve_experiment(const Experiment &experiment) {
         resolved["bounds"] = {{e.slice ? e.slice->axes[0] : "x", {e.bounds->x_min, e.bounds->x_max}},
                               {e.slice ? e.slice->axes[1] : "y", {e.bounds->y_min, e.bounds->y_max}}};
     if (!e.validation.empty()) resolved["validation"] = validation_to_json(e.validation, e.t0, e.t1);
+}
+
+}  // namespace
+
+ResolvedExperiment resolve_experiment(const Experiment &experiment) {
+    ResolvedExperiment r{experiment, PluginRegistry(PluginRegistry::default_folders(experiment.plugin_paths)),
+                         {}, {}, {}, {}, GradientMethod::none, false, false, json::object()};
+    const Experiment &e = r.experiment;
+    json resolved = e.source;
+    const PluginMaker make(r);
+    r.system = make.system(e.system, resolved["system"]);
+    r.forcing = make.forcing(e.forcing, resolved["forcing"]);
+    r.extractors = make.extractors(e.extractors, resolved["extractors"]);
+    r.slice = resolve_slice(e, r.system.info());
+    if (e.validation.section && e.validation.section->normal.size() != r.system.dimension())
+        throw ConfigError("/validation/section/normal",
+                          "has " + std::to_string(e.validation.section->normal.size()) + " components, and system '" +
+                              r.system.info().name + "' has " + std::to_string(r.system.dimension()) +
+                              " (the seeds likewise)");
+    plan_stages(r);
+    // Refuse up front a grid the machine cannot hold (the estimate of the tiled run errs on the high side).
+    check_memory(estimate_run_memory(e.grid, e.integrator, plan_fields(r)), available_memory(), e.grid);
+    echo_settings(r, resolved);
     r.resolved = resolved;
     return r;
 }

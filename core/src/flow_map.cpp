@@ -115,8 +115,8 @@ Method parse_method(const std::string &name) {
     if (name == "rkf78") return Method::rkf78;
     if (name == "rk4") return Method::rk4;
     if (name == "rosenbrock4") return Method::rosenbrock4;
-    throw ConfigError("/integrator/method",
-                      "unknown method \"" + name + "\"; expected dop853, dopri5, rkf78, rk4 or rosenbrock4");
+    throw EngineSettingError(EngineSetting::method,
+                             "unknown method \"" + name + "\"; expected dop853, dopri5, rkf78, rk4 or rosenbrock4");
 }
 
 [[maybe_unused]] void validate(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings,
@@ -125,31 +125,36 @@ Method parse_method(const std::string &name) {
     parse_method(settings.method);
     const unsigned dimension = dynamics.system->dimension();
     if (dimension < 2 || dimension > max_dimension)
-        throw ConfigError("/system/plugin", "system '" + dynamics.system->info().name + "' has dimension " +
-                                                std::to_string(dimension) + "; the flow map engine handles dimensions 2 to " +
-                                                std::to_string(max_dimension));
+        throw EngineSettingError(EngineSetting::system, "system '" + dynamics.system->info().name + "' has dimension " +
+                                                            std::to_string(dimension) + "; the flow map engine "
+                                                            "handles dimensions 2 to " + std::to_string(max_dimension));
     if (variational && !dynamics.system->has_jacobian())
-        throw ConfigError("/cauchy_green/method", "system '" + dynamics.system->info().name +
-                                                      "' has no Jacobian; use auxiliary-grid");
+        throw EngineSettingError(EngineSetting::gradient,
+                                 "system '" + dynamics.system->info().name + "' has no Jacobian; use auxiliary-grid");
     if (parse_method(settings.method) == Method::rosenbrock4 && !dynamics.system->has_jacobian())
-        throw ConfigError("/integrator/method", "rosenbrock4 needs the Jacobian of system '" +
-                                                    dynamics.system->info().name +
-                                                    "', which provides none; use dopri5 or rkf78");
+        throw EngineSettingError(EngineSetting::method, "rosenbrock4 needs the Jacobian of system '" +
+                                                            dynamics.system->info().name +
+                                                            "', which provides none; use dopri5 or rkf78");
     // rtol in (0, 1): 0 asks for exact arithmetic, 1 for no accuracy at all. Below min_rtol it is clamped.
     if (!(settings.rtol > 0.0 && settings.rtol < 1.0))
-        throw ConfigError("/integrator/rtol", std::to_string(settings.rtol) + " must be between 0 and 1 (exclusive)");
+        throw EngineSettingError(EngineSetting::rtol,
+                                 std::to_string(settings.rtol) + " must be between 0 and 1 (exclusive)");
     if (!(settings.atol >= 0.0) || !std::isfinite(settings.atol))
-        throw ConfigError("/integrator/atol", std::to_string(settings.atol) + " must be finite and non-negative");
+        throw EngineSettingError(EngineSetting::atol,
+                                 std::to_string(settings.atol) + " must be finite and non-negative");
     if (!(settings.step > 0.0) || !std::isfinite(settings.step))
-        throw ConfigError("/integrator/step", std::to_string(settings.step) + " is not a positive step");
-    if (settings.batch == 0) throw ConfigError("/integrator/batch", "0 is below the minimum 1");
+        throw EngineSettingError(EngineSetting::step, std::to_string(settings.step) + " is not a positive step");
+    if (settings.batch == 0) throw EngineSettingError(EngineSetting::batch, "0 is below the minimum 1");
     if (settings.engine != "lockstep" && settings.engine != "odeint")
-        throw ConfigError("/integrator/engine", "unknown engine \"" + settings.engine + "\"; expected lockstep or odeint");
+        throw EngineSettingError(EngineSetting::engine,
+                                 "unknown engine \"" + settings.engine + "\"; expected lockstep or odeint");
     if (settings.engine == "odeint" && parse_method(settings.method) == Method::dop853)
-        throw ConfigError("/integrator/method", "dop853 runs in the lockstep engine only; use \"engine\": \"lockstep\" "
-                                                "or the odeint methods dopri5, rkf78, rk4, rosenbrock4");
-    if (settings.max_steps == 0) throw ConfigError("/integrator/max_steps", "0 is below the minimum 1");
-    if (!std::isfinite(t0) || !std::isfinite(t1)) throw ConfigError("/time", "t0 and t1 must be finite");
+        throw EngineSettingError(EngineSetting::method,
+                                 "dop853 runs in the lockstep engine only; use \"engine\": \"lockstep\" "
+                                 "or the odeint methods dopri5, rkf78, rk4, rosenbrock4");
+    if (settings.max_steps == 0) throw EngineSettingError(EngineSetting::max_steps, "0 is below the minimum 1");
+    if (!std::isfinite(t0) || !std::isfinite(t1))
+        throw EngineSettingError(EngineSetting::time, "t0 and t1 must be finite");
 }
 
 // Everything one batched right-hand-side call needs. The functor handed to Odeint holds only a pointer to it,
@@ -1481,10 +1486,11 @@ class PlaneView {
                             std::to_string(m_dimension));
             m_axes = m_slice->axes;
             if (m_dimension != 2 && gradient == GradientMethod::auxiliary_grid)
-                throw ConfigError("/cauchy_green/method",
-                                  "auxiliary-grid handles planar systems; system '" + dynamics.system->info().name +
-                                      "' has dimension " + std::to_string(m_dimension) +
-                                      ": use \"variational\" (SDK plugins derive the Jacobian)");
+                throw EngineSettingError(EngineSetting::gradient,
+                                         "auxiliary-grid handles planar systems; system '" +
+                                             dynamics.system->info().name + "' has dimension " +
+                                             std::to_string(m_dimension) +
+                                             ": use \"variational\" (SDK plugins derive the Jacobian)");
         }
     }
     // The InitFn of a planar fill: the fixed components first, then the axes from `fill`.
@@ -1702,8 +1708,19 @@ GradientMethod parse_gradient_method(const std::string &name) {
     if (name == "auxiliary-grid") return GradientMethod::auxiliary_grid;
     if (name == "variational") return GradientMethod::variational;
     if (name == "none") return GradientMethod::none;
-    throw ConfigError("/cauchy_green/method",
-                      "unknown method \"" + name + "\"; expected auxiliary-grid, variational or none");
+    throw EngineSettingError(EngineSetting::gradient,
+                             "unknown method \"" + name + "\"; expected auxiliary-grid, variational or none");
+}
+
+const char *to_string(EngineSetting setting) {
+    static const char *const names[] = {"system", "method",    "engine", "rtol",     "atol",   "step",
+                                        "batch",  "max_steps", "time",   "gradient", "offset", "grid"}; // enum order
+    return names[static_cast<int>(setting)];
+}
+
+void check_flow_map_settings(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings,
+                             GradientMethod gradient) {
+    validate(dynamics, t0, t1, settings, gradient == GradientMethod::variational);
 }
 
 const char *to_string(GradientMethod method) {
@@ -1720,10 +1737,11 @@ GridFlowMap compute_grid_flow_map(const Dynamics &dynamics, const Grid &grid, do
                                   bool want_positions, const std::optional<Bounds> &bounds,
                                   const ProgressFn &progress) {
     if (grid.nx < 2 || grid.ny < 2)
-        throw ConfigError("/grid/n", "the grid needs at least 2 points per direction (got " + std::to_string(grid.nx) +
-                                         " x " + std::to_string(grid.ny) + ")");
+        throw EngineSettingError(EngineSetting::grid, "the grid needs at least 2 points per direction (got " +
+                                                          std::to_string(grid.nx) + " x " + std::to_string(grid.ny) +
+                                                          ")");
     if (gradient == GradientMethod::auxiliary_grid && !(aux_offset > 0.0 && std::isfinite(aux_offset)))
-        throw ConfigError("/cauchy_green/offset", std::to_string(aux_offset) + " is not a positive offset");
+        throw EngineSettingError(EngineSetting::offset, std::to_string(aux_offset) + " is not a positive offset");
     // The grid's points row-major (row = y), so neighbours in x share a batch; the auxiliary offset is relative to the
     // grid spacing.
     const std::size_t nx = grid.nx;
@@ -1756,8 +1774,8 @@ GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, cons
     const PlaneView plane(dynamics, gradient, "flow_map_at_points");
     if (gradient == GradientMethod::auxiliary_grid &&
         !(offset_x > 0.0 && std::isfinite(offset_x) && offset_y > 0.0 && std::isfinite(offset_y)))
-        throw ConfigError("/cauchy_green/offset", std::to_string(offset_x) + ", " + std::to_string(offset_y) +
-                                                      " are not positive offsets");
+        throw EngineSettingError(EngineSetting::offset, std::to_string(offset_x) + ", " + std::to_string(offset_y) +
+                                                            " are not positive offsets");
     const bool positions = want_positions || gradient == GradientMethod::none;
     GridFlowMap out = std::move(reuse);
     out.grid = Grid{};

@@ -2,7 +2,7 @@
 // versions of the same functions.
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
-#include <geobarrier/mpi.hpp>
+#include "mpi.hpp"
 
 #include <chrono>
 #include <cstdlib>

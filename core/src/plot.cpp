@@ -696,6 +696,62 @@ PLINT dash_style(PlotSeries::Dash dash)
     }
 }
 
+// The legend of an x-y picture: the `listed` series (those with a label), where plot.legend says; `ch` is the
+// character height in pixels, the data box box_w pixels wide and box_w * aspect tall.
+void draw_xy_legend(const XYPlot &plot, const std::vector<std::size_t> &listed, double ch, double box_w, double aspect)
+{
+    const bool outside_legend = plot.legend == XYPlot::Legend::outside_right;
+    const double char_mm = px_to_mm(ch);
+    const PLINT n = static_cast<PLINT>(listed.size());
+    std::vector<PLINT> opts(n), text_colors(n, slot_ink), line_colors(n), line_styles(n), symbol_colors(n),
+        symbol_numbers(n, 1), box_colors(n, 0), box_patterns(n, 0);
+    std::vector<PLFLT> line_widths(n), symbol_scales(n), box_scales(n, 0.0), box_line_widths(n, 0.0);
+    std::vector<std::string> texts(n);
+    std::vector<const char *> text_ptrs(n), symbol_ptrs(n);
+    for (PLINT e = 0; e < n; ++e) {
+        const PlotSeries &s = plot.series[listed[e]];
+        opts[e] = (s.style != PlotSeries::Style::points ? PL_LEGEND_LINE : 0) |
+                  (s.style != PlotSeries::Style::line ? PL_LEGEND_SYMBOL : 0);
+        line_colors[e] = symbol_colors[e] = slot_xy_count + static_cast<PLINT>(listed[e]);
+        line_styles[e] = dash_style(s.dash);
+        line_widths[e] = s.width;
+        // U+25CF (black circle) is about 0.6 character heights across in DejaVu Sans: scale it to the
+        // markers' size, but keep it visible.
+        symbol_scales[e] = std::max(s.marker_px, 0.5 * ch) / (0.6 * ch);
+        symbol_ptrs[e] = "\u25cf";
+        texts[e] = plain_text(s.label);
+        text_ptrs[e] = texts[e].c_str();
+    }
+    PLINT position = PL_POSITION_INSIDE | PL_POSITION_VIEWPORT;
+    switch (plot.legend) {
+    case XYPlot::Legend::top_left:
+        position |= PL_POSITION_TOP | PL_POSITION_LEFT;
+        break;
+    case XYPlot::Legend::bottom_left:
+        position |= PL_POSITION_BOTTOM | PL_POSITION_LEFT;
+        break;
+    case XYPlot::Legend::bottom_right:
+        position |= PL_POSITION_BOTTOM | PL_POSITION_RIGHT;
+        break;
+    case XYPlot::Legend::outside_right:
+        position = PL_POSITION_OUTSIDE | PL_POSITION_VIEWPORT | PL_POSITION_RIGHT;
+        break;
+    default:
+        position |= PL_POSITION_TOP | PL_POSITION_RIGHT;
+    }
+    set_color(slot_legend, {160, 160, 160});
+    plschr(char_mm, 1.0);
+    plwidth(1.0);
+    PLFLT legend_width = 0.0, legend_height = 0.0;
+    const double offset_x = (outside_legend ? 1.5 : 0.8) * ch / box_w;
+    const double offset_y = (outside_legend ? 0.0 : 0.8) * ch / (box_w * aspect);
+    pllegend(&legend_width, &legend_height, PL_LEGEND_BACKGROUND | PL_LEGEND_BOUNDING_BOX, position, offset_x,
+             offset_y, 3.0 * ch / box_w, slot_background, slot_legend, 1, 0, 0, n, opts.data(), 1.0, 1.0, 2.0,
+             0.0, text_colors.data(), text_ptrs.data(), box_colors.data(), box_patterns.data(), box_scales.data(),
+             box_line_widths.data(), line_colors.data(), line_styles.data(), line_widths.data(),
+             symbol_colors.data(), symbol_scales.data(), symbol_numbers.data(), symbol_ptrs.data());
+}
+
 void draw_xy(const std::filesystem::path &file, const XYPlot &plot, PlplotErrors &errors)
 {
     std::vector<PreparedSeries> data;
@@ -770,56 +826,8 @@ void draw_xy(const std::filesystem::path &file, const XYPlot &plot, PlplotErrors
     draw_box(formats, "bcnst" + log_x, "bcnstv" + log_y, char_mm, y_label_disp, plot.x_label, plot.y_label,
              plot.title, place_title(plot.title, ch, left, box_w, plot.width_px));
 
-    if (!listed.empty()) {
-        const PLINT n = static_cast<PLINT>(listed.size());
-        std::vector<PLINT> opts(n), text_colors(n, slot_ink), line_colors(n), line_styles(n), symbol_colors(n),
-            symbol_numbers(n, 1), box_colors(n, 0), box_patterns(n, 0);
-        std::vector<PLFLT> line_widths(n), symbol_scales(n), box_scales(n, 0.0), box_line_widths(n, 0.0);
-        std::vector<std::string> texts(n);
-        std::vector<const char *> text_ptrs(n), symbol_ptrs(n);
-        for (PLINT e = 0; e < n; ++e) {
-            const PlotSeries &s = plot.series[listed[e]];
-            opts[e] = (s.style != PlotSeries::Style::points ? PL_LEGEND_LINE : 0) |
-                      (s.style != PlotSeries::Style::line ? PL_LEGEND_SYMBOL : 0);
-            line_colors[e] = symbol_colors[e] = slot_xy_count + static_cast<PLINT>(listed[e]);
-            line_styles[e] = dash_style(s.dash);
-            line_widths[e] = s.width;
-            // U+25CF (black circle) is about 0.6 character heights across in DejaVu Sans: scale it to the
-            // markers' size, but keep it visible.
-            symbol_scales[e] = std::max(s.marker_px, 0.5 * ch) / (0.6 * ch);
-            symbol_ptrs[e] = "\u25cf";
-            texts[e] = plain_text(s.label);
-            text_ptrs[e] = texts[e].c_str();
-        }
-        PLINT position = PL_POSITION_INSIDE | PL_POSITION_VIEWPORT;
-        switch (plot.legend) {
-        case XYPlot::Legend::top_left:
-            position |= PL_POSITION_TOP | PL_POSITION_LEFT;
-            break;
-        case XYPlot::Legend::bottom_left:
-            position |= PL_POSITION_BOTTOM | PL_POSITION_LEFT;
-            break;
-        case XYPlot::Legend::bottom_right:
-            position |= PL_POSITION_BOTTOM | PL_POSITION_RIGHT;
-            break;
-        case XYPlot::Legend::outside_right:
-            position = PL_POSITION_OUTSIDE | PL_POSITION_VIEWPORT | PL_POSITION_RIGHT;
-            break;
-        default:
-            position |= PL_POSITION_TOP | PL_POSITION_RIGHT;
-        }
-        set_color(slot_legend, {160, 160, 160});
-        plschr(char_mm, 1.0);
-        plwidth(1.0);
-        PLFLT legend_width = 0.0, legend_height = 0.0;
-        const double offset_x = (outside_legend ? 1.5 : 0.8) * ch / box_w;
-        const double offset_y = (outside_legend ? 0.0 : 0.8) * ch / (box_w * aspect);
-        pllegend(&legend_width, &legend_height, PL_LEGEND_BACKGROUND | PL_LEGEND_BOUNDING_BOX, position, offset_x,
-                 offset_y, 3.0 * ch / box_w, slot_background, slot_legend, 1, 0, 0, n, opts.data(), 1.0, 1.0, 2.0,
-                 0.0, text_colors.data(), text_ptrs.data(), box_colors.data(), box_patterns.data(), box_scales.data(),
-                 box_line_widths.data(), line_colors.data(), line_styles.data(), line_widths.data(),
-                 symbol_colors.data(), symbol_scales.data(), symbol_numbers.data(), symbol_ptrs.data());
-    }
+    if (!listed.empty())
+        draw_xy_legend(plot, listed, ch, box_w, aspect);
     if (errors.code != 0)
         throw IoError("'" + file.string() + "': PLplot failed: " + errors.message);
 }
@@ -868,9 +876,9 @@ struct Primitive {
     double width = 1.0;
 };
 
-void draw_xyz(const std::filesystem::path &file, const XYZPlot &plot, PlplotErrors &errors)
+// The data's box: each coordinate's range over every series and surface, widened where empty or degenerate.
+std::pair<std::array<double, 3>, std::array<double, 3>> data_box(const XYZPlot &plot)
 {
-    // The data's box.
     std::array<double, 3> low{}, high{};
     low.fill(std::numeric_limits<double>::infinity());
     high.fill(-std::numeric_limits<double>::infinity());
@@ -896,7 +904,148 @@ void draw_xyz(const std::filesystem::path &file, const XYZPlot &plot, PlplotErro
             high[c] += half;
         }
     }
+    return {low, high};
+}
 
+// The quad faces of the surfaces, each shaded by how squarely it faces the viewer (normals in the box's normalised
+// coordinates, `scale` per world unit; `toward` the viewer), from 55% to 100% of its colour.
+void add_surface_faces(const XYZPlot &plot, const View3D &view, const std::array<double, 3> &scale,
+                       const std::array<double, 3> &toward, std::vector<Primitive> &primitives)
+{
+    for (const PlotSurface3D &s : plot.surfaces) {
+        if (s.rows < 2 || s.cols < 2)
+            continue;
+        const Rgb base = parse_color(s.color, "plot_xyz_png");
+        const std::size_t col_end = s.wrap_cols ? s.cols : s.cols - 1;
+        for (std::size_t r = 0; r + 1 < s.rows; ++r)
+            for (std::size_t c = 0; c < col_end; ++c) {
+                const std::size_t c1 = (c + 1) % s.cols;
+                const std::array<std::size_t, 4> corners{r * s.cols + c, r * s.cols + c1, (r + 1) * s.cols + c1,
+                                                         (r + 1) * s.cols + c};
+                Primitive p;
+                p.face = true;
+                bool finite = true;
+                double depth = 0.0;
+                for (int k = 0; k < 4; ++k)
+                    for (int d = 0; d < 3; ++d) {
+                        p.xyz[3 * k + d] = s.xyz[3 * corners[k] + d];
+                        finite = finite && std::isfinite(p.xyz[3 * k + d]);
+                    }
+                if (!finite)
+                    continue;
+                for (int k = 0; k < 4; ++k)
+                    depth += view.depth(p.xyz[3 * k], p.xyz[3 * k + 1], p.xyz[3 * k + 2]);
+                p.depth = depth / 4.0;
+                // Normal from the diagonals, in normalised box units.
+                const double ax = (p.xyz[6] - p.xyz[0]) * scale[0], ay = (p.xyz[7] - p.xyz[1]) * scale[1],
+                             az_ = (p.xyz[8] - p.xyz[2]) * scale[2];
+                const double bx = (p.xyz[9] - p.xyz[3]) * scale[0], by = (p.xyz[10] - p.xyz[4]) * scale[1],
+                             bz = (p.xyz[11] - p.xyz[5]) * scale[2];
+                const double n0 = ay * bz - az_ * by, n1 = az_ * bx - ax * bz, n2 = ax * by - ay * bx;
+                const double norm = std::sqrt(n0 * n0 + n1 * n1 + n2 * n2);
+                const double facing =
+                    norm > 0.0 ? std::abs(n0 * toward[0] + n1 * toward[1] + n2 * toward[2]) / norm : 0.0;
+                const double shade = 0.55 + 0.45 * facing;
+                p.rgb = {static_cast<int>(std::lround(base.r * shade)), static_cast<int>(std::lround(base.g * shade)),
+                         static_cast<int>(std::lround(base.b * shade))};
+                p.alpha = s.opacity;
+                primitives.push_back(p);
+            }
+    }
+}
+
+// The line segments of the series.
+void add_series_segments(const XYZPlot &plot, const View3D &view, std::vector<Primitive> &primitives)
+{
+    for (const PlotSeries3D &s : plot.series) {
+        const Rgb rgb = parse_color(s.color, "plot_xyz_png");
+        const std::size_t n = s.xyz.size() / 3;
+        const std::size_t segments = (s.closed && n >= 3) ? n : (n > 0 ? n - 1 : 0);
+        for (std::size_t k = 0; k < segments; ++k) {
+            const std::size_t a = k, b = (k + 1) % n;
+            Primitive p;
+            bool finite = true;
+            for (int d = 0; d < 3; ++d) {
+                p.xyz[d] = s.xyz[3 * a + d];
+                p.xyz[3 + d] = s.xyz[3 * b + d];
+                finite = finite && std::isfinite(p.xyz[d]) && std::isfinite(p.xyz[3 + d]);
+            }
+            if (!finite)
+                continue;
+            // Lines lying on a surface (a barrier drawn on its own tube) must not vanish under the faces they
+            // share a depth with: they count as nearer by 2% of the box.
+            p.depth = 0.5 * (view.depth(p.xyz[0], p.xyz[1], p.xyz[2]) + view.depth(p.xyz[3], p.xyz[4], p.xyz[5])) +
+                      0.02;
+            p.rgb = rgb;
+            p.width = s.width;
+            primitives.push_back(p);
+        }
+    }
+}
+
+// The painter's algorithm: faces and segments drawn far to near.
+void paint_far_to_near(std::vector<Primitive> &primitives)
+{
+    std::stable_sort(primitives.begin(), primitives.end(),
+                     [](const Primitive &a, const Primitive &b) { return a.depth < b.depth; });
+    for (const Primitive &p : primitives) {
+        set_color(slot_scratch, p.rgb, p.alpha);
+        if (p.face) {
+            std::array<PLFLT, 4> xs{p.xyz[0], p.xyz[3], p.xyz[6], p.xyz[9]},
+                ys{p.xyz[1], p.xyz[4], p.xyz[7], p.xyz[10]}, zs{p.xyz[2], p.xyz[5], p.xyz[8], p.xyz[11]};
+            plfill3(4, xs.data(), ys.data(), zs.data());
+        } else {
+            plwidth(p.width);
+            std::array<PLFLT, 2> xs{p.xyz[0], p.xyz[3]}, ys{p.xyz[1], p.xyz[4]}, zs{p.xyz[2], p.xyz[5]};
+            plline3(2, xs.data(), ys.data(), zs.data());
+        }
+    }
+}
+
+// Title and legend of a 3-D picture, in page coordinates (w x h pixels; `top` the title's margin).
+void draw_xyz_title_and_legend(const XYZPlot &plot, const std::vector<std::size_t> &listed, double ch, double w,
+                               double h, double top)
+{
+    const double char_mm = px_to_mm(ch);
+    plvpor(0.0, 1.0, 0.0, 1.0);
+    plwind(0.0, 1.0, 0.0, 1.0);
+    plcol0(slot_ink);
+    if (!plot.title.empty()) {
+        plschr(char_mm, title_scale);
+        plptex(0.5, 1.0 - 2.2 * ch / h, 1.0, 0.0, 0.5, plain_text(plot.title).c_str());
+    }
+    if (listed.empty())
+        return;
+    const PLINT n = static_cast<PLINT>(listed.size());
+    std::vector<PLINT> opts(n, PL_LEGEND_LINE), text_colors(n, slot_ink), line_colors(n), line_styles(n, 1),
+        zeros(n, 0);
+    std::vector<PLFLT> line_widths(n), zero_scales(n, 0.0);
+    std::vector<std::string> texts(n);
+    std::vector<const char *> text_ptrs(n), no_symbols(n, "");
+    for (PLINT e = 0; e < n; ++e) {
+        const PlotSeries3D &s = plot.series[listed[e]];
+        const PLINT slot = slot_xy_count + static_cast<PLINT>(listed[e]);
+        plscol0(slot, parse_color(s.color).r, parse_color(s.color).g, parse_color(s.color).b);
+        line_colors[e] = slot;
+        line_widths[e] = s.width;
+        texts[e] = plain_text(s.label);
+        text_ptrs[e] = texts[e].c_str();
+    }
+    set_color(slot_legend, {160, 160, 160});
+    plschr(char_mm, 1.0);
+    plwidth(1.0);
+    PLFLT legend_width = 0.0, legend_height = 0.0;
+    pllegend(&legend_width, &legend_height, PL_LEGEND_BACKGROUND | PL_LEGEND_BOUNDING_BOX,
+             PL_POSITION_INSIDE | PL_POSITION_VIEWPORT | PL_POSITION_TOP | PL_POSITION_RIGHT, 1.0 * ch / w, top / h,
+             3.0 * ch / w, slot_background, slot_legend, 1, 0, 0, n, opts.data(), 1.0, 1.0, 2.0, 0.0,
+             text_colors.data(), text_ptrs.data(), zeros.data(), zeros.data(), zero_scales.data(), zero_scales.data(),
+             line_colors.data(), line_styles.data(), line_widths.data(), zeros.data(), zero_scales.data(),
+             zeros.data(), no_symbols.data());
+}
+
+void draw_xyz(const std::filesystem::path &file, const XYZPlot &plot, PlplotErrors &errors)
+{
+    const auto [low, high] = data_box(plot);
     const double ch = char_px_for(plot.width_px);
     const double char_mm = px_to_mm(ch);
     std::vector<std::size_t> listed;
@@ -951,126 +1100,13 @@ void draw_xyz(const std::filesystem::path &file, const XYZPlot &plot, PlplotErro
     plbox3("bnstu", plain_text(plot.x_label).c_str(), x_step, 0, "bnstu", plain_text(plot.y_label).c_str(), y_step, 0,
            "bnstu", plain_text(plot.z_label).c_str(), z_step, 0);
 
-    // Faces and segments, drawn far to near. A face is shaded by how squarely it faces the viewer (normals in the
-    // box's normalised coordinates), from 55% to 100% of its colour.
     std::vector<Primitive> primitives;
-    const double nx_scale = cx, ny_scale = cy, nz_scale = cz;
     const std::array<double, 3> toward{-std::cos(alt * rad) * std::sin(az * rad), -std::cos(alt * rad) * std::cos(az * rad),
                                        std::sin(alt * rad)};
-    for (const PlotSurface3D &s : plot.surfaces) {
-        if (s.rows < 2 || s.cols < 2)
-            continue;
-        const Rgb base = parse_color(s.color, "plot_xyz_png");
-        const std::size_t col_end = s.wrap_cols ? s.cols : s.cols - 1;
-        for (std::size_t r = 0; r + 1 < s.rows; ++r)
-            for (std::size_t c = 0; c < col_end; ++c) {
-                const std::size_t c1 = (c + 1) % s.cols;
-                const std::array<std::size_t, 4> corners{r * s.cols + c, r * s.cols + c1, (r + 1) * s.cols + c1,
-                                                         (r + 1) * s.cols + c};
-                Primitive p;
-                p.face = true;
-                bool finite = true;
-                double depth = 0.0;
-                for (int k = 0; k < 4; ++k)
-                    for (int d = 0; d < 3; ++d) {
-                        p.xyz[3 * k + d] = s.xyz[3 * corners[k] + d];
-                        finite = finite && std::isfinite(p.xyz[3 * k + d]);
-                    }
-                if (!finite)
-                    continue;
-                for (int k = 0; k < 4; ++k)
-                    depth += view.depth(p.xyz[3 * k], p.xyz[3 * k + 1], p.xyz[3 * k + 2]);
-                p.depth = depth / 4.0;
-                // Normal from the diagonals, in normalised box units.
-                const double ax = (p.xyz[6] - p.xyz[0]) * nx_scale, ay = (p.xyz[7] - p.xyz[1]) * ny_scale,
-                             az_ = (p.xyz[8] - p.xyz[2]) * nz_scale;
-                const double bx = (p.xyz[9] - p.xyz[3]) * nx_scale, by = (p.xyz[10] - p.xyz[4]) * ny_scale,
-                             bz = (p.xyz[11] - p.xyz[5]) * nz_scale;
-                const double n0 = ay * bz - az_ * by, n1 = az_ * bx - ax * bz, n2 = ax * by - ay * bx;
-                const double norm = std::sqrt(n0 * n0 + n1 * n1 + n2 * n2);
-                const double facing =
-                    norm > 0.0 ? std::abs(n0 * toward[0] + n1 * toward[1] + n2 * toward[2]) / norm : 0.0;
-                const double shade = 0.55 + 0.45 * facing;
-                p.rgb = {static_cast<int>(std::lround(base.r * shade)), static_cast<int>(std::lround(base.g * shade)),
-                         static_cast<int>(std::lround(base.b * shade))};
-                p.alpha = s.opacity;
-                primitives.push_back(p);
-            }
-    }
-    for (const PlotSeries3D &s : plot.series) {
-        const Rgb rgb = parse_color(s.color, "plot_xyz_png");
-        const std::size_t n = s.xyz.size() / 3;
-        const std::size_t segments = (s.closed && n >= 3) ? n : (n > 0 ? n - 1 : 0);
-        for (std::size_t k = 0; k < segments; ++k) {
-            const std::size_t a = k, b = (k + 1) % n;
-            Primitive p;
-            bool finite = true;
-            for (int d = 0; d < 3; ++d) {
-                p.xyz[d] = s.xyz[3 * a + d];
-                p.xyz[3 + d] = s.xyz[3 * b + d];
-                finite = finite && std::isfinite(p.xyz[d]) && std::isfinite(p.xyz[3 + d]);
-            }
-            if (!finite)
-                continue;
-            // Lines lying on a surface (a barrier drawn on its own tube) must not vanish under the faces they
-            // share a depth with: they count as nearer by 2% of the box.
-            p.depth = 0.5 * (view.depth(p.xyz[0], p.xyz[1], p.xyz[2]) + view.depth(p.xyz[3], p.xyz[4], p.xyz[5])) +
-                      0.02;
-            p.rgb = rgb;
-            p.width = s.width;
-            primitives.push_back(p);
-        }
-    }
-    std::stable_sort(primitives.begin(), primitives.end(),
-                     [](const Primitive &a, const Primitive &b) { return a.depth < b.depth; });
-    for (const Primitive &p : primitives) {
-        set_color(slot_scratch, p.rgb, p.alpha);
-        if (p.face) {
-            std::array<PLFLT, 4> xs{p.xyz[0], p.xyz[3], p.xyz[6], p.xyz[9]},
-                ys{p.xyz[1], p.xyz[4], p.xyz[7], p.xyz[10]}, zs{p.xyz[2], p.xyz[5], p.xyz[8], p.xyz[11]};
-            plfill3(4, xs.data(), ys.data(), zs.data());
-        } else {
-            plwidth(p.width);
-            std::array<PLFLT, 2> xs{p.xyz[0], p.xyz[3]}, ys{p.xyz[1], p.xyz[4]}, zs{p.xyz[2], p.xyz[5]};
-            plline3(2, xs.data(), ys.data(), zs.data());
-        }
-    }
-
-    // Title and legend in page coordinates.
-    plvpor(0.0, 1.0, 0.0, 1.0);
-    plwind(0.0, 1.0, 0.0, 1.0);
-    plcol0(slot_ink);
-    if (!plot.title.empty()) {
-        plschr(char_mm, title_scale);
-        plptex(0.5, 1.0 - 2.2 * ch / h, 1.0, 0.0, 0.5, plain_text(plot.title).c_str());
-    }
-    if (!listed.empty()) {
-        const PLINT n = static_cast<PLINT>(listed.size());
-        std::vector<PLINT> opts(n, PL_LEGEND_LINE), text_colors(n, slot_ink), line_colors(n), line_styles(n, 1),
-            zeros(n, 0);
-        std::vector<PLFLT> line_widths(n), zero_scales(n, 0.0);
-        std::vector<std::string> texts(n);
-        std::vector<const char *> text_ptrs(n), no_symbols(n, "");
-        for (PLINT e = 0; e < n; ++e) {
-            const PlotSeries3D &s = plot.series[listed[e]];
-            const PLINT slot = slot_xy_count + static_cast<PLINT>(listed[e]);
-            plscol0(slot, parse_color(s.color).r, parse_color(s.color).g, parse_color(s.color).b);
-            line_colors[e] = slot;
-            line_widths[e] = s.width;
-            texts[e] = plain_text(s.label);
-            text_ptrs[e] = texts[e].c_str();
-        }
-        set_color(slot_legend, {160, 160, 160});
-        plschr(char_mm, 1.0);
-        plwidth(1.0);
-        PLFLT legend_width = 0.0, legend_height = 0.0;
-        pllegend(&legend_width, &legend_height, PL_LEGEND_BACKGROUND | PL_LEGEND_BOUNDING_BOX,
-                 PL_POSITION_INSIDE | PL_POSITION_VIEWPORT | PL_POSITION_TOP | PL_POSITION_RIGHT, 1.0 * ch / w,
-                 top / h, 3.0 * ch / w, slot_background, slot_legend, 1, 0, 0, n, opts.data(), 1.0, 1.0, 2.0, 0.0,
-                 text_colors.data(), text_ptrs.data(), zeros.data(), zeros.data(), zero_scales.data(),
-                 zero_scales.data(), line_colors.data(), line_styles.data(), line_widths.data(), zeros.data(),
-                 zero_scales.data(), zeros.data(), no_symbols.data());
-    }
+    add_surface_faces(plot, view, {cx, cy, cz}, toward, primitives);
+    add_series_segments(plot, view, primitives);
+    paint_far_to_near(primitives);
+    draw_xyz_title_and_legend(plot, listed, ch, w, h, top);
     if (errors.code != 0)
         throw IoError("'" + file.string() + "': PLplot failed: " + errors.message);
 }

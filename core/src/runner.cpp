@@ -9,11 +9,11 @@
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/line_field.hpp>
-#include <geobarrier/mpi.hpp>
+#include "mpi.hpp"
 #include <geobarrier/output.hpp>
-#include <geobarrier/resources.hpp>
+#include "resources.hpp"
 #include <geobarrier/shear.hpp>
-#include <geobarrier/tiles.hpp>
+#include "tiles.hpp"
 
 #include <omp.h>
 #include <spdlog/spdlog.h>
@@ -178,22 +178,29 @@ class OutputStaging {
     bool m_published = false;
 };
 
-RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options) {
-    // Under mpirun the ranks other than 0 only compute their share of the flow map's tiles (tiles.hpp).
-    if (mpi::sharing_tiles() && mpi::rank() != 0) return run_as_tile_worker(r, options);
+namespace {
+
+// What the stages of one run add to its record: the manifest, the stages' wall times and the warnings.
+struct RunRecord {
+    json manifest;
+    json stages = json::array();
+    json warnings = json::array();
+
+    void warn(const std::string &text) {
+        spdlog::warn("{}", text);
+        warnings.push_back(text);
+    }
+};
+
+// A stage's progress to RunOptions::progress ("flow map": done/total grid rows; other stages: 0/1 when they start).
+void report(const RunOptions &options, const std::string &stage, std::size_t done, std::size_t total) {
+    if (options.progress) options.progress(stage, done, total);
+}
+
+// The manifest's description of the run before anything is computed: the tool, the experiment as written and as
+// resolved, every plugin, the threads.
+json start_manifest(const ResolvedExperiment &r, const RunOptions &options) {
     const Experiment &e = r.experiment;
-    const auto run_start = std::chrono::steady_clock::now();
-    const ScopedThreadCount thread_count(options.threads);
-    const auto report = [&options](const std::string &stage, std::size_t done, std::size_t total) {
-        if (options.progress) options.progress(stage, done, total);
-    };
-    const bool plots = e.plots && options.write_files;
-
-    RunSummary summary;
-    if (options.write_files) summary.output_dir = options.output_dir ? *options.output_dir : e.output_dir;
-    OutputStaging staging(options.write_files ? summary.output_dir : private_scratch_folder());
-    const fs::path out = staging.dir(); // every file goes here first; published at the end
-
     json manifest;
     manifest["tool"] = {{"name", "geobarrier"},
                         {"version", GEOBARRIER_VERSION},
@@ -214,92 +221,99 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     manifest["plugins"] = plugins;
     manifest["threads"] = options.threads > 0 ? options.threads : omp_get_max_threads();
     if (mpi::sharing_tiles()) manifest["mpi_ranks"] = mpi::size(); // threads is then per rank
-    json stages = json::array();
-    json warnings = json::array();
-    for (const auto &w : r.registry.warnings()) warnings.push_back(w);
-    for (const auto &w : e.warnings) { // e.g. a clamped tolerance
-        spdlog::warn("{}", w);
-        warnings.push_back(w);
-    }
+    return manifest;
+}
 
-    // Stages 1 and 2: the flow map, with the gradient only when something needs it, and the Cauchy–Green
-    // eigenvalues, eigenvectors and FTLE, tile by tile (tiles.hpp): only the fields the products, extractors and
-    // pictures read are kept for the whole grid.
-    const FieldPlan plan = plan_fields(r);
-    const GradientMethod gradient = plan.gradient;
+// The fields of the grid stages, and the names extractors and products read them by (pointers into the members).
+struct GridStages {
     GridFlowMap flow;
     CauchyGreenField cg;
+    std::vector<double> strain_deviation;
+    ShearFields shear;
+    std::map<std::string, const std::vector<double> *> fields;
+    const std::vector<std::uint8_t> *mask = nullptr; // the Cauchy–Green mask when computed, else the flow map's
+    GradientMethod gradient = GradientMethod::none;
+};
+
+// Whether the experiment's products, or an extractor's required fields, ask for a field the name of which passes
+// `matches`.
+template <class Matches> bool field_wanted(const ResolvedExperiment &r, const std::string &product, Matches matches) {
+    bool wanted = r.experiment.wants(product);
+    for (const Extractor &x : r.extractors)
+        for (const auto &name : x.required_fields()) wanted = wanted || matches(name);
+    return wanted;
+}
+
+// Stages 1 and 2: the flow map, with the gradient only when something needs it, and the Cauchy–Green eigenvalues,
+// eigenvectors and FTLE, tile by tile (tiles.hpp): only the fields the products, extractors and pictures read are
+// kept for the whole grid.
+void compute_flow_and_cauchy_green(const ResolvedExperiment &r, const RunOptions &options, const FieldPlan &plan,
+                                   RunRecord &record, GridStages &grid) {
+    const Experiment &e = r.experiment;
     if (r.need_cauchy_green || r.need_positions) { // validation products alone need no grid
-        StageTimer timer(stages, "flow map"); // with the Cauchy–Green fields, tile by tile
+        StageTimer timer(record.stages, "flow map"); // with the Cauchy–Green fields, tile by tile
         detail::ProgressBar bar("flow map", !options.quiet);
         const Dynamics dynamics = r.dynamics();
         GridFields computed = compute_grid_fields(dynamics, e.grid, e.t0, e.t1, e.integrator, e.bounds, plan,
                                                   [&](std::size_t done, std::size_t total) {
                                                       bar.update(done, total);
-                                                      report("flow map", done, total);
+                                                      report(options, "flow map", done, total);
                                                   });
         bar.finish();
-        flow = std::move(computed.flow);
-        cg = std::move(computed.cg);
-        manifest["tiles"] = {{"count", computed.tiles}, {"rows", computed.rows_per_tile}, {"kept", plan.keep}};
+        grid.flow = std::move(computed.flow);
+        grid.cg = std::move(computed.cg);
+        record.manifest["tiles"] = {{"count", computed.tiles}, {"rows", computed.rows_per_tile}, {"kept", plan.keep}};
     }
-    manifest["integrator_stats"] = flow.stats.to_json();
-    manifest["gradient_method"] = to_string(gradient);
-    manifest["long_horizon"] = long_horizon_method(gradient);
-    const std::uint64_t masked = flow.stats.masked;
-    if (masked > 0) {
-        const std::string w = describe_masking(flow.stats, e.integrator, r.system.has_jacobian()) +
-                              " (see integrator_stats and the mask variable in fields.nc)";
-        spdlog::warn("{}", w);
-        warnings.push_back(w);
-    }
-    if (const std::string w = describe_step_refinement(flow.stats, e.integrator, r.system.has_jacobian()); !w.empty()) {
-        spdlog::warn("{}", w);
-        warnings.push_back(w);
-    }
-    std::map<std::string, const std::vector<double> *> fields;
+    grid.gradient = plan.gradient;
+    const IntegratorStats &stats = grid.flow.stats;
+    record.manifest["integrator_stats"] = stats.to_json();
+    record.manifest["gradient_method"] = to_string(plan.gradient);
+    record.manifest["long_horizon"] = long_horizon_method(plan.gradient);
+    if (stats.masked > 0)
+        record.warn(describe_masking(stats, e.integrator, r.system.has_jacobian()) +
+                    " (see integrator_stats and the mask variable in fields.nc)");
+    if (const std::string w = describe_step_refinement(stats, e.integrator, r.system.has_jacobian()); !w.empty())
+        record.warn(w);
     if (r.need_cauchy_green) {
-        for (const auto &name : plan.keep) fields[name] = &cauchy_green_member(cg, name);
-        manifest["degenerate_points"] = cg.degenerate_count;
-    }
-    // The geodesic strain deviation (paper eq. `gdev_str`, general form) only when asked for or an extractor
-    // needs it: it costs grid derivatives of lambda1, lambda2 and xi1.
-    std::vector<double> strain_deviation;
-    bool want_deviation = e.wants("strain_deviation");
-    for (const Extractor &x : r.extractors)
-        for (const auto &name : x.required_fields()) want_deviation = want_deviation || name == "strain_deviation";
-    if (r.need_cauchy_green && want_deviation) {
-        StageTimer timer(stages, "strain deviation");
-        strain_deviation = strain_deviation_field(cg);
-        fields["strain_deviation"] = &strain_deviation;
-    }
-    // The geodesic shear deviations (paper eq. `dg_shr`, general form) only when asked for or an extractor needs
-    // them (the elliptic extractor computes its own from the eigen-fields).
-    ShearFields shear;
-    bool want_shear = e.wants("shear_deviation_plus") || e.wants("shear_deviation_minus");
-    for (const Extractor &x : r.extractors)
-        for (const auto &name : x.required_fields()) want_shear = want_shear || name.rfind("shear_deviation", 0) == 0;
-    if (r.need_cauchy_green && want_shear) {
-        StageTimer timer(stages, "shear deviation");
-        shear = shear_fields(cg);
-        fields["shear_deviation_plus"] = &shear.deviation_plus;
-        fields["shear_deviation_minus"] = &shear.deviation_minus;
+        for (const auto &name : plan.keep) grid.fields[name] = &cauchy_green_member(grid.cg, name);
+        record.manifest["degenerate_points"] = grid.cg.degenerate_count;
     }
     if (r.need_positions) {
-        fields["flow_x"] = &flow.flow_x;
-        fields["flow_y"] = &flow.flow_y;
+        grid.fields["flow_x"] = &grid.flow.flow_x;
+        grid.fields["flow_y"] = &grid.flow.flow_y;
     }
-    const std::vector<std::uint8_t> &mask = r.need_cauchy_green ? cg.mask : flow.mask;
+    grid.mask = r.need_cauchy_green ? &grid.cg.mask : &grid.flow.mask;
+}
 
-    // Stage 3: barrier extractors. They may advect points with the experiment's
-    // system and integrator (the gradient by the experiment's method).
-    json barriers = json::array();
-    std::vector<Barrier> found; // the same barriers, for the validation products
+// The fields derived from the Cauchy–Green fields, only when a product asks for them or an extractor needs them.
+void compute_deviation_fields(const ResolvedExperiment &r, RunRecord &record, GridStages &grid) {
+    if (!r.need_cauchy_green) return;
+    // The geodesic strain deviation (paper eq. `gdev_str`, general form): it costs grid derivatives of lambda1,
+    // lambda2 and xi1.
+    if (field_wanted(r, "strain_deviation", [](const std::string &name) { return name == "strain_deviation"; })) {
+        StageTimer timer(record.stages, "strain deviation");
+        grid.strain_deviation = strain_deviation_field(grid.cg);
+        grid.fields["strain_deviation"] = &grid.strain_deviation;
+    }
+    // The geodesic shear deviations (paper eq. `dg_shr`, general form); the elliptic extractor computes its own from
+    // the eigen-fields.
+    const auto is_shear = [](const std::string &name) { return name.rfind("shear_deviation", 0) == 0; };
+    if (field_wanted(r, "shear_deviation_plus", is_shear) || r.experiment.wants("shear_deviation_minus")) {
+        StageTimer timer(record.stages, "shear deviation");
+        grid.shear = shear_fields(grid.cg);
+        grid.fields["shear_deviation_plus"] = &grid.shear.deviation_plus;
+        grid.fields["shear_deviation_minus"] = &grid.shear.deviation_minus;
+    }
+}
+
+// The host's advection service for extractors: the experiment's system and integrator, and the grid's engine and
+// gradient method (flow_map_at_points), so advected points get the same batching and, on the auxiliary grid, the
+// same difference-aware error control; the offset is relative to the grid spacing.
+ExtractServices advection_services(const ResolvedExperiment &r) {
     ExtractServices services;
-    services.advect = [&](std::size_t n, const double *xy, double t_from, double t_to, double *xy_out, double *dF_out,
-                          std::uint8_t *mask_out) {
-        // The grid's engine and gradient method (flow_map_at_points), so advected points get the same batching and,
-        // on the auxiliary grid, the same difference-aware error control; the offset is relative to the grid spacing.
+    services.advect = [&r](std::size_t n, const double *xy, double t_from, double t_to, double *xy_out,
+                           double *dF_out, std::uint8_t *mask_out) {
+        const Experiment &e = r.experiment;
         const Dynamics dynamics = r.dynamics();
         const GradientMethod method = !dF_out ? GradientMethod::none
                                       : r.system.has_jacobian() && r.gradient != GradientMethod::auxiliary_grid
@@ -322,25 +336,40 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
                                                : std::ldexp(a.dF[4 * k + q], a.dF_exponent[k]);
         }
     };
+    return services;
+}
+
+// The barriers the extractors found: as barriers.json items, and as Barrier values for the validation products.
+struct FoundBarriers {
+    json items = json::array();
+    std::vector<Barrier> barriers;
+};
+
+// Stage 3: the barrier extractors. They may advect points with the experiment's system and integrator.
+FoundBarriers run_extractors(const ResolvedExperiment &r, const RunOptions &options, const GridStages &grid,
+                             const fs::path &out, bool plots, RunRecord &record) {
+    const Experiment &e = r.experiment;
+    const ExtractServices services = advection_services(r);
+    // The system's state names and units (ABI 1.2), "" when undeclared, for the axes of the extractor's pictures.
+    const PluginInfo &sys = r.system.info();
+    const std::size_t cx = r.plane_component(0), cy = r.plane_component(1); // a slice's axes
+    const std::string names[2] = {sys.state_names.empty() ? "" : sys.state_names[cx],
+                                  sys.state_names.empty() ? "" : sys.state_names[cy]};
+    const std::string units[2] = {sys.state_units.empty() ? "" : sys.state_units[cx],
+                                  sys.state_units.empty() ? "" : sys.state_units[cy]};
+    const char *const name_ptrs[2] = {names[0].c_str(), names[1].c_str()};
+    const char *const unit_ptrs[2] = {units[0].c_str(), units[1].c_str()};
+    const std::string out_text = out.string();
+    FoundBarriers found;
     for (const Extractor &x : r.extractors) {
         throw_if_cancelled("before extractor '" + x.info().name + "'");
-        report("extractor " + x.info().name, 0, 1);
-        StageTimer timer(stages, "extractor " + x.info().name);
+        report(options, "extractor " + x.info().name, 0, 1);
+        StageTimer timer(record.stages, "extractor " + x.info().name);
         std::vector<gb_field> inputs;
-        for (const auto &name : x.required_fields()) inputs.push_back({name.c_str(), fields.at(name)->data()});
-        const std::string out_text = out.string();
-        // The system's state names and units (ABI 1.2), "" when undeclared, for the axes of the extractor's pictures.
-        const PluginInfo &sys = r.system.info();
-        const std::size_t cx = r.plane_component(0), cy = r.plane_component(1); // a slice's axes
-        const std::string names[2] = {sys.state_names.empty() ? "" : sys.state_names[cx],
-                                      sys.state_names.empty() ? "" : sys.state_names[cy]};
-        const std::string units[2] = {sys.state_units.empty() ? "" : sys.state_units[cx],
-                                      sys.state_units.empty() ? "" : sys.state_units[cy]};
-        const char *const name_ptrs[2] = {names[0].c_str(), names[1].c_str()};
-        const char *const unit_ptrs[2] = {units[0].c_str(), units[1].c_str()};
+        for (const auto &name : x.required_fields()) inputs.push_back({name.c_str(), grid.fields.at(name)->data()});
         const gb_extract_input input{e.grid.x_min, e.grid.x_max, e.grid.y_min, e.grid.y_max,
                                      e.grid.nx,    e.grid.ny,    e.t0,         e.t1,
-                                     mask.data(),  static_cast<std::uint32_t>(inputs.size()),
+                                     grid.mask->data(),  static_cast<std::uint32_t>(inputs.size()),
                                      inputs.data(), out_text.c_str(), plots ? 1 : 0, name_ptrs, unit_ptrs};
         for (const Barrier &b : x.extract(input, services)) {
             json points = json::array();
@@ -348,121 +377,138 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
             json item = {{"kind", b.kind}, {"closed", b.closed}, {"extractor", x.info().name}, {"points", points}};
             for (const auto &[name, value] : b.metrics) item[name] = value;
             for (const auto &[name, value] : b.attributes) item[name] = json::parse(value);
-            barriers.push_back(item);
-            found.push_back(b);
+            found.items.push_back(item);
+            found.barriers.push_back(b);
         }
     }
+    return found;
+}
 
-    // Stage 3b: validation products (Poincaré iterates, tracers, trajectories, forcing, advected barriers), only
-    // those the experiment's "validation" object asks for; they write their own files.
-    if (!e.validation.empty()) {
-        throw_if_cancelled("before the validation products");
-        report("validation", 0, 1);
-        StageTimer timer(stages, "validation");
-        ValidationInput input;
-        input.dynamics = r.dynamics();
-        input.integrator = e.integrator;
-        input.bounds = e.bounds;
-        input.t0 = e.t0;
-        input.t1 = e.t1;
-        input.barriers = &found;
-        input.plots = plots;
-        input.title = r.system.info().name + " + " + r.forcing.info().name;
-        const ValidationOutput v = run_validation(e.validation, input, out);
-        summary.files.insert(summary.files.end(), v.files.begin(), v.files.end());
-        manifest["validation"] = v.summary;
-        for (const auto &w : v.warnings) warnings.push_back(w);
-    }
+// Stage 3b: the validation products (Poincaré iterates, tracers, trajectories, forcing, advected barriers), only
+// those the experiment's "validation" object asks for; they write their own files, returned.
+std::vector<fs::path> run_validation_products(const ResolvedExperiment &r, const RunOptions &options,
+                                              const std::vector<Barrier> &barriers, const fs::path &out, bool plots,
+                                              RunRecord &record) {
+    const Experiment &e = r.experiment;
+    if (e.validation.empty()) return {};
+    throw_if_cancelled("before the validation products");
+    report(options, "validation", 0, 1);
+    StageTimer timer(record.stages, "validation");
+    ValidationInput input;
+    input.dynamics = r.dynamics();
+    input.integrator = e.integrator;
+    input.bounds = e.bounds;
+    input.t0 = e.t0;
+    input.t1 = e.t1;
+    input.barriers = &barriers;
+    input.plots = plots;
+    input.title = r.system.info().name + " + " + r.forcing.info().name;
+    const ValidationOutput v = run_validation(e.validation, input, out);
+    record.manifest["validation"] = v.summary;
+    for (const auto &w : v.warnings) record.warnings.push_back(w);
+    return v.files;
+}
 
-    // Stage 4: files. Each is written atomically; the manifest comes last, so a
-    // folder with a manifest is a finished run.
-    throw_if_cancelled("before writing the output files");
+// The variables of fields.nc: those of the requested products, in the order of known_products().
+std::vector<FieldVariable> field_variables(const Experiment &e, const GridStages &grid) {
     std::vector<FieldVariable> variables;
-    // The grid's two axes: the system's first two components, or a slice's axes.
-    StateAxes state_axes;
+    for (const auto &product : known_products()) {
+        if (!e.wants(product.name)) continue;
+        // Eigenvectors and derivatives of them are undefined at degenerate points too.
+        const std::string name_of_product = product.name;
+        const bool vector_field = name_of_product == "eigenvectors" || name_of_product == "strain_deviation" ||
+                                  name_of_product.rfind("shear_deviation", 0) == 0;
+        const auto masked_by =
+            static_cast<std::uint8_t>(vector_field ? (mask_trajectory_bits | mask_degenerate) : mask_trajectory_bits);
+        for (const char *name : product.variables) {
+            const FieldDoc doc = field_doc(name);
+            variables.push_back(FieldVariable{name, doc.long_name, doc.units, grid.fields.at(name), masked_by});
+        }
+    }
+    return variables;
+}
+
+// The names and units of the grid's two axes: the system's first two components, or a slice's axes.
+StateAxes plane_axes(const ResolvedExperiment &r) {
+    StateAxes axes;
+    const PluginInfo &sys = r.system.info();
     for (std::size_t i = 0; i < 2; ++i) {
-        const PluginInfo &sys = r.system.info();
         const std::size_t c = r.plane_component(i);
-        if (c < sys.state_names.size()) state_axes.names.push_back(sys.state_names[c]);
-        if (c < sys.state_units.size()) state_axes.units.push_back(sys.state_units[c]);
+        if (c < sys.state_names.size()) axes.names.push_back(sys.state_names[c]);
+        if (c < sys.state_units.size()) axes.units.push_back(sys.state_units[c]);
     }
-    try {
-        StageTimer timer(stages, "output");
-        for (const auto &product : known_products()) {
-            if (!e.wants(product.name)) continue;
-            for (const char *name : product.variables) {
-                const FieldDoc doc = field_doc(name);
-                // Eigenvectors and derivatives of them are undefined at degenerate points too.
-                const bool vector_field = std::string(product.name) == "eigenvectors" ||
-                                          std::string(product.name) == "strain_deviation" ||
-                                          std::string(product.name).rfind("shear_deviation", 0) == 0;
-                variables.push_back(FieldVariable{name, doc.long_name, doc.units, fields.at(name),
-                                                  static_cast<std::uint8_t>(vector_field ? (mask_trajectory_bits |
-                                                                                            mask_degenerate)
-                                                                                         : mask_trajectory_bits)});
-            }
+    return axes;
+}
+
+// Stage 4: fields.nc, the FTLE picture and barriers.json, each written atomically into the staging folder `out`.
+void write_result_files(const ResolvedExperiment &r, const RunOptions &options, const GridStages &grid,
+                        const std::vector<FieldVariable> &variables, const json &barriers, const fs::path &out,
+                        bool plots, RunSummary &summary) {
+    const Experiment &e = r.experiment;
+    if (!variables.empty()) {
+        json attributes = {{"title", e.description.empty() ? std::string("geobarrier fields") : e.description},
+                           {"source", std::string("geobarrier ") + GEOBARRIER_VERSION},
+                           {"system", r.system.info().name},
+                           {"forcing", r.forcing.info().name},
+                           {"t0", e.t0},
+                           {"t1", e.t1},
+                           {"gradient_method", to_string(grid.gradient)},
+                           {"experiment", r.resolved.dump()}};
+        if (e.slice) { // the slice: its axes (the coordinates x and y), tensor and fixed components
+            attributes["slice_axes"] = e.slice->axes[0] + " " + e.slice->axes[1];
+            attributes["slice_tensor"] = r.resolved["cauchy_green"].value("slice_tensor", "full");
+            for (const auto &[name, value] : e.slice->fixed) attributes["slice_fixed_" + name] = value;
         }
-        if (!variables.empty()) {
-            json attributes = {{"title", e.description.empty() ? std::string("geobarrier fields") : e.description},
-                               {"source", std::string("geobarrier ") + GEOBARRIER_VERSION},
-                               {"system", r.system.info().name},
-                               {"forcing", r.forcing.info().name},
-                               {"t0", e.t0},
-                               {"t1", e.t1},
-                               {"gradient_method", to_string(gradient)},
-                               {"experiment", r.resolved.dump()}};
-            if (e.slice) { // the slice: its axes (the coordinates x and y), tensor and fixed components
-                attributes["slice_axes"] = e.slice->axes[0] + " " + e.slice->axes[1];
-                attributes["slice_tensor"] = r.resolved["cauchy_green"].value("slice_tensor", "full");
-                for (const auto &[name, value] : e.slice->fixed) attributes["slice_fixed_" + name] = value;
-            }
-            if (options.keep_results) summary.field_attributes = attributes;
-            if (options.write_files) {
-                const fs::path file = out / "fields.nc";
-                write_fields_netcdf(file, e.grid, variables, mask, attributes, state_axes);
-                summary.files.push_back(file);
-            }
-        }
-        if (plots && r.need_cauchy_green) {
-            FieldPlot plot;
-            plot.title = "FTLE, " + r.system.info().name + " + " + r.forcing.info().name + ", t = " +
-                         fmt::format("{:g}", e.t0) + " to " + fmt::format("{:g}", e.t1);
-            plot.colorbar_label = "FTLE";
-            plot.x_label = state_axis_label(r.system.info(), r.plane_component(0));
-            plot.y_label = state_axis_label(r.system.info(), r.plane_component(1));
-            const fs::path file = out / "ftle.png";
-            plot_field_png(file, e.grid, cg.ftle, mask, plot);
+        if (options.keep_results) summary.field_attributes = attributes;
+        if (options.write_files) {
+            const fs::path file = out / "fields.nc";
+            write_fields_netcdf(file, e.grid, variables, *grid.mask, attributes, plane_axes(r));
             summary.files.push_back(file);
         }
-        if (options.write_files && !r.extractors.empty()) {
-            const fs::path file = out / "barriers.json";
-            write_text_file(file, json{{"barriers", barriers}}.dump(1) + "\n");
-            summary.files.push_back(file);
-        }
-    } catch (const IoError &e) {
-        throw IoError(staging.final_names(e.what()) + storage_hint(out)); // a full disk shows up as "HDF error"
     }
-
-    manifest["provenance"] = detail::run_provenance(r, manifest, summary.files, out);
-    if (options.keep_results) {
-        summary.grid = e.grid;
-        summary.mask = mask;
-        summary.barriers = barriers;
-        for (const FieldVariable &v : variables) {
-            const NetcdfAttributes a = variable_attributes(v);
-            summary.fields.push_back({v.name, a.long_name, a.units, v.masked_by, *v.values});
-        }
-        for (std::size_t c = 0; c < 2; ++c) {
-            const NetcdfAttributes a = coordinate_attributes(c, state_axes);
-            std::vector<double> values(c == 0 ? e.grid.nx : e.grid.ny);
-            for (std::size_t k = 0; k < values.size(); ++k) values[k] = c == 0 ? e.grid.x(k) : e.grid.y(k);
-            summary.coordinates.push_back({c == 0 ? "x" : "y", a.long_name, a.units, 0, std::move(values)});
-        }
+    if (plots && r.need_cauchy_green) {
+        FieldPlot plot;
+        plot.title = "FTLE, " + r.system.info().name + " + " + r.forcing.info().name + ", t = " +
+                     fmt::format("{:g}", e.t0) + " to " + fmt::format("{:g}", e.t1);
+        plot.colorbar_label = "FTLE";
+        plot.x_label = state_axis_label(r.system.info(), r.plane_component(0));
+        plot.y_label = state_axis_label(r.system.info(), r.plane_component(1));
+        const fs::path file = out / "ftle.png";
+        plot_field_png(file, e.grid, grid.cg.ftle, *grid.mask, plot);
+        summary.files.push_back(file);
     }
-    if (!options.write_files) summary.files.clear(); // the validation products' files went to the private folder
+    if (options.write_files && !r.extractors.empty()) {
+        const fs::path file = out / "barriers.json";
+        write_text_file(file, json{{"barriers", barriers}}.dump(1) + "\n");
+        summary.files.push_back(file);
+    }
+}
 
-    manifest["stages"] = stages;
-    manifest["warnings"] = warnings;
+// RunOptions::keep_results: what fields.nc and barriers.json hold, in memory.
+void keep_results(const Experiment &e, const StateAxes &state_axes, const GridStages &grid,
+                  const std::vector<FieldVariable> &variables, const json &barriers, RunSummary &summary) {
+    summary.grid = e.grid;
+    summary.mask = *grid.mask;
+    summary.barriers = barriers;
+    for (const FieldVariable &v : variables) {
+        const NetcdfAttributes a = variable_attributes(v);
+        summary.fields.push_back({v.name, a.long_name, a.units, v.masked_by, *v.values});
+    }
+    for (std::size_t c = 0; c < 2; ++c) {
+        const NetcdfAttributes a = coordinate_attributes(c, state_axes);
+        std::vector<double> values(c == 0 ? e.grid.nx : e.grid.ny);
+        for (std::size_t k = 0; k < values.size(); ++k) values[k] = c == 0 ? e.grid.x(k) : e.grid.y(k);
+        summary.coordinates.push_back({c == 0 ? "x" : "y", a.long_name, a.units, 0, std::move(values)});
+    }
+}
+
+// The run's last step: the manifest's closing entries; written (last of all files) and the staging folder published
+// when the run writes files, else kept in the summary only.
+RunSummary finish_run(RunRecord &record, const RunOptions &options, OutputStaging &staging,
+                      std::chrono::steady_clock::time_point run_start, RunSummary summary) {
+    json &manifest = record.manifest;
+    manifest["stages"] = record.stages;
+    manifest["warnings"] = record.warnings;
     manifest["wall_seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - run_start).count();
     json files = json::array();
     for (const auto &f : summary.files) files.push_back(f.filename().string());
@@ -472,7 +518,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
         summary.manifest = manifest;
         return summary; // the staging folder's destructor removes the private folder
     }
-    const fs::path manifest_file = out / "manifest.json";
+    const fs::path out = staging.dir(), manifest_file = out / "manifest.json";
     throw_if_cancelled("before writing manifest.json");
     try {
         write_text_file(manifest_file, manifest.dump(2) + "\n");
@@ -483,6 +529,56 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     summary.files = staging.publish(summary.files, manifest_file);
     summary.manifest = manifest;
     return summary;
+}
+
+RunSummary run_stages(const ResolvedExperiment &r, const RunOptions &options) {
+    const Experiment &e = r.experiment;
+    const auto run_start = std::chrono::steady_clock::now();
+    const ScopedThreadCount thread_count(options.threads);
+    const bool plots = e.plots && options.write_files;
+
+    RunSummary summary;
+    if (options.write_files) summary.output_dir = options.output_dir ? *options.output_dir : e.output_dir;
+    OutputStaging staging(options.write_files ? summary.output_dir : private_scratch_folder());
+    const fs::path out = staging.dir(); // every file goes here first; published at the end
+
+    RunRecord record;
+    record.manifest = start_manifest(r, options);
+    for (const auto &w : r.registry.warnings()) record.warnings.push_back(w);
+    for (const auto &w : e.warnings) record.warn(w); // e.g. a clamped tolerance
+
+    GridStages grid;
+    compute_flow_and_cauchy_green(r, options, plan_fields(r), record, grid);
+    compute_deviation_fields(r, record, grid);
+    const FoundBarriers found = run_extractors(r, options, grid, out, plots, record);
+    const std::vector<fs::path> validation_files =
+        run_validation_products(r, options, found.barriers, out, plots, record);
+    summary.files.insert(summary.files.end(), validation_files.begin(), validation_files.end());
+
+    // Each file is written atomically; the manifest comes last, so a folder with a manifest is a finished run.
+    throw_if_cancelled("before writing the output files");
+    const std::vector<FieldVariable> variables = field_variables(e, grid);
+    try {
+        StageTimer timer(record.stages, "output");
+        write_result_files(r, options, grid, variables, found.items, out, plots, summary);
+    } catch (const IoError &error) {
+        throw IoError(staging.final_names(error.what()) + storage_hint(out)); // a full disk shows up as "HDF error"
+    }
+    record.manifest["provenance"] = detail::run_provenance(r, record.manifest, summary.files, out);
+    if (options.keep_results) keep_results(e, plane_axes(r), grid, variables, found.items, summary);
+    if (!options.write_files) summary.files.clear(); // the validation products' files went to the private folder
+    return finish_run(record, options, staging, run_start, std::move(summary));
+}
+
+}  // namespace
+
+RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options) {
+    // The engine names a bad setting by its own name; the experiment's JSON path goes with it here.
+    return with_json_paths([&] {
+        // Under mpirun the ranks other than 0 only compute their share of the flow map's tiles (tiles.hpp).
+        if (mpi::sharing_tiles() && mpi::rank() != 0) return run_as_tile_worker(r, options);
+        return run_stages(r, options);
+    });
 }
 
 }  // namespace geobarrier

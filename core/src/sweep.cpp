@@ -3,7 +3,7 @@
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
-#include <geobarrier/mpi.hpp>
+#include "mpi.hpp"
 #include <geobarrier/output.hpp>
 #include <geobarrier/sweep.hpp>
 
@@ -148,14 +148,12 @@ bool is_sweep_file(const fs::path &file) {
     }
 }
 
-Sweep parse_sweep(const json &j, const fs::path &file) {
-    Sweep s;
-    s.file = file;
-    ObjectReader root(j, "");
-    const fs::path folder = file.empty() ? fs::current_path() : fs::absolute(file).parent_path();
+namespace {
 
-    s.description = root.string("description", std::string());
-    const json &base = root.get("base");
+// The sections of a sweep file, one reader each, in the order parse_sweep reads them.
+
+// "base": the experiment itself, or the path of its file (relative to the sweep file's `folder`).
+void read_base(const json &base, const fs::path &file, const fs::path &folder, Sweep &s) {
     if (base.is_string()) {
         fs::path path = base.get<std::string>();
         if (path.empty()) throw ConfigError("/base", "\"\" is empty; expected the path of an experiment file");
@@ -178,58 +176,69 @@ Sweep parse_sweep(const json &j, const fs::path &file) {
     if (!s.base.is_object())
         throw ConfigError("/base", short_dump(s.base) + " is " + type_name(s.base) + "; expected an experiment object");
     if (is_sweep_json(s.base)) throw ConfigError("/base", "is a sweep itself; sweeps do not nest");
+}
 
-    const json &params = root.get("parameters");
+// One entry of "parameters" (at JSON path `at`): its path into the base experiment, name and values. `earlier` are
+// the entries before it.
+SweepParameter read_parameter(const json &entry, const std::string &at, const json &base,
+                              const std::vector<SweepParameter> &earlier) {
+    ObjectReader p(entry, at);
+    SweepParameter parameter;
+    parameter.path = p.string("path", std::nullopt);
+    json::json_pointer pointer;
+    try {
+        pointer = json::json_pointer(parameter.path);
+    } catch (const json::exception &) {
+        throw ConfigError(p.child("path"), "\"" + parameter.path +
+                                               "\" is not a JSON pointer (e.g. \"/forcing/params/amplitude\")");
+    }
+    if (pointer.empty())
+        throw ConfigError(p.child("path"), "\"\" is the whole experiment; name a value in it (e.g. "
+                                           "\"/forcing/params/amplitude\")");
+    if (parameter.path.rfind("/output", 0) == 0)
+        throw ConfigError(p.child("path"), "\"" + parameter.path + "\": each member writes into its own folder "
+                                           "of the sweep's output; sweep \"output\" in the sweep file instead");
+    check_pointer_in_base(base, parameter.path, p.child("path"));
+    for (const SweepParameter &other : earlier)
+        if (other.path == parameter.path)
+            throw ConfigError(p.child("path"), "\"" + parameter.path + "\" is swept twice");
+    parameter.name = p.string("name", pointer.back());
+    if (parameter.name.empty()) throw ConfigError(p.child("name"), "\"\" is empty; expected a column name");
+    const bool has_values = p.has("values"), has_range = p.has("range");
+    if (has_values == has_range)
+        throw ConfigError(at, has_values ? "give either \"values\" or \"range\", not both"
+                                         : "missing \"values\" (a list) or \"range\" ({\"from\", \"to\", \"count\"})");
+    if (has_values) {
+        const json &values = p.get("values");
+        if (!values.is_array() || values.empty())
+            throw ConfigError(p.child("values"), short_dump(values) + " must be a non-empty array of values");
+        for (const json &v : values) parameter.values.push_back(v);
+    } else {
+        ObjectReader r(p.get("range"), p.child("range"));
+        const double from = r.number("from"), to = r.number("to");
+        r.get("count");
+        const std::size_t count = r.count("count", 2, 2, max_members);
+        r.finish();
+        const bool integer = base.contains(pointer) && base.at(pointer).is_number_integer();
+        parameter.values = range_values(from, to, count, integer);
+    }
+    p.finish();
+    return parameter;
+}
+
+std::vector<SweepParameter> read_parameters(const json &params, const json &base) {
     if (!params.is_array() || params.empty())
         throw ConfigError("/parameters", short_dump(params) + " must be a non-empty array of {\"path\": \"/...\", "
                                                               "\"values\": [...]} or {\"path\": ..., \"range\": ...}");
-    for (std::size_t i = 0; i < params.size(); ++i) {
-        const std::string at = "/parameters/" + std::to_string(i);
-        ObjectReader p(params[i], at);
-        SweepParameter parameter;
-        parameter.path = p.string("path", std::nullopt);
-        json::json_pointer pointer;
-        try {
-            pointer = json::json_pointer(parameter.path);
-        } catch (const json::exception &) {
-            throw ConfigError(p.child("path"), "\"" + parameter.path +
-                                                   "\" is not a JSON pointer (e.g. \"/forcing/params/amplitude\")");
-        }
-        if (pointer.empty())
-            throw ConfigError(p.child("path"), "\"\" is the whole experiment; name a value in it (e.g. "
-                                               "\"/forcing/params/amplitude\")");
-        if (parameter.path.rfind("/output", 0) == 0)
-            throw ConfigError(p.child("path"), "\"" + parameter.path + "\": each member writes into its own folder "
-                                               "of the sweep's output; sweep \"output\" in the sweep file instead");
-        check_pointer_in_base(s.base, parameter.path, p.child("path"));
-        for (const SweepParameter &other : s.parameters)
-            if (other.path == parameter.path)
-                throw ConfigError(p.child("path"), "\"" + parameter.path + "\" is swept twice");
-        parameter.name = p.string("name", pointer.back());
-        if (parameter.name.empty()) throw ConfigError(p.child("name"), "\"\" is empty; expected a column name");
-        const bool has_values = p.has("values"), has_range = p.has("range");
-        if (has_values == has_range)
-            throw ConfigError(at, has_values ? "give either \"values\" or \"range\", not both"
-                                             : "missing \"values\" (a list) or \"range\" ({\"from\", \"to\", \"count\"})");
-        if (has_values) {
-            const json &values = p.get("values");
-            if (!values.is_array() || values.empty())
-                throw ConfigError(p.child("values"), short_dump(values) + " must be a non-empty array of values");
-            for (const json &v : values) parameter.values.push_back(v);
-        } else {
-            ObjectReader r(p.get("range"), p.child("range"));
-            const double from = r.number("from"), to = r.number("to");
-            r.get("count");
-            const std::size_t count = r.count("count", 2, 2, max_members);
-            r.finish();
-            const bool integer = s.base.contains(pointer) && s.base.at(pointer).is_number_integer();
-            parameter.values = range_values(from, to, count, integer);
-        }
-        p.finish();
-        s.parameters.push_back(std::move(parameter));
-    }
+    std::vector<SweepParameter> parameters;
+    for (std::size_t i = 0; i < params.size(); ++i)
+        parameters.push_back(read_parameter(params[i], "/parameters/" + std::to_string(i), base, parameters));
+    return parameters;
+}
 
-    s.combine = root.string("combine", s.combine, {"grid", "zip"});
+// The members: every combination of the values ("grid"), or the k-th values together ("zip"), in the order of
+// nested loops over the parameters as listed (the last one fastest).
+std::vector<SweepMember> make_members(const Sweep &s) {
     std::size_t count = 1;
     if (s.combine == "zip") {
         count = s.parameters[0].values.size();
@@ -245,8 +254,8 @@ Sweep parse_sweep(const json &j, const fs::path &file) {
                 throw ConfigError("/parameters", "more than " + std::to_string(max_members) + " members");
         }
     }
-    // Members in the order of nested loops over the parameters as listed (the last one fastest).
     const std::size_t digits = std::max<std::size_t>(3, std::to_string(count - 1).size());
+    std::vector<SweepMember> members;
     for (std::size_t k = 0; k < count; ++k) {
         SweepMember m;
         m.choice.resize(s.parameters.size());
@@ -264,8 +273,96 @@ Sweep parse_sweep(const json &j, const fs::path &file) {
         m.experiment = s.base;
         for (std::size_t p = 0; p < s.parameters.size(); ++p)
             m.experiment[json::json_pointer(s.parameters[p].path)] = s.parameters[p].values[m.choice[p]];
-        s.members.push_back(std::move(m));
+        members.push_back(std::move(m));
     }
+    return members;
+}
+
+std::vector<std::string> read_figures(const json &figures) {
+    if (!figures.is_array()) throw ConfigError("/figures", short_dump(figures) + " must be an array of figure names");
+    const auto &names = sweep_figure_names();
+    std::vector<std::string> out;
+    for (std::size_t i = 0; i < figures.size(); ++i) {
+        const std::string at = "/figures/" + std::to_string(i);
+        if (!figures[i].is_string()) throw ConfigError(at, short_dump(figures[i]) + " must be a figure name");
+        const std::string name = figures[i].get<std::string>();
+        if (is_figure_pointer(name)) {
+            try {
+                json::json_pointer{name};
+            } catch (const json::exception &) {
+                throw ConfigError(at, "\"" + name + "\" is not a JSON pointer into manifest.json");
+            }
+        } else if (std::find(names.begin(), names.end(), name) == names.end()) {
+            std::string msg = "unknown figure \"" + name + "\"";
+            const std::string hint = did_you_mean(name, names);
+            if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
+            msg += " (known:";
+            for (const auto &n : names) msg += " " + n;
+            throw ConfigError(at, msg + ", or a JSON pointer into the member's manifest.json)");
+        }
+        out.push_back(name);
+    }
+    return out;
+}
+
+bool numeric(const SweepParameter &p) {
+    return std::all_of(p.values.begin(), p.values.end(), [](const json &v) { return v.is_number(); });
+}
+
+// "plot": true/false, or {"figure", "parameter"}; by default the first figure against the first parameter when its
+// values are numbers.
+void read_plot(const ObjectReader &root, Sweep &s) {
+    if (root.has("plot") && root.get("plot").is_boolean()) {
+        if (root.boolean("plot", true)) {
+            if (s.figures.empty()) throw ConfigError("/plot", "true, but there is no figure to draw");
+            s.plot_figure = s.figures.front();
+        }
+        return;
+    }
+    if (!root.has("plot")) {
+        if (!s.figures.empty() && numeric(s.parameters.front())) s.plot_figure = s.figures.front();
+        return;
+    }
+    ObjectReader pl(root.get("plot"), "/plot");
+    s.plot_figure = pl.string("figure", s.figures.empty() ? std::string() : s.figures.front(), s.figures);
+    if (s.plot_figure.empty()) throw ConfigError("/plot/figure", "there is no figure to draw");
+    if (pl.has("parameter")) {
+        const std::string which = pl.string("parameter", std::nullopt);
+        std::vector<std::string> choices;
+        bool found = false;
+        for (std::size_t i = 0; i < s.parameters.size() && !found; ++i) {
+            if (s.parameters[i].path == which || s.parameters[i].name == which) {
+                s.plot_parameter = i;
+                found = true;
+            }
+            choices.push_back(s.parameters[i].name);
+        }
+        if (!found) {
+            std::string msg = "\"" + which + "\" is not a swept parameter's path or name";
+            const std::string hint = did_you_mean(which, choices);
+            if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
+            throw ConfigError(pl.child("parameter"), msg);
+        }
+    }
+    pl.finish();
+    if (!numeric(s.parameters[s.plot_parameter]))
+        throw ConfigError("/plot/parameter", "\"" + s.parameters[s.plot_parameter].path +
+                                                 "\" has values that are not numbers; a picture needs an axis");
+}
+
+} // namespace
+
+Sweep parse_sweep(const json &j, const fs::path &file) {
+    Sweep s;
+    s.file = file;
+    ObjectReader root(j, "");
+    const fs::path folder = file.empty() ? fs::current_path() : fs::absolute(file).parent_path();
+
+    s.description = root.string("description", std::string());
+    read_base(root.get("base"), file, folder, s);
+    s.parameters = read_parameters(root.get("parameters"), s.base);
+    s.combine = root.string("combine", s.combine, {"grid", "zip"});
+    s.members = make_members(s);
 
     const std::string stem = file.empty() ? std::string("sweep") : file.stem().string();
     s.output_dir = "out/" + stem;
@@ -275,74 +372,8 @@ Sweep parse_sweep(const json &j, const fs::path &file) {
         if (s.output_dir.empty()) throw ConfigError("/output/dir", "\"\" is empty; expected a folder path");
         o.finish();
     }
-
-    if (root.has("figures")) {
-        const json &figures = root.get("figures");
-        if (!figures.is_array())
-            throw ConfigError("/figures", short_dump(figures) + " must be an array of figure names");
-        for (std::size_t i = 0; i < figures.size(); ++i) {
-            const std::string at = "/figures/" + std::to_string(i);
-            if (!figures[i].is_string()) throw ConfigError(at, short_dump(figures[i]) + " must be a figure name");
-            const std::string name = figures[i].get<std::string>();
-            const auto &names = sweep_figure_names();
-            if (is_figure_pointer(name)) {
-                try {
-                    json::json_pointer{name};
-                } catch (const json::exception &) {
-                    throw ConfigError(at, "\"" + name + "\" is not a JSON pointer into manifest.json");
-                }
-            } else if (std::find(names.begin(), names.end(), name) == names.end()) {
-                std::string msg = "unknown figure \"" + name + "\"";
-                const std::string hint = did_you_mean(name, names);
-                if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
-                msg += " (known:";
-                for (const auto &n : names) msg += " " + n;
-                throw ConfigError(at, msg + ", or a JSON pointer into the member's manifest.json)");
-            }
-            s.figures.push_back(name);
-        }
-    } else {
-        s.figures = default_figures(s.base);
-    }
-
-    const auto numeric = [](const SweepParameter &p) {
-        return std::all_of(p.values.begin(), p.values.end(), [](const json &v) { return v.is_number(); });
-    };
-    if (root.has("plot") && root.get("plot").is_boolean()) {
-        if (root.boolean("plot", true)) {
-            if (s.figures.empty()) throw ConfigError("/plot", "true, but there is no figure to draw");
-            s.plot_figure = s.figures.front();
-        }
-    } else if (root.has("plot")) {
-        ObjectReader pl(root.get("plot"), "/plot");
-        s.plot_figure = pl.string("figure", s.figures.empty() ? std::string() : s.figures.front(), s.figures);
-        if (s.plot_figure.empty()) throw ConfigError("/plot/figure", "there is no figure to draw");
-        if (pl.has("parameter")) {
-            const std::string which = pl.string("parameter", std::nullopt);
-            std::vector<std::string> choices;
-            bool found = false;
-            for (std::size_t i = 0; i < s.parameters.size() && !found; ++i) {
-                if (s.parameters[i].path == which || s.parameters[i].name == which) {
-                    s.plot_parameter = i;
-                    found = true;
-                }
-                choices.push_back(s.parameters[i].name);
-            }
-            if (!found) {
-                std::string msg = "\"" + which + "\" is not a swept parameter's path or name";
-                const std::string hint = did_you_mean(which, choices);
-                if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
-                throw ConfigError(pl.child("parameter"), msg);
-            }
-        }
-        pl.finish();
-        if (!numeric(s.parameters[s.plot_parameter]))
-            throw ConfigError("/plot/parameter", "\"" + s.parameters[s.plot_parameter].path +
-                                                     "\" has values that are not numbers; a picture needs an axis");
-    } else if (!s.figures.empty() && numeric(s.parameters.front())) {
-        s.plot_figure = s.figures.front(); // by default the first figure against the first parameter
-    }
-
+    s.figures = root.has("figures") ? read_figures(root.get("figures")) : default_figures(s.base);
+    read_plot(root, s);
     s.processes = static_cast<int>(root.count("processes", 0, 1, 4096));
     s.threads = static_cast<int>(root.count("threads", 0, 1, 1024));
     root.finish();

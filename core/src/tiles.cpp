@@ -1,8 +1,8 @@
 // The flow map and Cauchy–Green fields tile by tile (see tiles.hpp).
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
-#include <geobarrier/mpi.hpp>
-#include <geobarrier/tiles.hpp>
+#include "mpi.hpp"
+#include "tiles.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -232,11 +232,12 @@ GridFields compute_grid_fields(const Dynamics &dynamics, const Grid &grid, doubl
                                const IntegratorSettings &settings, const std::optional<Bounds> &bounds,
                                const FieldPlan &plan, const ProgressFn &progress) {
     if (grid.nx < 2 || grid.ny < 2)
-        throw ConfigError("/grid/n", "the grid needs at least 2 points per direction (got " + std::to_string(grid.nx) +
-                                         " x " + std::to_string(grid.ny) + ")");
+        throw EngineSettingError(EngineSetting::grid, "the grid needs at least 2 points per direction (got " +
+                                                          std::to_string(grid.nx) + " x " + std::to_string(grid.ny) +
+                                                          ")");
     const GradientMethod gradient = plan.cauchy_green ? plan.gradient : GradientMethod::none;
     if (gradient == GradientMethod::auxiliary_grid && !(plan.aux_offset > 0.0 && std::isfinite(plan.aux_offset)))
-        throw ConfigError("/cauchy_green/offset", std::to_string(plan.aux_offset) + " is not a positive offset");
+        throw EngineSettingError(EngineSetting::offset, std::to_string(plan.aux_offset) + " is not a positive offset");
     const std::size_t count = grid.size();
     const TileJob job{dynamics, grid, t0, t1, settings, bounds, plan, gradient,
                       plan.aux_offset * grid.dx(), plan.aux_offset * grid.dy(), std::abs(t1 - t0)};

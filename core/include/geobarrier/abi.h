@@ -18,7 +18,7 @@
  *     naming both versions. A new major version is for changes that cannot be made this way.
  *
  * Batched, structure-of-arrays evaluation: a batch holds `n` lanes; component
- * i of lane k lives at `x[i * ld + k]` (ld >= n). Every lane has its own time.
+ * i of lane k lives at `x[i * ld + k]` (ld >= n). Every lane has its own time t[k]; threads, lifetimes: at the end.
  *
  * Plugin authors normally do not fill these structs by hand: <geobarrier/sdk.hpp>
  * turns a C++ class into them. This header compiles as C99 and as C++. */
@@ -106,7 +106,7 @@ typedef struct gb_param_values {
 
 /* Thread contract of the objects a plugin creates. */
 #define GB_THREAD_SAFE_CONCURRENT 1u /* one instance may be called from many threads at once */
-#define GB_THREAD_SAFE_PER_INSTANCE 0u /* one instance per thread; instances independent */
+#define GB_THREAD_SAFE_PER_INSTANCE 0u /* one thread at a time per instance: the core then integrates on one thread */
 
 /* A caller-owned buffer for an error message (always NUL-terminated). */
 typedef struct gb_message {
@@ -166,7 +166,7 @@ typedef struct gb_advance_request {
 } gb_advance_request;
 
 /* x' = v(x, t; f(t)) with state dimension `dimension`.
- *   t[k]        time of lane k
+ *   t[k]        time of lane k (equal in every lane of the lockstep engine's calls, not in general)
  *   x[i*ld+k]   state
  *   f[k]        forcing value at t[k] (evaluated by the core from the forcing plugin)
  *   dxdt[i*ld+k] output
@@ -241,8 +241,8 @@ typedef struct gb_extract_input {
     const char *const *state_units;
 } gb_extract_input;
 
-/* Services the core offers an extractor during extract(): the host pattern of
- * stable plugin ABIs. `context` is opaque and must be passed back. */
+/* Services the core offers an extractor during extract() only, from extract()'s thread only (see the end): the host
+ * pattern of stable plugin ABIs. `context` is opaque and must be passed back. */
 typedef struct gb_host {
     void *context;
     /* Log one line at level 0 = debug, 1 = info, 2 = warning. */
@@ -339,5 +339,29 @@ typedef const gb_plugin_entry *(*gb_plugin_entry_with_host_fn)(const gb_host_inf
 #ifdef __cplusplus
 }
 #endif
+
+/* The contracts of every call across this boundary.
+ *
+ * Times. Every lane carries its own time t[k]: the core's lockstep engine passes the same value in every lane of a
+ * call (a batch advances together), while other callers (check-plugin's conformance checks, forcings evaluated at
+ * sample times) pass different ones; read t[k] per lane, never assume the lanes' times are equal. A fused step
+ * (gb_advance_request) is the exception: all its lanes share t.
+ *
+ * Pointer lifetimes. What the caller passes into a call (states, times, forcing values, output buffers, requests,
+ * gb_param_values and its strings, gb_extract_input with its fields, mask and names, the gb_host, gb_message) is
+ * valid only during that call: copy what must outlive it. What a plugin hands the core (the entry, descriptors,
+ * parameter specs, vtables, names, docs, required_fields, domain and state names, extensions) must stay valid and
+ * unchanged as long as the library is loaded. An instance (`self`, from create) is valid until destroy, which the
+ * core calls exactly once, after its last call on that instance. Arrays given to gb_host.add_barrier and
+ * set_barrier_attributes are copied before the call returns. gb_host_info lives as long as the process.
+ *
+ * Threads. The core calls an entry point, create and destroy from one thread at a time. A system's or forcing's
+ * rhs, jacobian, divergence, advance, evaluate and combine are called on one instance from several threads at once
+ * (each call with its own buffers) when the descriptor says GB_THREAD_SAFE_CONCURRENT. With
+ * GB_THREAD_SAFE_PER_INSTANCE they are called from one thread at a time: the core does not create one instance per
+ * thread, it integrates with such a system or forcing (or a composite forcing with such a term) on one thread;
+ * separate instances are independent. An extractor's extract() runs on one thread; it may use threads of its own,
+ * but calls the gb_host functions only from the thread that runs extract() (the host's list of barriers has no
+ * lock). */
 
 #endif /* GEOBARRIER_ABI_H */

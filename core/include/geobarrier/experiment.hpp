@@ -4,6 +4,7 @@
 #ifndef GEOBARRIER_EXPERIMENT_HPP
 #define GEOBARRIER_EXPERIMENT_HPP
 
+#include <geobarrier/errors.hpp>
 #include <geobarrier/flow_map.hpp>
 #include <geobarrier/grid.hpp>
 #include <geobarrier/plugin.hpp>
@@ -84,6 +85,20 @@ IntegratorSettings quality_preset(const std::string &quality);
 // atol)) and the rounding noise of the centred differences stays below the tolerance; at most 0.5
 // (docs/experiment-format.md, cauchy_green).
 double default_aux_offset(const IntegratorSettings &integrator, const Grid &grid);
+
+// The JSON path in an experiment file of a setting of the flow-map engine (flow_map.hpp, EngineSetting), e.g.
+// "/integrator/rtol".
+std::string json_path_of(EngineSetting setting);
+
+// Runs `step`; a setting the engine refuses (EngineSettingError) comes out as the ConfigError at that setting's JSON
+// path, with the engine's message. resolve_experiment and run_experiment report the engine's refusals this way.
+template <class Step> auto with_json_paths(Step &&step) -> decltype(step()) {
+    try {
+        return step();
+    } catch (const EngineSettingError &e) {
+        throw ConfigError(json_path_of(e.setting()), e.message());
+    }
+}
 
 // Parses and checks the structure and values of an experiment (not yet the
 // plugins' parameters: see ResolvedExperiment). Every error is a ConfigError

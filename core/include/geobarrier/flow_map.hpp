@@ -21,6 +21,7 @@
 #include <cstdint>
 #include <functional>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -87,6 +88,40 @@ struct Dynamics {
     const System *system = nullptr;
     const Forcing *forcing = nullptr;
     const Slice *slice = nullptr; // required for systems of dimension > 2 in the planar functions; else ignored
+};
+
+// The engine's settings, by the engine's own names: a bad one is reported as an EngineSettingError naming it. The
+// engine does not know where its settings came from; the experiment layer maps each to its JSON path
+// (experiment.hpp, json_path_of).
+enum class EngineSetting {
+    system,    // the dynamical system (missing, or of a dimension the engine does not handle)
+    method,    // IntegratorSettings::method
+    engine,    // IntegratorSettings::engine
+    rtol,      // IntegratorSettings::rtol
+    atol,      // IntegratorSettings::atol
+    step,      // IntegratorSettings::step
+    batch,     // IntegratorSettings::batch
+    max_steps, // IntegratorSettings::max_steps
+    time,      // t0, t1
+    gradient,  // the gradient method
+    offset,    // the auxiliary-grid offset
+    grid       // the grid's points
+};
+const char *to_string(EngineSetting setting);
+
+// A setting the engine cannot work with. what() reads "<setting>: <message>" (e.g. "rtol: 1.000000 must be between
+// 0 and 1 (exclusive)"); message() is the part after the setting's name.
+class EngineSettingError : public std::invalid_argument {
+  public:
+    EngineSettingError(EngineSetting setting, const std::string &message)
+        : std::invalid_argument(std::string(to_string(setting)) + ": " + message), m_setting(setting),
+          m_message(message) {}
+    EngineSetting setting() const { return m_setting; }
+    const std::string &message() const { return m_message; }
+
+  private:
+    EngineSetting m_setting;
+    std::string m_message;
 };
 
 // Totals over all trajectories of a stage, for the manifest.
@@ -156,7 +191,7 @@ enum class GradientMethod {
     auxiliary_grid, // centred differences of 4 neighbours at +-offset*dx, +-offset*dy
     variational     // DF from the variational equations (needs the system's Jacobian)
 };
-GradientMethod parse_gradient_method(const std::string &name);
+GradientMethod parse_gradient_method(const std::string &name); // throws EngineSettingError (gradient)
 const char *to_string(GradientMethod method);
 
 struct GridFlowMap {
@@ -177,6 +212,11 @@ GridFlowMap compute_grid_flow_map(const Dynamics &dynamics, const Grid &grid, do
                                   const IntegratorSettings &settings, GradientMethod gradient, double aux_offset,
                                   bool want_positions, const std::optional<Bounds> &bounds = std::nullopt,
                                   const ProgressFn &progress = {});
+
+// The checks every entry point of the engine makes before it integrates anything, for a caller that wants its
+// settings refused before it starts (the experiment layer, at resolve time): throws EngineSettingError.
+void check_flow_map_settings(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings,
+                             GradientMethod gradient);
 
 // One line on why trajectories were masked, with the counts per reason; when the step limit is among them, it names
 // the stepper and suggests rosenbrock4 (stiff systems) or a larger max_steps. Empty when nothing was masked.

@@ -3,9 +3,10 @@
 #ifndef GEOBARRIER_RESOURCES_HPP
 #define GEOBARRIER_RESOURCES_HPP
 
+#include "tiles.hpp"
+
 #include <geobarrier/flow_map.hpp>
 #include <geobarrier/grid.hpp>
-#include <geobarrier/tiles.hpp>
 
 #include <cstdint>
 #include <filesystem>

@@ -437,10 +437,73 @@ std::vector<Case> output_battery() {
     return cases;
 }
 
+// Systems of more than two state components: grids over slices (docs/experiment-format.md, grids as slices).
+std::vector<Case> slice_battery() {
+    const std::string nan_lib = (bad_plugin_dir / "geobarrier-bad-input.so").string();
+    std::vector<Case> cases;
+    auto add = [&](Case c) { cases.push_back(std::move(c)); };
+    const auto coupled = [](json &j) {
+        j["system"] = {{"plugin", "coupled-duffing"}};
+        j["grid"] = {{"axes", {"x1", "v1"}}, {"x1", {-1.5, 1.5}}, {"v1", {-1, 1}}, {"n", {11, 9}},
+                     {"fixed", {{"x2", 0}, {"v2", 0}}}};
+    };
+    add(json_case("slice: an axis names an unknown component, with a hint",
+                  [coupled](json &j) {
+                      coupled(j);
+                      j["grid"]["axes"] = {"x1", "v3"};
+                      j["grid"].erase("v1");
+                      j["grid"]["v3"] = {-1, 1};
+                  },
+                  2, {"/grid/axes/1", "\"v3\" is not a state component", "x1 v1 x2 v2"}));
+    add(json_case("slice: a fixed component that is a grid axis",
+                  [coupled](json &j) {
+                      coupled(j);
+                      j["grid"]["fixed"]["x1"] = 0.5;
+                  },
+                  2, {"/grid/fixed/x1", "axis of the grid"}));
+    add(json_case("slice: a component neither on an axis nor fixed",
+                  [coupled](json &j) {
+                      coupled(j);
+                      j["grid"]["fixed"].erase("v2");
+                  },
+                  2, {"/grid/fixed", "\"v2\"", "on an axis or fixed"}));
+    add(json_case("slice: a fixed component the system does not have",
+                  [coupled](json &j) {
+                      coupled(j);
+                      j["grid"]["fixed"]["y9"] = 0;
+                  },
+                  2, {"/grid/fixed/y9", "not a state component"}));
+    add(json_case("a four-dimensional system on a planar grid (no axes)",
+                  [](json &j) {
+                      j["system"] = {{"plugin", "coupled-duffing"}};
+                  },
+                  2, {"/grid", "4 state components", "\"axes\""}));
+    add(json_case("slice: the full tensor has no eigenvectors on the slice",
+                  [coupled](json &j) {
+                      coupled(j);
+                      j["products"] = {"ftle", "eigenvectors"};
+                  },
+                  2, {"/cauchy_green/slice_tensor", "\"eigenvectors\"", "\"restricted\""}));
+    add(json_case("slice: an extractor with the restricted tensor",
+                  [coupled](json &j) {
+                      coupled(j);
+                      j["cauchy_green"] = {{"slice_tensor", "restricted"}};
+                      j["extractors"] = {{{"plugin", "hyperbolic"}}};
+                  },
+                  2, {"/extractors/0", "two-dimensional flow map", "\"projected\""}));
+    add(json_case("a system of dimension 7, over the engine's limit",
+                  [nan_lib](json &j) {
+                      j["system"] = {{"plugin", "seven-dimensional"}};
+                      j["plugin_paths"] = {fs::path(nan_lib).parent_path().string()};
+                  },
+                  2, {"/system/plugin", "dimension 7", "2 to 6"}));
+    return cases;
+}
+
 std::vector<Case> battery() {
     std::vector<Case> cases;
-    for (auto section : {file_battery, structure_battery, values_battery, plugin_battery, computation_battery,
-                         output_battery, equations_battery})
+    for (auto section : {file_battery, structure_battery, values_battery, plugin_battery, slice_battery,
+                         computation_battery, output_battery, equations_battery})
         for (Case &c : section()) cases.push_back(std::move(c));
     return cases;
 }

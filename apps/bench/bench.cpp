@@ -620,6 +620,46 @@ std::string suite_tag(std::size_t index, std::size_t n) {
     return "suite" + std::to_string(index) + "_N" + std::to_string(n);
 }
 
+// Systems of more than two state components: W's grid, horizon and forcing with the four-component coupled Duffing
+// system (systems/coupled-duffing, k = 0.1) on its (x1, v1) slice, the other oscillator at rest at the origin, beside
+// planar W, both with the defaults (the standard preset: checked fixed dop853 steps, fused) and the whole n x n
+// Cauchy-Green tensor; per trajectory from the flow-map stage's time. Rows go to bench.csv (section "ndim").
+std::string ndim_section(Bench &bench, std::size_t n, int repeat) {
+    json slice = workload_w(n);
+    slice["description"] = "workload W's grid on the (x1, v1) slice of coupled-duffing";
+    slice["system"] = {{"plugin", "coupled-duffing"}, {"params", {{"k", 0.1}}}};
+    slice["grid"] = {{"axes", {"x1", "v1"}}, {"x1", {-1.8, 1.8}}, {"v1", {-1.2, 1.2}}, {"n", {n, n}},
+                     {"fixed", {{"x2", 0}, {"v2", 0}}}};
+    std::vector<Row> rows;
+    for (const auto &[workload, experiment] : {std::pair<std::string, json>{"W (planar duffing, 2 components)",
+                                                                            workload_w(n)},
+                                               std::pair<std::string, json>{"coupled-duffing slice (4 components)",
+                                                                            slice}}) {
+        Row r = bench.run("ndim", workload, experiment, {"default", json::object(), 2}, {}, nan_value, repeat);
+        bench.add(r);
+        rows.push_back(r);
+    }
+    std::ostringstream md;
+    md << "## Systems of more than two components\n\nW's grid (N = " << n
+       << "), horizon and forcing with the four-component `coupled-duffing` system (k = 0.1) on its (x1, v1) slice "
+          "(x2 = v2 = 0), beside planar W, both with the defaults (checked fixed dop853 steps, the SDK's fused step, "
+          "the whole Cauchy–Green tensor), 2 threads, best of "
+       << repeat
+       << ". The variational equations carry 4 + 16 + 1 components per trajectory against 2 + 4 + 1.\n\n"
+          "| system | wall (s) | flow map (s) | core-µs per trajectory | steps per trajectory | × planar |\n"
+          "|---|---|---|---|---|---|\n";
+    const double trajectories = static_cast<double>(n) * static_cast<double>(n);
+    for (const Row &r : rows) {
+        const double per = 1e6 * r.flow_map * r.threads / trajectories;
+        const double planar = 1e6 * rows[0].flow_map * rows[0].threads / trajectories;
+        md << "| " << r.workload << " | " << fixed(r.wall, 2) << " | " << fixed(r.flow_map, 2) << " | " << fixed(per, 1)
+           << " | " << fixed(r.steps / std::ceil(trajectories / 64.0), 0) << " | " << fixed(per / planar, 2) << " |\n";
+        std::cout << "ndim: " << r.workload << ": " << fixed(per, 1) << " core-us per trajectory\n";
+    }
+    md << "\n";
+    return md.str();
+}
+
 // Runs the suite at n x n points and returns its markdown section; rows go to bench.csv (section "suite").
 std::string suite_section(Bench &bench, std::size_t n) {
     std::ostringstream md;
@@ -850,9 +890,9 @@ std::optional<int> parse_options(int argc, char **argv, BenchOptions &o) {
     app.add_option("--scipy-n", o.scipy_n, "grid of the SciPy comparison (default: --n; 300 with --quick)");
     app.add_option("--extraction-n", o.extraction_n, "grid points per direction of the extraction runs");
     app.add_option("--sections", sections_text,
-                   "comma-separated: headline,threads,widths,scaling,memory,extraction,scipy,equations,suite,sweep,"
-                   "gyre (default: all but sweep and gyre with --quick, all without); suite or equations alone need "
-                   "no baseline");
+                   "comma-separated: headline,threads,widths,scaling,memory,extraction,scipy,equations,suite,ndim,"
+                   "sweep,gyre (default: all but sweep and gyre with --quick, all without); suite, ndim or equations "
+                   "alone need no baseline");
     app.add_option("--repeat", o.repeat,
                    "runs per configuration, the fastest kept (default: 2 for threads and scaling, 1 elsewhere)");
     app.add_option("--try", o.tries,
@@ -870,8 +910,8 @@ std::optional<int> parse_options(int argc, char **argv, BenchOptions &o) {
     }
     const std::string text =
         sections_text.empty()
-            ? std::string(o.quick ? "headline,threads,widths,scaling,memory,extraction,scipy,equations,suite"
-                                  : "headline,threads,widths,scaling,memory,extraction,scipy,equations,suite,"
+            ? std::string(o.quick ? "headline,threads,widths,scaling,memory,extraction,scipy,equations,suite,ndim"
+                                  : "headline,threads,widths,scaling,memory,extraction,scipy,equations,suite,ndim,"
                                     "sweep,gyre")
             : sections_text;
     std::istringstream in(text);
@@ -886,7 +926,7 @@ struct BenchResults {
     Row base;                  // the naive Boost.Odeint baseline at N
     std::vector<Row> headline, scipy, threads, widths, scaling, extraction, sweep, gyre;
     std::optional<Row> default_row, memory;
-    std::string suite_md;
+    std::string suite_md, ndim_md;
     std::optional<EquationsTiming> equations;
 };
 
@@ -1199,6 +1239,7 @@ void report_sections(Bench &bench, const BenchOptions &o, const BenchResults &re
     report_threads(bench, o, res.threads);
     report_widths(md, o.n, res.widths);
     if (!res.suite_md.empty()) md << res.suite_md;
+    if (!res.ndim_md.empty()) md << res.ndim_md;
     report_scaling(md, res.scaling);
     if (res.memory) {
         md << "## Memory\n\nW on a " << o.memory_n << " × " << o.memory_n
@@ -1255,6 +1296,14 @@ int main(int argc, char **argv) {
     if (o.wants("suite")) res.suite_md = suite_section(bench, o.suite_n > 0 ? o.suite_n : 101);
     if (o.sections == std::set<std::string>{"suite"}) {
         std::ofstream(bench.out / "bench.md") << res.suite_md;
+        std::cerr << "wrote " << (bench.out / "bench.csv").string() << " and bench.md\n";
+        return 0;
+    }
+
+    // Systems of more than two components (section "ndim"); alone, it needs no baseline either.
+    if (o.wants("ndim")) res.ndim_md = ndim_section(bench, std::min<std::size_t>(o.n, 300), o.best_of(2));
+    if (o.sections == std::set<std::string>{"ndim"}) {
+        std::ofstream(bench.out / "bench.md") << res.ndim_md;
         std::cerr << "wrote " << (bench.out / "bench.csv").string() << " and bench.md\n";
         return 0;
     }

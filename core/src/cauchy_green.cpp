@@ -4,6 +4,8 @@
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/errors.hpp>
 
+#include <Eigen/Dense>
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -202,6 +204,95 @@ std::uint64_t cauchy_green_into(CauchyGreenField &out, std::size_t first, std::s
         if (xi2_y) xi2_y[p] = c.xi2_y;
     }
     return degenerate;
+}
+
+CauchyGreenND cauchy_green_nd(const double *dF, unsigned dimension, double abs_duration, int exponent,
+                              double log_abs_det) {
+    constexpr double ln2 = 0.69314718055994530942;
+    const unsigned n = dimension;
+    CauchyGreenND r;
+    r.dimension = n;
+    r.lambda.assign(n, std::numeric_limits<double>::quiet_NaN());
+    r.eigenvectors.assign(std::size_t{n} * n, std::numeric_limits<double>::quiet_NaN());
+    r.ftle = r.log_lambda_max = r.log_lambda_min = std::numeric_limits<double>::quiet_NaN();
+    Eigen::MatrixXd G(n, n);
+    double big = 0.0;
+    for (unsigned i = 0; i < n; ++i)
+        for (unsigned j = 0; j < n; ++j) {
+            G(i, j) = dF[i * n + j];
+            big = std::max(big, std::abs(G(i, j)));
+        }
+    if (!std::isfinite(big) || !(big > 0.0)) return r;
+    // G / 2^k exactly (as in the planar path): singular values near 1, no overflow in the SVD's rotations.
+    const int k = std::ilogb(big);
+    G *= std::ldexp(1.0, -k);
+    const int e = exponent + k;
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(G, Eigen::ComputeFullV);
+    const Eigen::VectorXd s = svd.singularValues(); // descending
+    std::vector<double> log_sigma(n);
+    for (unsigned i = 0; i < n; ++i) log_sigma[i] = std::log(s(i)) + e * ln2;
+    if (std::isfinite(log_abs_det)) {
+        double others = 0.0;
+        for (unsigned i = 0; i + 1 < n; ++i) others += log_sigma[i];
+        log_sigma[n - 1] = std::min(log_abs_det - others, log_sigma[n - 2]);
+    }
+    for (unsigned i = 0; i < n; ++i) {
+        const unsigned from = n - 1 - i; // ascending
+        r.lambda[i] = std::exp(2.0 * log_sigma[from]);
+        for (unsigned j = 0; j < n; ++j) r.eigenvectors[std::size_t{i} * n + j] = svd.matrixV()(j, from);
+    }
+    r.log_lambda_max = 2.0 * log_sigma[0];
+    r.log_lambda_min = 2.0 * log_sigma[n - 1];
+    r.ftle = abs_duration > 0.0 ? r.log_lambda_max / (2.0 * abs_duration) : 0.0;
+    return r;
+}
+
+void slice_gradient(const double *dF, unsigned dimension, const std::array<unsigned, 2> &axes, SliceTensor tensor,
+                    int exponent, double log_abs_det, double *out, double &out_log_abs_det) {
+    constexpr double nan = std::numeric_limits<double>::quiet_NaN();
+    const unsigned n = dimension, a = axes[0], b = axes[1];
+    out_log_abs_det = nan;
+    switch (tensor) {
+    case SliceTensor::projected:
+        out[0] = dF[a * n + a];
+        out[1] = dF[a * n + b];
+        out[2] = dF[b * n + a];
+        out[3] = dF[b * n + b];
+        return;
+    case SliceTensor::restricted: {
+        Eigen::MatrixXd M(n, 2);
+        for (unsigned i = 0; i < n; ++i) {
+            M(i, 0) = dF[i * n + a];
+            M(i, 1) = dF[i * n + b];
+        }
+        const Eigen::HouseholderQR<Eigen::MatrixXd> qr(M);
+        const Eigen::MatrixXd R = qr.matrixQR().topRows(2).triangularView<Eigen::Upper>();
+        out[0] = R(0, 0);
+        out[1] = R(0, 1);
+        out[2] = 0.0;
+        out[3] = R(1, 1);
+        return;
+    }
+    case SliceTensor::full: {
+        // diag(s_max, s_min) in DF's own scale 2^exponent: cauchy_green_at then applies the same exponent.
+        const CauchyGreenND cg = cauchy_green_nd(dF, n, 1.0, 0, nan);
+        constexpr double ln2 = 0.69314718055994530942;
+        const double log_max = 0.5 * cg.log_lambda_max;
+        double log_min = 0.5 * cg.log_lambda_min;
+        if (std::isfinite(log_abs_det) && std::isfinite(log_max)) {
+            // Liouville in DF's scale: log|det dF| = log|det DF| - n exponent log 2; s_min = |det| / (others).
+            double others = 0.0;
+            for (unsigned i = 1; i + 1 < n; ++i) others += 0.5 * std::log(cg.lambda[i]);
+            log_min = std::min(log_abs_det - n * exponent * ln2 - log_max - others, log_max);
+            // Both entries in DF's true scale: cauchy_green_at adds log_abs_det only through det = product.
+            out_log_abs_det = log_max + log_min + 2 * exponent * ln2;
+        }
+        out[0] = std::exp(log_max);
+        out[1] = out[2] = 0.0;
+        out[3] = std::exp(log_min);
+        return;
+    }
+    }
 }
 
 }  // namespace geobarrier

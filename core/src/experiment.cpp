@@ -164,11 +164,48 @@ namespace {
 
 // The sections of an experiment file, one reader each, in the order parse_experiment reads them.
 
-Grid read_grid(const json &section) {
+// `slice` receives the grid's "axes" and "fixed" when it names axes.
+Grid read_grid(const json &section, std::optional<GridSliceSpec> &slice_out) {
     ObjectReader g(section, "/grid");
     Grid grid;
-    std::tie(grid.x_min, grid.x_max) = g.interval("x");
-    std::tie(grid.y_min, grid.y_max) = g.interval("y");
+    // A slice names its two axes (state components, checked against the system's names in resolve_experiment)
+    // and gives their intervals under those names; a planar grid uses "x" and "y".
+    std::array<std::string, 2> axis_keys{"x", "y"};
+    if (g.has("axes")) {
+        const json &axes = g.get("axes");
+        if (!axes.is_array() || axes.size() != 2 || !axes[0].is_string() || !axes[1].is_string())
+            throw ConfigError("/grid/axes", short_dump(axes) + " must be an array of two state component names");
+        GridSliceSpec slice;
+        for (int k = 0; k < 2; ++k) slice.axes[k] = axes[k].get<std::string>();
+        if (slice.axes[0] == slice.axes[1])
+            throw ConfigError("/grid/axes/1", "\"" + slice.axes[1] + "\" is the grid's first axis too; name two "
+                                              "different state components");
+        for (int k = 0; k < 2; ++k)
+            if (slice.axes[k] == "axes" || slice.axes[k] == "n" || slice.axes[k] == "fixed")
+                throw ConfigError("/grid/axes/" + std::to_string(k),
+                                  "\"" + slice.axes[k] + "\" is a key of the grid, not a state component name");
+        axis_keys = slice.axes;
+        if (g.has("fixed")) {
+            const json &fixed = g.get("fixed");
+            if (!fixed.is_object())
+                throw ConfigError("/grid/fixed", short_dump(fixed) + " must be an object {component: value}");
+            for (const auto &[name, value] : fixed.items()) {
+                const std::string path = "/grid/fixed/" + name;
+                if (name == slice.axes[0] || name == slice.axes[1])
+                    throw ConfigError(path, "fixes \"" + name + "\", which is an axis of the grid; a component "
+                                            "is either on an axis or fixed");
+                if (!value.is_number() || !std::isfinite(value.get<double>()))
+                    throw ConfigError(path, short_dump(value) + " must be a finite number");
+                slice.fixed.emplace_back(name, value.get<double>());
+            }
+        }
+        slice_out = slice;
+    } else if (g.has("fixed")) {
+        throw ConfigError("/grid/fixed", "fixes components of a grid that names no \"axes\"; give \"axes\": "
+                                         "[the two components the grid spans]");
+    }
+    std::tie(grid.x_min, grid.x_max) = g.interval(axis_keys[0]);
+    std::tie(grid.y_min, grid.y_max) = g.interval(axis_keys[1]);
     const json &n = g.get("n");
     if (!n.is_array() || n.size() != 2 || !n[0].is_number_integer() || !n[1].is_number_integer())
         throw ConfigError("/grid/n", short_dump(n) + " must be an array of two integers [nx, ny]");
@@ -192,11 +229,12 @@ void read_time(const json &section, Experiment &e) {
     t.finish();
 }
 
-Bounds read_bounds(const json &section) {
+Bounds read_bounds(const json &section, const std::optional<GridSliceSpec> &slice) {
     ObjectReader b(section, "/bounds");
     Bounds box{};
-    std::tie(box.x_min, box.x_max) = b.interval("x");
-    std::tie(box.y_min, box.y_max) = b.interval("y");
+    // Over a slice the box limits the grid's axes, named as in the grid.
+    std::tie(box.x_min, box.x_max) = b.interval(slice ? slice->axes[0] : "x");
+    std::tie(box.y_min, box.y_max) = b.interval(slice ? slice->axes[1] : "y");
     b.finish();
     return box;
 }
@@ -246,6 +284,15 @@ void read_integrator(const json &section, IntegratorSettings &s, std::vector<std
 void read_cauchy_green(const json &section, Experiment &e) {
     ObjectReader r(section, "/cauchy_green");
     e.gradient_method = r.string("method", e.gradient_method, {"auto", "auxiliary-grid", "variational"});
+    if (r.has("slice_tensor")) {
+        const std::string tensor = r.string("slice_tensor", "full", {"full", "restricted", "projected"});
+        if (!e.slice)
+            throw ConfigError("/cauchy_green/slice_tensor", "\"" + tensor + "\" applies to grids over a slice "
+                                                            "(\"grid\": {\"axes\": ...}), and this grid names no axes");
+        e.slice->tensor = tensor == "restricted" ? SliceTensor::restricted
+                        : tensor == "projected"  ? SliceTensor::projected
+                                                 : SliceTensor::full;
+    }
     e.aux_offset = r.positive("offset", default_aux_offset(e.integrator, e.grid));
     if (e.aux_offset > 0.5)
         throw ConfigError("/cauchy_green/offset",
@@ -332,9 +379,9 @@ Experiment parse_experiment(const json &j, const fs::path &file) {
     e.system = read_plugin_use(root.get("system"), "/system");
     if (root.has("forcing")) e.forcing = read_plugin_use(root.get("forcing"), "/forcing", 0);
     else e.forcing = PluginUse{"none", json::object(), "/forcing", {}, ""};
-    e.grid = read_grid(root.get("grid"));
+    e.grid = read_grid(root.get("grid"), e.slice);
     read_time(root.get("time"), e);
-    if (root.has("bounds")) e.bounds = read_bounds(root.get("bounds"));
+    if (root.has("bounds")) e.bounds = read_bounds(root.get("bounds"), e.slice);
     // The quality preset sets the integrator; the experiment's own integrator keys override it one by one.
     e.quality = root.string("quality", e.quality, {"draft", "standard", "publication"});
     e.integrator = quality_preset(e.quality);
@@ -555,6 +602,63 @@ class PluginMaker {
     fs::path m_base;
 };
 
+// The names an experiment gives a system's state components: the declared ones, else x, y (planar) or x1 .. xn.
+std::vector<std::string> state_component_names(const PluginInfo &system) {
+    std::vector<std::string> names;
+    for (std::uint32_t i = 0; i < system.dimension; ++i) {
+        if (i < system.state_names.size() && !system.state_names[i].empty()) names.push_back(system.state_names[i]);
+        else if (system.dimension == 2) names.push_back(i == 0 ? "x" : "y");
+        else names.push_back("x" + std::to_string(i + 1));
+    }
+    return names;
+}
+
+// The grid's slice against the system's components: each axis names one, every other component is fixed, and a
+// system of more than two components needs a slice. Errors name the JSON path.
+std::optional<Slice> resolve_slice(const Experiment &e, const PluginInfo &system) {
+    const std::vector<std::string> names = state_component_names(system);
+    std::string listed;
+    for (const auto &n : names) listed += (listed.empty() ? "" : " ") + n;
+    if (system.dimension > max_dimension)
+        throw ConfigError("/system/plugin", "system '" + system.name + "' has dimension " +
+                                                std::to_string(system.dimension) + "; the flow map engine handles "
+                                                "dimensions 2 to " + std::to_string(max_dimension));
+    if (!e.slice) {
+        if (system.dimension != 2)
+            throw ConfigError("/grid", "system '" + system.name + "' has " + std::to_string(system.dimension) +
+                                           " state components (" + listed + "): name the two the grid spans with "
+                                           "\"axes\" and fix the others with \"fixed\"");
+        return std::nullopt;
+    }
+    const auto index_of = [&](const std::string &name, const std::string &path) {
+        const auto it = std::find(names.begin(), names.end(), name);
+        if (it == names.end()) {
+            std::string msg = "\"" + name + "\" is not a state component of system '" + system.name + "' (" + listed + ")";
+            const std::string hint = did_you_mean(name, names);
+            if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
+            throw ConfigError(path, msg);
+        }
+        return static_cast<unsigned>(it - names.begin());
+    };
+    Slice slice;
+    slice.tensor = e.slice->tensor;
+    slice.state.assign(system.dimension, std::numeric_limits<double>::quiet_NaN());
+    for (std::size_t k = 0; k < 2; ++k) slice.axes[k] = index_of(e.slice->axes[k], "/grid/axes/" + std::to_string(k));
+    std::vector<bool> given(system.dimension, false);
+    given[slice.axes[0]] = given[slice.axes[1]] = true;
+    for (const auto &[name, value] : e.slice->fixed) {
+        const unsigned i = index_of(name, "/grid/fixed/" + name);
+        slice.state[i] = value;
+        given[i] = true;
+    }
+    for (std::uint32_t i = 0; i < system.dimension; ++i)
+        if (!given[i])
+            throw ConfigError("/grid/fixed", "gives no value for \"" + names[i] + "\", which is not on an axis "
+                                             "either; every component of system '" + system.name + "' (" + listed +
+                                             ") is on an axis or fixed");
+    return slice;
+}
+
 // What to compute: the gradient only for Cauchy–Green products or extractors, the positions only for the flow_map
 // product; the gradient's method, checked against the system.
 void plan_stages(ResolvedExperiment &r) {
@@ -572,13 +676,46 @@ void plan_stages(ResolvedExperiment &r) {
         if (r.gradient == GradientMethod::variational && !r.system.has_jacobian())
             throw ConfigError("/cauchy_green/method", "\"variational\" needs the system's Jacobian, and system '" +
                                                           system_name + "' provides none; use \"auxiliary-grid\"");
+        if (r.slice && r.system.dimension() > 2 && r.gradient == GradientMethod::auxiliary_grid)
+            throw ConfigError("/cauchy_green/method",
+                              "auxiliary-grid handles planar systems; system '" + system_name + "' has dimension " +
+                                  std::to_string(r.system.dimension()) + ": give it a Jacobian (SDK plugins derive "
+                                  "one from a templated field) and use \"variational\"");
+    }
+    // The whole n x n tensor's eigenvectors do not lie in the slice: what is built on them needs a 2 x 2 tensor.
+    if (r.slice && r.system.dimension() > 2 && r.slice->tensor == SliceTensor::full) {
+        std::string needs;
+        for (const char *product : {"eigenvectors", "strain_deviation", "shear_deviation_plus", "shear_deviation_minus"})
+            if (e.wants(product)) needs += std::string(needs.empty() ? "" : ", ") + "product \"" + product + "\"";
+        if (!e.extractors.empty()) needs += std::string(needs.empty() ? "" : ", ") + "extractors";
+        if (!needs.empty())
+            throw ConfigError("/cauchy_green/slice_tensor",
+                              "\"full\" (the default over a slice): the eigenvectors of the whole " +
+                                  std::to_string(r.system.dimension()) + " x " + std::to_string(r.system.dimension()) +
+                                  " tensor do not lie in the slice, and " + needs + " need them; use \"restricted\" "
+                                  "or \"projected\" (docs/experiment-format.md, grids as slices)");
+    }
+    // The extractors implement the geodesic theory of two-dimensional flow maps (docs/extractors.md, "Systems of
+    // more than two components"). On a slice of a higher-dimensional system that theory holds for the projected
+    // tensor of an invariant slice (the slice's own planar flow map, e.g. uncoupled components), and for nothing
+    // else: the restricted tensor measures stretching that leaves the slice, whose curves are no material barriers.
+    if (r.slice && r.system.dimension() > 2 && !e.extractors.empty()) {
+        if (r.slice->tensor != SliceTensor::projected)
+            throw ConfigError(e.extractors.front().json_path,
+                              "extractor '" + e.extractors.front().plugin + "' finds barriers of a two-dimensional "
+                              "flow map, and system '" + system_name + "' has " + std::to_string(r.system.dimension()) +
+                              " components: on a slice it needs \"cauchy_green\": {\"slice_tensor\": \"projected\"} "
+                              "(exact when the slice is invariant, e.g. uncoupled components)");
+        r.experiment.warnings.push_back(
+            "/extractors: the barriers are those of the slice's projected flow map, material barriers of system '" +
+            system_name + "' only where the slice is invariant (e.g. uncoupled components)");
     }
     if (e.integrator.method == "rosenbrock4" && !r.system.has_jacobian())
         throw ConfigError("/integrator/method", "\"rosenbrock4\" needs the system's Jacobian, and system '" +
                                                     system_name + "' provides none; use \"dopri5\"");
     // What the flow-map engine would refuse, refused now (geobarrier validate computes nothing).
     with_json_paths([&] {
-        check_flow_map_settings(Dynamics{&r.system, &r.forcing}, e.t0, e.t1, e.integrator,
+        check_flow_map_settings(r.dynamics(), e.t0, e.t1, e.integrator,
                                 r.need_cauchy_green ? r.gradient : GradientMethod::none);
     });
 }
@@ -586,9 +723,19 @@ void plan_stages(ResolvedExperiment &r) {
 // The experiment's settings with every default filled in, into `resolved` (the manifest's "resolved").
 void echo_settings(const ResolvedExperiment &r, json &resolved) {
     const Experiment &e = r.experiment;
-    resolved["grid"] = {{"x", {e.grid.x_min, e.grid.x_max}},
-                        {"y", {e.grid.y_min, e.grid.y_max}},
-                        {"n", {e.grid.nx, e.grid.ny}}};
+    if (e.slice) {
+        json fixed = json::object();
+        for (const auto &[name, value] : e.slice->fixed) fixed[name] = value;
+        resolved["grid"] = {{"axes", e.slice->axes},
+                            {e.slice->axes[0], {e.grid.x_min, e.grid.x_max}},
+                            {e.slice->axes[1], {e.grid.y_min, e.grid.y_max}},
+                            {"n", {e.grid.nx, e.grid.ny}},
+                            {"fixed", fixed}};
+    } else {
+        resolved["grid"] = {{"x", {e.grid.x_min, e.grid.x_max}},
+                            {"y", {e.grid.y_min, e.grid.y_max}},
+                            {"n", {e.grid.nx, e.grid.ny}}};
+    }
     resolved["time"] = {{"t0", e.t0}, {"t1", e.t1}};
     resolved["quality"] = e.quality;
     resolved["integrator"] = {{"method", e.integrator.method}, {"engine", e.integrator.engine},
@@ -603,10 +750,15 @@ void echo_settings(const ResolvedExperiment &r, json &resolved) {
     }
     resolved["cauchy_green"] = {{"method", r.need_cauchy_green ? to_string(r.gradient) : "none"},
                                 {"offset", e.aux_offset}};
+    if (r.slice)
+        resolved["cauchy_green"]["slice_tensor"] = r.slice->tensor == SliceTensor::restricted ? "restricted"
+                                                   : r.slice->tensor == SliceTensor::projected  ? "projected"
+                                                                                                : "full";
     resolved["products"] = e.products;
     resolved["output"] = {{"dir", e.output_dir.string()}, {"plots", e.plots}};
     if (e.bounds)
-        resolved["bounds"] = {{"x", {e.bounds->x_min, e.bounds->x_max}}, {"y", {e.bounds->y_min, e.bounds->y_max}}};
+        resolved["bounds"] = {{e.slice ? e.slice->axes[0] : "x", {e.bounds->x_min, e.bounds->x_max}},
+                              {e.slice ? e.slice->axes[1] : "y", {e.bounds->y_min, e.bounds->y_max}}};
     if (!e.validation.empty()) resolved["validation"] = validation_to_json(e.validation, e.t0, e.t1);
 }
 
@@ -614,13 +766,19 @@ void echo_settings(const ResolvedExperiment &r, json &resolved) {
 
 ResolvedExperiment resolve_experiment(const Experiment &experiment) {
     ResolvedExperiment r{experiment, PluginRegistry(PluginRegistry::default_folders(experiment.plugin_paths)),
-                         {}, {}, {}, GradientMethod::none, false, false, json::object()};
+                         {}, {}, {}, {}, GradientMethod::none, false, false, json::object()};
     const Experiment &e = r.experiment;
     json resolved = e.source;
     const PluginMaker make(r);
     r.system = make.system(e.system, resolved["system"]);
     r.forcing = make.forcing(e.forcing, resolved["forcing"]);
     r.extractors = make.extractors(e.extractors, resolved["extractors"]);
+    r.slice = resolve_slice(e, r.system.info());
+    if (e.validation.section && e.validation.section->normal.size() != r.system.dimension())
+        throw ConfigError("/validation/section/normal",
+                          "has " + std::to_string(e.validation.section->normal.size()) + " components, and system '" +
+                              r.system.info().name + "' has " + std::to_string(r.system.dimension()) +
+                              " (the seeds likewise)");
     plan_stages(r);
     // Refuse up front a grid the machine cannot hold (the estimate of the tiled run errs on the high side).
     check_memory(estimate_run_memory(e.grid, e.integrator, plan_fields(r)), available_memory(), e.grid);

@@ -3,6 +3,7 @@
 // Long horizons: the variational equations are renormalised (DF rescaled by exact powers of 2) and carry log|det DF|
 // by Liouville's formula. Stiff systems: Boost.Odeint's rosenbrock4 with the plugin's Jacobian.
 #include <geobarrier/cancel.hpp>
+#include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/flow_map.hpp>
 #include <geobarrier/rk_tableaux.hpp>
@@ -20,6 +21,7 @@
 #include <boost/numeric/odeint/stepper/runge_kutta_fehlberg78.hpp>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -29,12 +31,30 @@
 #include <limits>
 #include <optional>
 #include <string>
+#include <tuple>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
 namespace geobarrier {
 
+// What the engine's translation units share (flow_map_engine::run_batches_for below).
+namespace flow_map_engine {
+// Auxiliary-grid batches: every `per_point` consecutive lanes are the neighbours (+dx, -dx, +dy, -dy[, centre]) of
+// one grid point. The error norm then also covers the centred differences (F(+) - F(-)) / 2d, so the tolerances
+// bound the error of the gradient the user asked for, as they do for DF in the variational equations, and not
+// only the error of the positions (with atol 1e-4 and d ~ 1e-6 a position-only norm leaves the difference
+// quotient's error unbounded). per_point = 0: plain trajectories.
+struct DifferenceControl {
+    std::size_t per_point = 0;
+    double inv_2dx = 0.0, inv_2dy = 0.0;
+};
+
+}  // namespace flow_map_engine
+
 namespace {
+
+using flow_map_engine::DifferenceControl;
 
 namespace odeint = boost::numeric::odeint;
 using State = std::vector<double>;
@@ -63,10 +83,14 @@ constexpr int renormalise_exponent = 256;
 constexpr double renormalise_low = 0.5;
 constexpr unsigned renormalise_every = 4;
 
-// State layout of a lane: x, y, then with the variational equations F11 F12 F21 F22 (row-major DF) and
-// l = log|det DF|, whose derivative is tr Dv (Liouville).
-constexpr std::size_t position_components = 2, variational_components = 7;
-constexpr std::size_t comp_f11 = 2, comp_log_det = 6;
+// State layout of a lane of a system of dimension N: the N state components, then with the variational equations
+// DF row-major (N^2 components from comp_f11; F11 F12 F21 F22 in the plane) and l = log|det DF|, whose derivative
+// is tr Dv (Liouville). The engine is a template on N (compile-time loops, so the planar kernel is what it was),
+// instantiated for 2 .. max_dimension.
+template <unsigned N> struct LaneLayout {
+    static constexpr std::size_t position_components = N, variational_components = N + N * N + 1;
+    static constexpr std::size_t comp_f11 = N, comp_log_det = N + N * N;
+};
 
 // ---- reductions over a batch's lanes, once per step
 // Eigen's vectorised reductions (packet max and sum, reassociated), where `#pragma omp simd reduction(max : ...)`
@@ -95,14 +119,15 @@ Method parse_method(const std::string &name) {
                              "unknown method \"" + name + "\"; expected dop853, dopri5, rkf78, rk4 or rosenbrock4");
 }
 
-void validate(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings, bool variational) {
+[[maybe_unused]] void validate(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings,
+                               bool variational) {
     if (!dynamics.system) throw Error("flow map: no dynamical system given");
     parse_method(settings.method);
-    if (dynamics.system->dimension() != 2)
-        throw EngineSettingError(EngineSetting::system,
-                                 "system '" + dynamics.system->info().name + "' has dimension " +
-                                     std::to_string(dynamics.system->dimension()) +
-                                     "; the flow map engine handles planar systems (dimension 2)");
+    const unsigned dimension = dynamics.system->dimension();
+    if (dimension < 2 || dimension > max_dimension)
+        throw EngineSettingError(EngineSetting::system, "system '" + dynamics.system->info().name + "' has dimension " +
+                                                            std::to_string(dimension) + "; the flow map engine "
+                                                            "handles dimensions 2 to " + std::to_string(max_dimension));
     if (variational && !dynamics.system->has_jacobian())
         throw EngineSettingError(EngineSetting::gradient,
                                  "system '" + dynamics.system->info().name + "' has no Jacobian; use auxiliary-grid");
@@ -134,12 +159,14 @@ void validate(const Dynamics &dynamics, double t0, double t1, const IntegratorSe
 
 // Everything one batched right-hand-side call needs. The functor handed to Odeint holds only a pointer to it,
 // because Odeint copies the system object into every do_step.
-struct BatchContext {
+template <unsigned N> struct BatchContext {
+    static constexpr std::size_t position_components = LaneLayout<N>::position_components;
+    static constexpr std::size_t comp_f11 = LaneLayout<N>::comp_f11, comp_log_det = LaneLayout<N>::comp_log_det;
     const System *system = nullptr;
     const Forcing *forcing = nullptr; // null when the system does not read the forcing
     bool variational = false;
     std::size_t n = 0;               // lanes (= ld)
-    std::size_t components = 2;      // position_components, or variational_components with DF and log|det DF|
+    std::size_t components = N;      // position_components, or variational_components with DF and log|det DF|
     std::vector<double> times, forcing_values, jac;
     std::vector<std::int32_t> lane_status;
     std::vector<std::uint8_t> mask;  // per lane, 0 = active
@@ -154,7 +181,7 @@ struct BatchContext {
         components = comps;
         times.assign(n, 0.0);
         forcing_values.assign(n, 0.0);
-        jac.assign(variational ? 4 * n : 0, 0.0);
+        jac.assign(variational ? N * N * n : 0, 0.0);
         lane_status.assign(n, GB_OK);
         mask.assign(n, 0);
         frozen.clear();
@@ -202,22 +229,45 @@ struct BatchContext {
             std::fill(lane_status.begin(), lane_status.end(), GB_OK);
             system->jacobian(n, n, times.data(), xp, forcing_values.data(), jac.data(), lane_status.data());
             note_lane_status();
-            // DF' = J DF (variational equations), DF row-major in blocks 2..5; (log|det DF|)' = tr J (Liouville).
-            // One base pointer per buffer (restrict): with a pointer per block the compiler must prove 13 ranges
-            // disjoint at run time and fell back to scalar code.
+            // DF' = J DF (variational equations), DF row-major in blocks comp_f11..; (log|det DF|)' = tr J
+            // (Liouville). One base pointer per buffer (restrict): with a pointer per block the compiler must prove
+            // the ranges disjoint at run time and fell back to scalar code. The loops over i, j, l have compile-time
+            // bounds and unroll, so the lane loop vectorises.
             const double *__restrict J = jac.data();
             const double *__restrict F = xp + comp_f11 * n;
             double *__restrict D = dp + comp_f11 * n;
+            if constexpr (N == 2) {
+                // The plane written out: the generic loops below cost 2% more instructions here (callgrind, GCC 12).
 #pragma omp simd
-            for (std::size_t k = 0; k < n; ++k) {
-                const double j11 = J[k], j12 = J[n + k], j21 = J[2 * n + k], j22 = J[3 * n + k];
-                const double f11 = F[k], f12 = F[n + k], f21 = F[2 * n + k], f22 = F[3 * n + k];
-                // The SDK's fused step sums in this order too (sdk.hpp, FusedStep::derivative).
-                D[k] = detail::mul_add(j12, f21, j11 * f11);
-                D[n + k] = detail::mul_add(j12, f22, j11 * f12);
-                D[2 * n + k] = detail::mul_add(j22, f21, j21 * f11);
-                D[3 * n + k] = detail::mul_add(j22, f22, j21 * f12);
-                D[4 * n + k] = j11 + j22; // comp_log_det
+                for (std::size_t k = 0; k < n; ++k) {
+                    const double j11 = J[k], j12 = J[n + k], j21 = J[2 * n + k], j22 = J[3 * n + k];
+                    const double f11 = F[k], f12 = F[n + k], f21 = F[2 * n + k], f22 = F[3 * n + k];
+                    // The SDK's fused step sums in this order too (sdk.hpp, FusedStep::derivative).
+                    D[k] = detail::mul_add(j12, f21, j11 * f11);
+                    D[n + k] = detail::mul_add(j12, f22, j11 * f12);
+                    D[2 * n + k] = detail::mul_add(j22, f21, j21 * f11);
+                    D[3 * n + k] = detail::mul_add(j22, f22, j21 * f12);
+                    D[4 * n + k] = j11 + j22; // comp_log_det
+                }
+            } else {
+#pragma omp simd
+                for (std::size_t k = 0; k < n; ++k) {
+#pragma GCC unroll 8
+                    for (unsigned i = 0; i < N; ++i)
+#pragma GCC unroll 8
+                        for (unsigned j = 0; j < N; ++j) {
+                            // The SDK's fused step sums in this order too (sdk.hpp, FusedStep::derivative).
+                            double sum = J[(i * N) * n + k] * F[j * n + k];
+#pragma GCC unroll 8
+                            for (unsigned l = 1; l < N; ++l)
+                                sum = detail::mul_add(J[(i * N + l) * n + k], F[(l * N + j) * n + k], sum);
+                            D[(i * N + j) * n + k] = sum;
+                        }
+                    double trace = J[k];
+#pragma GCC unroll 8
+                    for (unsigned i = 1; i < N; ++i) trace += J[(i * N + i) * n + k];
+                    D[N * N * n + k] = trace; // comp_log_det
+                }
             }
         }
         // Masked lanes are frozen: with zero derivatives in every stage their state and error stay exactly put.
@@ -234,17 +284,18 @@ struct BatchContext {
     // (the plugins give neither). Their O(sqrt(eps)) error only makes the Rosenbrock matrix slightly inexact; the
     // embedded error estimate still controls the step.
     template <class Matrix> void stiff_jacobian(const double *xp, double t, Matrix &J, double *dfdt) {
-        const std::size_t N = components * n;
-        J.clear(); // zero; odeint has sized it N x N
-        std::fill(dfdt, dfdt + N, 0.0);
+        const std::size_t size = components * n;
+        J.clear(); // zero; odeint has sized it size x size
+        std::fill(dfdt, dfdt + size, 0.0);
         constexpr double root_eps = 1.4901161193847656e-08; // sqrt(DBL_EPSILON)
-        // Dv at (x, t), at (x + e_m eps_m, t) for m = 0, 1, and at (x, t + tau); v at (x, t) and (x, t + tau).
-        m_jacs.assign(4 * 4 * n, 0.0);
-        m_v.assign(2 * 2 * n, 0.0);
-        m_xp.assign(2 * n, 0.0);
-        m_eps.assign(2 * n, 0.0);
-        std::copy(xp, xp + 2 * n, m_xp.begin());
-        for (std::size_t k = 0; k < 2 * n; ++k) m_eps[k] = root_eps * std::max(1.0, std::abs(xp[k]));
+        constexpr std::size_t NN = std::size_t{N} * N;
+        // Dv at (x, t), at (x + e_m eps_m, t) for m < N, and at (x, t + tau); v at (x, t) and (x, t + tau).
+        m_jacs.assign((N + 2) * NN * n, 0.0);
+        m_v.assign(2 * N * n, 0.0);
+        m_xp.assign(N * n, 0.0);
+        m_eps.assign(N * n, 0.0);
+        std::copy(xp, xp + N * n, m_xp.begin());
+        for (std::size_t k = 0; k < N * n; ++k) m_eps[k] = root_eps * std::max(1.0, std::abs(xp[k]));
         const double tau = root_eps * std::max(1.0, std::abs(t));
         auto jacobian_at = [&](const double *x, double time, double *out) {
             fill_time(time);
@@ -259,51 +310,55 @@ struct BatchContext {
             note_lane_status();
             ++rhs_calls;
         };
-        double *jac0 = m_jacs.data(), *jac_x = jac0 + 4 * n, *jac_y = jac_x + 4 * n, *jac_t = jac_y + 4 * n;
+        // Blocks of m_jacs: 0 at (x, t), 1 at (x, t + tau), 2 + m at (x + e_m eps_m, t).
+        double *jac0 = m_jacs.data(), *jac_t = jac0 + NN * n;
+        const auto jac_m = [&](std::size_t m) { return m_jacs.data() + (2 + m) * NN * n; };
         jacobian_at(xp, t, jac0);
         jacobian_at(xp, t + tau, jac_t);
         rhs_at(xp, t, m_v.data());
-        rhs_at(xp, t + tau, m_v.data() + 2 * n);
+        rhs_at(xp, t + tau, m_v.data() + N * n);
         if (variational) {
-            for (std::size_t m = 0; m < 2; ++m) {
+            for (std::size_t m = 0; m < N; ++m) {
                 for (std::size_t k = 0; k < n; ++k) m_xp[m * n + k] = xp[m * n + k] + m_eps[m * n + k];
-                jacobian_at(m_xp.data(), t, m == 0 ? jac_x : jac_y);
+                jacobian_at(m_xp.data(), t, jac_m(m));
                 for (std::size_t k = 0; k < n; ++k) m_xp[m * n + k] = xp[m * n + k];
             }
         }
         for (std::size_t k = 0; k < n; ++k) {
             if (mask[k] != 0) continue; // frozen: zero rows, so the lane stays put
-            auto at = [&](const double *block, std::size_t i, std::size_t j) { return block[(2 * i + j) * n + k]; };
+            auto at = [&](const double *block, std::size_t i, std::size_t j) { return block[(N * i + j) * n + k]; };
             auto row = [&](std::size_t c) { return c * n + k; };
-            for (std::size_t i = 0; i < 2; ++i) {
-                for (std::size_t j = 0; j < 2; ++j) J(row(i), row(j)) = at(jac0, i, j);
-                dfdt[row(i)] = (m_v[(2 + i) * n + k] - m_v[i * n + k]) / tau;
+            for (std::size_t i = 0; i < N; ++i) {
+                for (std::size_t j = 0; j < N; ++j) J(row(i), row(j)) = at(jac0, i, j);
+                dfdt[row(i)] = (m_v[(N + i) * n + k] - m_v[i * n + k]) / tau;
             }
             if (!variational) continue;
-            // DF' = Dv DF: row (i, j) is sum_l Dv_il F_lj. With F_lj at component comp_f11 + 2 l + j:
+            // DF' = Dv DF: row (i, j) is sum_l Dv_il F_lj. With F_lj at component comp_f11 + N l + j:
             const double *f = xp + comp_f11 * n;
-            auto F = [&](std::size_t l, std::size_t j) { return f[(2 * l + j) * n + k]; };
-            for (std::size_t i = 0; i < 2; ++i) {
-                for (std::size_t j = 0; j < 2; ++j) {
-                    const std::size_t r = row(comp_f11 + 2 * i + j);
-                    for (std::size_t l = 0; l < 2; ++l) J(r, row(comp_f11 + 2 * l + j)) = at(jac0, i, l);
-                    for (std::size_t m = 0; m < 2; ++m) {
-                        const double *jm = m == 0 ? jac_x : jac_y;
+            auto F = [&](std::size_t l, std::size_t j) { return f[(N * l + j) * n + k]; };
+            for (std::size_t i = 0; i < N; ++i) {
+                for (std::size_t j = 0; j < N; ++j) {
+                    const std::size_t r = row(comp_f11 + N * i + j);
+                    for (std::size_t l = 0; l < N; ++l) J(r, row(comp_f11 + N * l + j)) = at(jac0, i, l);
+                    for (std::size_t m = 0; m < N; ++m) {
+                        const double *jm = jac_m(m);
                         double sum = 0.0;
-                        for (std::size_t l = 0; l < 2; ++l) sum += (at(jm, i, l) - at(jac0, i, l)) * F(l, j);
+                        for (std::size_t l = 0; l < N; ++l) sum += (at(jm, i, l) - at(jac0, i, l)) * F(l, j);
                         J(r, row(m)) = sum / m_eps[m * n + k];
                     }
                     double dt_sum = 0.0;
-                    for (std::size_t l = 0; l < 2; ++l) dt_sum += (at(jac_t, i, l) - at(jac0, i, l)) * F(l, j);
+                    for (std::size_t l = 0; l < N; ++l) dt_sum += (at(jac_t, i, l) - at(jac0, i, l)) * F(l, j);
                     dfdt[r] = dt_sum / tau;
                 }
             }
+            const auto trace_change = [&](const double *block) {
+                double sum = 0.0;
+                for (std::size_t i = 0; i < N; ++i) sum += at(block, i, i) - at(jac0, i, i);
+                return sum;
+            };
             const std::size_t r = row(comp_log_det);
-            for (std::size_t m = 0; m < 2; ++m) {
-                const double *jm = m == 0 ? jac_x : jac_y;
-                J(r, row(m)) = (at(jm, 0, 0) + at(jm, 1, 1) - at(jac0, 0, 0) - at(jac0, 1, 1)) / m_eps[m * n + k];
-            }
-            dfdt[r] = (at(jac_t, 0, 0) + at(jac_t, 1, 1) - at(jac0, 0, 0) - at(jac0, 1, 1)) / tau;
+            for (std::size_t m = 0; m < N; ++m) J(r, row(m)) = trace_change(jac_m(m)) / m_eps[m * n + k];
+            dfdt[r] = trace_change(jac_t) / tau;
         }
     }
 
@@ -311,8 +366,8 @@ struct BatchContext {
     std::vector<double> m_jacs, m_v, m_xp, m_eps; // stiff_jacobian's scratch
 };
 
-struct Rhs {
-    BatchContext *ctx;
+template <unsigned N> struct Rhs {
+    BatchContext<N> *ctx;
     void operator()(const State &x, State &dxdt, double t) const { ctx->evaluate(x.data(), dxdt.data(), t); }
 };
 
@@ -356,7 +411,7 @@ struct RosenbrockCoefficients {
 // ublas vectors with a (right-hand side, Jacobian) pair; the copies in and out are a few dozen doubles.
 class RosenbrockStepper {
   public:
-    void do_step(Rhs sys, const State &x, const State & /*dxdt*/, double t, State &x_out, double dt, State &xerr) {
+    template <unsigned N> void do_step(Rhs<N> sys, const State &x, const State & /*dxdt*/, double t, State &x_out, double dt, State &xerr) {
         const std::size_t size = x.size();
         if (m_x.size() != size) {
             m_x.resize(size, false);
@@ -364,7 +419,7 @@ class RosenbrockStepper {
             m_err.resize(size, false);
         }
         std::copy(x.begin(), x.end(), m_x.begin());
-        BatchContext *ctx = sys.ctx;
+        BatchContext<N> *ctx = sys.ctx;
         auto rhs = [ctx](const Vector &u, Vector &dudt, double time) { ctx->evaluate(&u[0], &dudt[0], time); };
         auto jacobian = [ctx](const Vector &u, Matrix &J, double time, Vector &dfdt) {
             ctx->stiff_jacobian(&u[0], time, J, &dfdt[0]);
@@ -380,16 +435,6 @@ class RosenbrockStepper {
     using Matrix = Stepper::matrix_type;
     Stepper m_stepper;
     Vector m_x, m_out, m_err;
-};
-
-// Auxiliary-grid batches: every `per_point` consecutive lanes are the neighbours (+dx, -dx, +dy, -dy[, centre]) of
-// one grid point. The error norm then also covers the centred differences (F(+) - F(-)) / 2d, so the tolerances
-// bound the error of the gradient the user asked for, as they do for DF in the variational equations, and not
-// only the error of the positions (with atol 1e-4 and d ~ 1e-6 a position-only norm leaves the difference
-// quotient's error unbounded). per_point = 0: plain trajectories.
-struct DifferenceControl {
-    std::size_t per_point = 0;
-    double inv_2dx = 0.0, inv_2dy = 0.0;
 };
 
 // ---- the lockstep kernel's passes over a block: `stride` = components x lanes contiguous doubles, the stage
@@ -435,21 +480,33 @@ void error_estimate(double *__restrict err, const double *__restrict k, std::siz
     }
 }
 
-// One thread's integrator: integrates one batch at a time, reusing its buffers.
-class BatchIntegrator {
+// One thread's integrator for systems of dimension N: integrates one batch at a time, reusing its buffers.
+template <unsigned N> class BatchIntegrator {
+    static constexpr std::size_t position_components = LaneLayout<N>::position_components,
+                                 variational_components = LaneLayout<N>::variational_components;
+    static constexpr std::size_t comp_f11 = LaneLayout<N>::comp_f11, comp_log_det = LaneLayout<N>::comp_log_det;
+
+    // (0, 1, .., N - 1) as a tuple of std::size_t, for fold expressions over the state components.
+    template <std::size_t... I> static constexpr auto component_indices(std::index_sequence<I...>) {
+        return std::make_tuple(I...);
+    }
+    static constexpr auto component_indices() { return component_indices(std::make_index_sequence<N>{}); }
+
   public:
     BatchIntegrator(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings, Method method,
-                    bool variational, const std::optional<Bounds> &bounds, const DifferenceControl &differences)
+                    bool variational, const std::optional<Bounds> &bounds, const DifferenceControl &differences,
+                    const std::array<unsigned, 2> &bound_axes)
         : m_t0(t0), m_t1(t1), m_settings(settings), m_rtol(std::max(settings.rtol, min_rtol)), m_method(method),
-          m_lockstep(settings.engine != "odeint"), m_bounds(bounds), m_differences(differences) {
+          m_lockstep(settings.engine != "odeint"), m_bounds(bounds), m_bound_axes(bound_axes),
+          m_differences(differences) {
         m_ctx.system = dynamics.system;
         m_ctx.forcing = dynamics.system->uses_forcing() ? dynamics.forcing : nullptr;
         m_ctx.variational = variational;
     }
 
-    // Integrates lanes starting at (x0[k], y0[k]), k < n. Afterwards state() holds the final states (ld = n) and
-    // mask() the lanes' MaskBits; masked lanes' states are meaningless.
-    void run(std::size_t n, const double *x0, const double *y0, IntegratorStats &stats) {
+    // Integrates lanes starting at start[i * n + k] (component i < N of lane k < n). Afterwards state() holds the
+    // final states (ld = n) and mask() the lanes' MaskBits; masked lanes' states are meaningless.
+    void run(std::size_t n, const double *start, IntegratorStats &stats) {
         const std::size_t comps = m_ctx.variational ? variational_components : position_components;
         m_ctx.reset(n, comps);
         m_active = n;
@@ -458,22 +515,23 @@ class BatchIntegrator {
         m_renormalised.assign(n, 0);
         m_since_renormalise = 0;
         m_limit.resize(n);
+        std::copy(start, start + N * n, m_x.begin());
         for (std::size_t k = 0; k < n; ++k) {
-            m_x[k] = x0[k];
-            m_x[n + k] = y0[k];
-            m_limit[k] = blow_up_factor * std::max({1.0, std::abs(x0[k]), std::abs(y0[k])});
-        }
-        if (m_ctx.variational) {
-            std::fill(m_x.begin() + 2 * n, m_x.begin() + 3 * n, 1.0); // F11
-            std::fill(m_x.begin() + 5 * n, m_x.begin() + 6 * n, 1.0); // F22; log|det DF| (block 6) starts at 0
-        }
-        for (std::size_t k = 0; k < n; ++k) {
-            if (!std::isfinite(x0[k]) || !std::isfinite(y0[k])) {
+            double big = 1.0;
+            bool finite = true;
+            for (std::size_t i = 0; i < N; ++i) {
+                big = std::max(big, std::abs(start[i * n + k]));
+                finite = finite && std::isfinite(start[i * n + k]);
+            }
+            m_limit[k] = blow_up_factor * big;
+            if (!finite) {
                 freeze(k, mask_non_finite);
-                m_x[k] = 0.0; // keep what the plugin sees finite
-                m_x[n + k] = 0.0;
+                for (std::size_t i = 0; i < N; ++i) m_x[i * n + k] = 0.0; // keep what the plugin sees finite
             }
         }
+        if (m_ctx.variational) // DF = I (diagonal blocks comp_f11 + (N + 1) i); log|det DF| starts at 0
+            for (std::size_t i = 0; i < N; ++i)
+                std::fill_n(m_x.begin() + (comp_f11 + (N + 1) * i) * n, n, 1.0);
         check_bounds(nullptr);
         m_steps = m_rejected = 0;
         m_planned = 0;
@@ -561,9 +619,12 @@ class BatchIntegrator {
         if (++m_since_renormalise < renormalise_every) return;
         m_since_renormalise = 0;
         const std::size_t n = m_ctx.n;
-        const double *f11 = m_x.data() + comp_f11 * n, *f12 = f11 + n, *f21 = f12 + n, *f22 = f21 + n;
+        const double *f = m_x.data() + comp_f11 * n;
         const auto lane_max = [&](std::size_t k) {
-            return std::max(std::max(std::abs(f11[k]), std::abs(f12[k])), std::max(std::abs(f21[k]), std::abs(f22[k])));
+            double big = std::abs(f[k]);
+#pragma GCC unroll 8
+            for (std::size_t c = 1; c < N * N; ++c) big = std::max(big, std::abs(f[c * n + k]));
+            return big;
         };
         const double high = std::ldexp(1.0, renormalise_exponent), low = renormalise_low;
         int any = 0;
@@ -577,7 +638,7 @@ class BatchIntegrator {
             if (m_ctx.mask[k] != 0 || !(big > high || (big < low && big > 0.0))) continue;
             if (!std::isfinite(big)) continue; // left to the non-finite screening
             const int e = std::ilogb(big);
-            for (std::size_t c = comp_f11; c < comp_f11 + 4; ++c) {
+            for (std::size_t c = comp_f11; c < comp_f11 + N * N; ++c) {
                 m_x[c * n + k] = std::ldexp(m_x[c * n + k], -e);
                 if (dxdt) (*dxdt)[c * n + k] = std::ldexp((*dxdt)[c * n + k], -e);
             }
@@ -594,13 +655,13 @@ class BatchIntegrator {
             const int e = m_exponent[k];
             if (e == 0 || m_ctx.mask[k] != 0) continue;
             double big = 0.0;
-            for (std::size_t c = comp_f11; c < comp_f11 + 4; ++c) big = std::max(big, std::abs(m_x[c * n + k]));
+            for (std::size_t c = comp_f11; c < comp_f11 + N * N; ++c) big = std::max(big, std::abs(m_x[c * n + k]));
             if (!(big > 0.0)) continue;
             const int top = std::ilogb(big) + e;
             if (top >= std::numeric_limits<double>::max_exponent - 1 ||
                 top <= std::numeric_limits<double>::min_exponent)
                 continue; // does not fit: keep it scaled
-            for (std::size_t c = comp_f11; c < comp_f11 + 4; ++c) m_x[c * n + k] = std::ldexp(m_x[c * n + k], e);
+            for (std::size_t c = comp_f11; c < comp_f11 + N * N; ++c) m_x[c * n + k] = std::ldexp(m_x[c * n + k], e);
             m_exponent[k] = 0;
         }
     }
@@ -652,20 +713,26 @@ class BatchIntegrator {
     // keep a state from before they left, so they rarely send us down the slow path, which skips them).
     void check_after_step(State *dxdt) {
         const std::size_t n = m_ctx.n;
-        const double *x = m_x.data(), *y = x + n, *limit = m_limit.data();
+        const double *x = m_x.data(), *limit = m_limit.data();
+        const double *bx = x + m_bound_axes[0] * n, *by = x + m_bound_axes[1] * n;
+        const auto blown_up = [&](std::size_t k) {
+            int out = 0;
+#pragma GCC unroll 8
+            for (std::size_t i = 0; i < N; ++i) out |= std::abs(x[i * n + k]) > limit[k];
+            return out;
+        };
         int any = 0;
         if (m_bounds) {
             const Bounds &b = *m_bounds;
             for (std::size_t k = 0; k < n; ++k)
-                any |= (std::abs(x[k]) > limit[k]) | (std::abs(y[k]) > limit[k]) |
-                       !((x[k] >= b.x_min) & (x[k] <= b.x_max) & (y[k] >= b.y_min) & (y[k] <= b.y_max));
+                any |= blown_up(k) | !((bx[k] >= b.x_min) & (bx[k] <= b.x_max) & (by[k] >= b.y_min) & (by[k] <= b.y_max));
         } else {
-            for (std::size_t k = 0; k < n; ++k) any |= (std::abs(x[k]) > limit[k]) | (std::abs(y[k]) > limit[k]);
+            for (std::size_t k = 0; k < n; ++k) any |= blown_up(k);
         }
         if (!any) return;
         for (std::size_t k = 0; k < n; ++k) {
             if (m_ctx.mask[k] != 0) continue;
-            if (std::abs(x[k]) > m_limit[k] || std::abs(y[k]) > m_limit[k]) {
+            if (blown_up(k)) {
                 freeze(k, mask_non_finite);
                 if (dxdt) zero_lane(*dxdt, k);
             }
@@ -675,7 +742,7 @@ class BatchIntegrator {
     void check_bounds(State *dxdt) {
         if (!m_bounds) return;
         const std::size_t n = m_ctx.n;
-        const double *x = m_x.data(), *y = x + n;
+        const double *x = m_x.data() + m_bound_axes[0] * n, *y = m_x.data() + m_bound_axes[1] * n;
         const Bounds &b = *m_bounds;
         for (std::size_t k = 0; k < n; ++k) {
             if (m_ctx.mask[k] != 0) continue;
@@ -742,7 +809,7 @@ class BatchIntegrator {
         m_dxdt_new.assign(size, 0.0);
         m_xerr.assign(size, 0.0);
         Stepper stepper; // fresh per batch: Odeint sizes its temporaries once, on first use
-        Rhs sys{&m_ctx};
+        Rhs<N> sys{&m_ctx};
         const double span = m_t1 - m_t0;
         double t = m_t0;
         double dt = std::copysign(std::min(m_settings.step, std::abs(span)), span);
@@ -804,7 +871,7 @@ class BatchIntegrator {
         m_x_new.assign(size, 0.0);
         m_dxdt.assign(size, 0.0);
         Rk4 stepper;
-        Rhs sys{&m_ctx};
+        Rhs<N> sys{&m_ctx};
         const double span = m_t1 - m_t0;
         const double h = std::copysign(m_settings.step, span);
         const double ratio = std::abs(span) / m_settings.step;
@@ -1071,8 +1138,17 @@ class BatchIntegrator {
         const auto larger = [](double a, double b) { return a < b ? b : a; };
 #pragma omp simd
         for (std::size_t k = 0; k < n; ++k) {
-            const double big = larger(larger(std::abs(x[k]), std::abs(x[n + k])),
-                                      larger(std::abs(xn[k]), std::abs(xn[n + k])));
+            // One expression per lane (a loop over the components here kept GCC 12 from vectorising the lane loop).
+            const auto largest = [&](auto... i) {
+                double big = 0.0;
+                ((big = larger(big, larger(std::abs(x[i * n + k]), std::abs(xn[i * n + k])))), ...);
+                return big;
+            };
+            double big;
+            if constexpr (N == 2)
+                big = larger(larger(std::abs(x[k]), std::abs(x[n + k])), larger(std::abs(xn[k]), std::abs(xn[n + k])));
+            else
+                big = std::apply(largest, component_indices());
             e[k] = factor * e[k] / (1.0 + big);
         }
     }
@@ -1108,7 +1184,8 @@ class BatchIntegrator {
             bool finite = true;
             for (std::size_t c = 0; c < comps; ++c) finite = finite && std::isfinite(m_x_new[c * n + k]);
             const double runaway_limit = m_limit[k] * (runaway_factor / blow_up_factor);
-            const bool runaway = std::abs(m_x[k]) > runaway_limit || std::abs(m_x[n + k]) > runaway_limit;
+            bool runaway = false;
+            for (std::size_t i = 0; i < N; ++i) runaway = runaway || std::abs(m_x[i * n + k]) > runaway_limit;
             freeze(k, m_ctx.invalid[k] ? mask_invalid_state : finite && !runaway ? mask_unstable : mask_non_finite);
             copy_lane(m_x_new, m_x, k);
             if (!fused) zero_lane(m_k, k);
@@ -1246,8 +1323,9 @@ class BatchIntegrator {
     Method m_method;
     bool m_lockstep; // the lockstep kernel (run_lockstep) rather than Boost.Odeint's steppers
     const std::optional<Bounds> &m_bounds;
+    std::array<unsigned, 2> m_bound_axes; // the state components the bounds box limits (a slice's axes)
     DifferenceControl m_differences;
-    BatchContext m_ctx;
+    BatchContext<N> m_ctx;
     std::size_t m_active = 0;
     std::uint64_t m_steps = 0, m_rejected = 0;
     State m_x, m_x_new, m_dxdt, m_dxdt_new, m_xerr;
@@ -1265,8 +1343,8 @@ class BatchIntegrator {
     std::size_t m_forcing_stages = 0;
 };
 
-// Fills the initial positions of lanes [first, first + n).
-using InitFn = std::function<void(std::size_t first, std::size_t n, double *x0, double *y0)>;
+// Fills the initial states of lanes [first, first + n): component i of lane k at start[i * n + k].
+using InitFn = std::function<void(std::size_t first, std::size_t n, double *start)>;
 // Receives the final states (SoA, ld = n) and masks of lanes [first, first + n).
 // With the variational equations, `exponent` gives each lane's DF scale (see BatchIntegrator::exponent).
 using FinishFn = std::function<void(std::size_t first, std::size_t n, const double *state, const std::uint8_t *mask,
@@ -1274,10 +1352,13 @@ using FinishFn = std::function<void(std::size_t first, std::size_t n, const doub
 
 // Integrates `lanes` trajectories in batches of `batch` consecutive lanes, batches in parallel (OpenMP). The first
 // exception thrown in any batch (a failing plugin call, say) stops the remaining batches and is rethrown here.
-IntegratorStats run_batches(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings,
-                            bool variational, const std::optional<Bounds> &bounds, std::size_t lanes,
-                            std::size_t batch, const InitFn &init, const FinishFn &finish,
-                            const ProgressFn &progress, const DifferenceControl &differences = {}) {
+// N: the system's dimension (run_batches dispatches); bound_axes: the components the bounds box limits.
+template <unsigned N>
+IntegratorStats run_batches_of(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings,
+                               bool variational, const std::optional<Bounds> &bounds, std::size_t lanes,
+                               std::size_t batch, const InitFn &init, const FinishFn &finish,
+                               const ProgressFn &progress, const DifferenceControl &differences,
+                               const std::array<unsigned, 2> &bound_axes) {
     const auto start = std::chrono::steady_clock::now();
     const Method method = parse_method(settings.method);
     const std::size_t batches = (lanes + batch - 1) / batch;
@@ -1293,8 +1374,9 @@ IntegratorStats run_batches(const Dynamics &dynamics, double t0, double t1, cons
     {
         IntegratorStats local;
         try {
-            BatchIntegrator integrator(dynamics, t0, t1, settings, method, variational, bounds, differences);
-            std::vector<double> x0(batch), y0(batch);
+            BatchIntegrator<N> integrator(dynamics, t0, t1, settings, method, variational, bounds, differences,
+                                          bound_axes);
+            std::vector<double> start(N * batch);
 #pragma omp for schedule(dynamic, 1)
             for (long long b = 0; b < static_cast<long long>(batches); ++b) {
                 if (failed.load(std::memory_order_relaxed)) continue;
@@ -1307,8 +1389,8 @@ IntegratorStats run_batches(const Dynamics &dynamics, double t0, double t1, cons
                 try {
                     const std::size_t first = static_cast<std::size_t>(b) * batch;
                     const std::size_t n = std::min(batch, lanes - first);
-                    init(first, n, x0.data(), y0.data());
-                    integrator.run(n, x0.data(), y0.data(), local);
+                    init(first, n, start.data());
+                    integrator.run(n, start.data(), local);
                     finish(first, n, integrator.state().data(), integrator.mask().data(), integrator.exponent().data());
                     const std::size_t d = done.fetch_add(1) + 1;
                     if (progress) progress(d, batches);
@@ -1330,6 +1412,124 @@ IntegratorStats run_batches(const Dynamics &dynamics, double t0, double t1, cons
     total.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     return total;
 }
+
+}  // namespace
+
+// The engine of one dimension N > 2, compiled in its own translation unit: flow_map_dim<N>.cpp compiles this file with
+// GEOBARRIER_FLOW_MAP_DIMENSION = N and only this part of it. The planar engine stays in this unit with its inlining as
+// it was (all five in one unit inlined less of the planar step's bookkeeping), and the build spreads over smaller units.
+namespace flow_map_engine {
+template <unsigned N>
+IntegratorStats run_batches_for(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings,
+                                bool variational, const std::optional<Bounds> &bounds, std::size_t lanes,
+                                std::size_t batch, const InitFn &init, const FinishFn &finish,
+                                const ProgressFn &progress, const DifferenceControl &differences,
+                                const std::array<unsigned, 2> &bound_axes);
+#ifdef GEOBARRIER_FLOW_MAP_DIMENSION
+template <unsigned N>
+IntegratorStats run_batches_for(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings,
+                                bool variational, const std::optional<Bounds> &bounds, std::size_t lanes,
+                                std::size_t batch, const InitFn &init, const FinishFn &finish,
+                                const ProgressFn &progress, const DifferenceControl &differences,
+                                const std::array<unsigned, 2> &bound_axes) {
+    return run_batches_of<N>(dynamics, t0, t1, settings, variational, bounds, lanes, batch, init, finish, progress,
+                             differences, bound_axes);
+}
+template IntegratorStats run_batches_for<GEOBARRIER_FLOW_MAP_DIMENSION>(
+    const Dynamics &, double, double, const IntegratorSettings &, bool, const std::optional<Bounds> &, std::size_t,
+    std::size_t, const InitFn &, const FinishFn &, const ProgressFn &, const DifferenceControl &,
+    const std::array<unsigned, 2> &);
+#endif
+}  // namespace flow_map_engine
+
+#ifndef GEOBARRIER_FLOW_MAP_DIMENSION
+namespace {
+
+// The engine for the system's dimension (validate() has checked it is 2 .. max_dimension). The bounds box limits
+// the slice's axes when there is a slice, else components 0 and 1.
+IntegratorStats run_batches(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings,
+                            bool variational, const std::optional<Bounds> &bounds, std::size_t lanes,
+                            std::size_t batch, const InitFn &init, const FinishFn &finish,
+                            const ProgressFn &progress, const DifferenceControl &differences = {}) {
+    static_assert(max_dimension == 6, "instantiate the engine for every dimension up to max_dimension");
+    const std::array<unsigned, 2> axes = dynamics.slice ? dynamics.slice->axes : std::array<unsigned, 2>{0, 1};
+    const auto run = [&](auto dimension) {
+        return flow_map_engine::run_batches_for<decltype(dimension)::value>(
+            dynamics, t0, t1, settings, variational, bounds, lanes, batch, init, finish, progress, differences, axes);
+    };
+    switch (dynamics.system->dimension()) {
+    case 2:
+        return run_batches_of<2>(dynamics, t0, t1, settings, variational, bounds, lanes, batch, init, finish, progress,
+                                 differences, axes);
+    case 3: return run(std::integral_constant<unsigned, 3>{});
+    case 4: return run(std::integral_constant<unsigned, 4>{});
+    case 5: return run(std::integral_constant<unsigned, 5>{});
+    case 6: return run(std::integral_constant<unsigned, 6>{});
+    default: throw Error("flow map: dimension " + std::to_string(dynamics.system->dimension()) + " not compiled in");
+    }
+}
+
+// The planar view of a system: a planar system as it is, or an n-D one on its slice (Dynamics::slice). Lanes'
+// (x, y) are the slice's axes; the other components start at the slice's values; DF is the slice's 2 x 2 gradient.
+class PlaneView {
+  public:
+    // `what` names the caller for the error on an n-D system without a slice.
+    PlaneView(const Dynamics &dynamics, GradientMethod gradient, const char *what)
+        : m_dimension(dynamics.system ? dynamics.system->dimension() : 2), m_slice(dynamics.slice) {
+        if (m_dimension != 2 && !m_slice)
+            throw Error(std::string(what) + ": system '" + dynamics.system->info().name + "' has dimension " +
+                        std::to_string(m_dimension) + "; give the slice of its phase space the grid spans");
+        if (m_slice) {
+            if (m_slice->state.size() != m_dimension || m_slice->axes[0] >= m_dimension ||
+                m_slice->axes[1] >= m_dimension || m_slice->axes[0] == m_slice->axes[1])
+                throw Error(std::string(what) + ": the slice does not fit a system of dimension " +
+                            std::to_string(m_dimension));
+            m_axes = m_slice->axes;
+            if (m_dimension != 2 && gradient == GradientMethod::auxiliary_grid)
+                throw EngineSettingError(EngineSetting::gradient,
+                                         "auxiliary-grid handles planar systems; system '" +
+                                             dynamics.system->info().name + "' has dimension " +
+                                             std::to_string(m_dimension) +
+                                             ": use \"variational\" (SDK plugins derive the Jacobian)");
+        }
+    }
+    // The InitFn of a planar fill: the fixed components first, then the axes from `fill`.
+    InitFn init(std::function<void(std::size_t first, std::size_t n, double *xs, double *ys)> fill) const {
+        if (!m_slice) return [fill](std::size_t first, std::size_t n, double *s) { fill(first, n, s, s + n); };
+        return [fill, this](std::size_t first, std::size_t n, double *s) {
+            for (unsigned i = 0; i < m_dimension; ++i) std::fill_n(s + i * n, n, m_slice->state[i]);
+            fill(first, n, s + m_axes[0] * n, s + m_axes[1] * n);
+        };
+    }
+    unsigned axis(std::size_t i) const { return m_axes[i]; }
+    double x(const double *s, std::size_t n, std::size_t k) const { return s[m_axes[0] * n + k]; }
+    double y(const double *s, std::size_t n, std::size_t k) const { return s[m_axes[1] * n + k]; }
+    // The 2 x 2 gradient of lane k (row-major into out) and the log|det| that goes with it (NaN: from the entries).
+    void gradient(const double *s, std::size_t n, std::size_t k, int exponent, double *out, double &log_det) const {
+        const std::size_t f11 = m_dimension, NN = std::size_t{m_dimension} * m_dimension;
+        log_det = s[(f11 + NN) * n + k];
+        if (!m_slice) { // a planar system: DF as it is
+            for (std::size_t q = 0; q < 4; ++q) out[q] = s[(f11 + q) * n + k];
+            return;
+        }
+        if (m_dimension == 2) { // the slice, if any, is the whole plane: DF itself, in the axes' order
+            const std::size_t a = m_axes[0], b = m_axes[1];
+            out[0] = s[(f11 + 2 * a + a) * n + k];
+            out[1] = s[(f11 + 2 * a + b) * n + k];
+            out[2] = s[(f11 + 2 * b + a) * n + k];
+            out[3] = s[(f11 + 2 * b + b) * n + k];
+            return;
+        }
+        double dF[max_dimension * max_dimension];
+        for (std::size_t q = 0; q < NN; ++q) dF[q] = s[(f11 + q) * n + k];
+        slice_gradient(dF, m_dimension, m_axes, m_slice->tensor, exponent, log_det, out, log_det);
+    }
+
+  private:
+    unsigned m_dimension;
+    const Slice *m_slice;
+    std::array<unsigned, 2> m_axes{0, 1};
+};
 
 // Every grid point masked is an error, not an empty result: say why, with what to try.
 void require_unmasked_points(const GridFlowMap &out, const IntegratorSettings &settings, const Dynamics &dynamics) {
@@ -1465,6 +1665,7 @@ AdvectResult advect_points(const Dynamics &dynamics, const std::vector<double> &
                            double t0, double t1, const IntegratorSettings &settings, bool variational,
                            const std::optional<Bounds> &bounds, const ProgressFn &progress) {
     validate(dynamics, t0, t1, settings, variational);
+    const PlaneView plane(dynamics, variational ? GradientMethod::variational : GradientMethod::none, "advect_points");
     if (x0.size() != y0.size())
         throw Error("advect_points: " + std::to_string(x0.size()) + " x coordinates but " +
                     std::to_string(y0.size()) + " y coordinates");
@@ -1480,22 +1681,21 @@ AdvectResult advect_points(const Dynamics &dynamics, const std::vector<double> &
     result.mask.assign(count, 0);
     if (count == 0) return result;
 
-    const InitFn init = [&](std::size_t first, std::size_t n, double *xs, double *ys) {
+    const InitFn init = plane.init([&](std::size_t first, std::size_t n, double *xs, double *ys) {
         std::copy(x0.begin() + first, x0.begin() + first + n, xs);
         std::copy(y0.begin() + first, y0.begin() + first + n, ys);
-    };
+    });
     const FinishFn finish = [&](std::size_t first, std::size_t n, const double *s, const std::uint8_t *mask,
                                 const std::int32_t *exponent) {
         for (std::size_t k = 0; k < n; ++k) {
             const std::size_t p = first + k;
             result.mask[p] = mask[k];
             if (mask[k] != 0) continue;
-            result.x[p] = s[k];
-            result.y[p] = s[n + k];
+            result.x[p] = plane.x(s, n, k);
+            result.y[p] = plane.y(s, n, k);
             if (variational) {
-                for (std::size_t q = 0; q < 4; ++q) result.dF[4 * p + q] = s[(comp_f11 + q) * n + k];
+                plane.gradient(s, n, k, exponent[k], &result.dF[4 * p], result.log_det[p]);
                 result.dF_exponent[p] = exponent[k];
-                result.log_det[p] = s[comp_log_det * n + k];
             }
         }
     };
@@ -1571,6 +1771,7 @@ GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, cons
                                const std::optional<Bounds> &bounds, const ProgressFn &progress, GridFlowMap reuse) {
     const bool variational = gradient == GradientMethod::variational;
     validate(dynamics, t0, t1, settings, variational);
+    const PlaneView plane(dynamics, gradient, "flow_map_at_points");
     if (gradient == GradientMethod::auxiliary_grid &&
         !(offset_x > 0.0 && std::isfinite(offset_x) && offset_y > 0.0 && std::isfinite(offset_y)))
         throw EngineSettingError(EngineSetting::offset, std::to_string(offset_x) + ", " + std::to_string(offset_y) +
@@ -1598,9 +1799,9 @@ GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, cons
     if (count == 0) return out;
 
     if (gradient != GradientMethod::auxiliary_grid) {
-        const InitFn init = [&](std::size_t first, std::size_t n, double *xs, double *ys) {
+        const InitFn init = plane.init([&](std::size_t first, std::size_t n, double *xs, double *ys) {
             for (std::size_t k = 0; k < n; ++k) start(first + k, xs[k], ys[k]);
-        };
+        });
         const FinishFn finish = [&](std::size_t first, std::size_t n, const double *s, const std::uint8_t *mask,
                                     const std::int32_t *exponent) {
             for (std::size_t k = 0; k < n; ++k) {
@@ -1608,13 +1809,12 @@ GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, cons
                 out.mask[p] = mask[k];
                 if (mask[k] != 0) continue;
                 if (positions) {
-                    out.flow_x[p] = s[k];
-                    out.flow_y[p] = s[n + k];
+                    out.flow_x[p] = plane.x(s, n, k);
+                    out.flow_y[p] = plane.y(s, n, k);
                 }
                 if (variational) {
-                    for (std::size_t q = 0; q < 4; ++q) out.dF[4 * p + q] = s[(comp_f11 + q) * n + k];
+                    plane.gradient(s, n, k, exponent[k], &out.dF[4 * p], out.log_det[p]);
                     out.dF_exponent[p] = exponent[k];
-                    out.log_det[p] = s[comp_log_det * n + k];
                 }
             }
         };
@@ -1632,7 +1832,7 @@ GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, cons
     const std::size_t batch = points_per_batch(settings, gradient, want_positions) * per_point;
     const double offsets_x[5] = {offset_x, -offset_x, 0.0, 0.0, 0.0};
     const double offsets_y[5] = {0.0, 0.0, offset_y, -offset_y, 0.0};
-    const InitFn init = [&](std::size_t first, std::size_t n, double *xs, double *ys) {
+    const InitFn init = plane.init([&](std::size_t first, std::size_t n, double *xs, double *ys) {
         double x = 0.0, y = 0.0;
         std::size_t started = std::numeric_limits<std::size_t>::max();
         for (std::size_t k = 0; k < n; ++k) {
@@ -1641,10 +1841,10 @@ GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, cons
             xs[k] = x + offsets_x[q];
             ys[k] = y + offsets_y[q];
         }
-    };
+    });
     const FinishFn finish = [&](std::size_t first, std::size_t n, const double *s, const std::uint8_t *mask,
                                 const std::int32_t *) {
-        const double *xs = s, *ys = s + n;
+        const double *xs = s + plane.axis(0) * n, *ys = s + plane.axis(1) * n;
         for (std::size_t k = 0; k < n; k += per_point) {
             const std::size_t p = (first + k) / per_point;
             std::uint8_t m = 0;
@@ -1666,5 +1866,48 @@ GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, cons
                             differences);
     return out;
 }
+
+StateFlowMap flow_map_of_states(const Dynamics &dynamics, std::size_t count, const StateStartFn &start, double t0,
+                                double t1, const IntegratorSettings &settings, bool variational,
+                                const std::optional<Bounds> &bounds, const ProgressFn &progress) {
+    validate(dynamics, t0, t1, settings, variational);
+    const std::size_t N = dynamics.system->dimension(), NN = N * N;
+    StateFlowMap out;
+    out.dimension = static_cast<unsigned>(N);
+    out.state.assign(N * count, nan_value);
+    out.mask.assign(count, 0);
+    if (variational) {
+        out.dF.assign(NN * count, nan_value);
+        out.dF_exponent.assign(count, 0);
+        out.log_det.assign(count, nan_value);
+    }
+    if (count == 0) return out;
+    const InitFn init = [&](std::size_t first, std::size_t n, double *s) {
+        std::vector<double> state(N);
+        for (std::size_t k = 0; k < n; ++k) {
+            start(first + k, state.data());
+            for (std::size_t i = 0; i < N; ++i) s[i * n + k] = state[i];
+        }
+    };
+    const FinishFn finish = [&](std::size_t first, std::size_t n, const double *s, const std::uint8_t *mask,
+                                const std::int32_t *exponent) {
+        for (std::size_t k = 0; k < n; ++k) {
+            const std::size_t p = first + k;
+            out.mask[p] = mask[k];
+            if (mask[k] != 0) continue;
+            for (std::size_t i = 0; i < N; ++i) out.state[N * p + i] = s[i * n + k];
+            if (variational) {
+                for (std::size_t q = 0; q < NN; ++q) out.dF[NN * p + q] = s[(N + q) * n + k];
+                out.dF_exponent[p] = exponent[k];
+                out.log_det[p] = s[(N + NN) * n + k];
+            }
+        }
+    };
+    out.stats = run_batches(dynamics, t0, t1, settings, variational, bounds, count, lanes_per_batch(settings), init,
+                            finish, progress);
+    return out;
+}
+
+#endif  // GEOBARRIER_FLOW_MAP_DIMENSION
 
 }  // namespace geobarrier

@@ -139,9 +139,9 @@ PluginInfo read_descriptor(const gb_plugin_descriptor &d, const fs::path &file, 
         info.has_divergence = d.system->divergence != nullptr;
         info.uses_forcing = (d.system->capabilities & GB_SYSTEM_USES_FORCING) != 0;
         info.jacobian_derived = info.has_jacobian && (d.system->capabilities & GB_SYSTEM_JACOBIAN_DERIVED) != 0;
-        if (info.dimension != 2)
-            throw "system '" + info.name + "' has dimension " + std::to_string(info.dimension) +
-                " (this version handles planar systems, dimension 2)";
+        // Dimensions the engine does not integrate (above max_dimension) are refused when an experiment uses the
+        // system (flow_map.cpp, with the JSON path), so that `plugins` and check-plugin still list them.
+        if (info.dimension == 0) throw "system '" + info.name + "' has dimension 0";
         // ABI 1.1 appended the domain; an older plugin's table ends before it.
         if (entry.abi_minor >= 1 && (d.system->domain_min || d.system->domain_max)) {
             if (!d.system->domain_min || !d.system->domain_max)

@@ -253,7 +253,7 @@ void compute_flow_and_cauchy_green(const ResolvedExperiment &r, const RunOptions
     if (r.need_cauchy_green || r.need_positions) { // validation products alone need no grid
         StageTimer timer(record.stages, "flow map"); // with the Cauchy–Green fields, tile by tile
         detail::ProgressBar bar("flow map", !options.quiet);
-        const Dynamics dynamics{&r.system, &r.forcing};
+        const Dynamics dynamics = r.dynamics();
         GridFields computed = compute_grid_fields(dynamics, e.grid, e.t0, e.t1, e.integrator, e.bounds, plan,
                                                   [&](std::size_t done, std::size_t total) {
                                                       bar.update(done, total);
@@ -314,7 +314,7 @@ ExtractServices advection_services(const ResolvedExperiment &r) {
     services.advect = [&r](std::size_t n, const double *xy, double t_from, double t_to, double *xy_out,
                            double *dF_out, std::uint8_t *mask_out) {
         const Experiment &e = r.experiment;
-        const Dynamics dynamics{&r.system, &r.forcing};
+        const Dynamics dynamics = r.dynamics();
         const GradientMethod method = !dF_out ? GradientMethod::none
                                       : r.system.has_jacobian() && r.gradient != GradientMethod::auxiliary_grid
                                           ? GradientMethod::variational
@@ -352,10 +352,11 @@ FoundBarriers run_extractors(const ResolvedExperiment &r, const RunOptions &opti
     const ExtractServices services = advection_services(r);
     // The system's state names and units (ABI 1.2), "" when undeclared, for the axes of the extractor's pictures.
     const PluginInfo &sys = r.system.info();
-    const std::string names[2] = {sys.state_names.empty() ? "" : sys.state_names[0],
-                                  sys.state_names.empty() ? "" : sys.state_names[1]};
-    const std::string units[2] = {sys.state_units.empty() ? "" : sys.state_units[0],
-                                  sys.state_units.empty() ? "" : sys.state_units[1]};
+    const std::size_t cx = r.plane_component(0), cy = r.plane_component(1); // a slice's axes
+    const std::string names[2] = {sys.state_names.empty() ? "" : sys.state_names[cx],
+                                  sys.state_names.empty() ? "" : sys.state_names[cy]};
+    const std::string units[2] = {sys.state_units.empty() ? "" : sys.state_units[cx],
+                                  sys.state_units.empty() ? "" : sys.state_units[cy]};
     const char *const name_ptrs[2] = {names[0].c_str(), names[1].c_str()};
     const char *const unit_ptrs[2] = {units[0].c_str(), units[1].c_str()};
     const std::string out_text = out.string();
@@ -394,7 +395,7 @@ std::vector<fs::path> run_validation_products(const ResolvedExperiment &r, const
     report(options, "validation", 0, 1);
     StageTimer timer(record.stages, "validation");
     ValidationInput input;
-    input.dynamics = Dynamics{&r.system, &r.forcing};
+    input.dynamics = r.dynamics();
     input.integrator = e.integrator;
     input.bounds = e.bounds;
     input.t0 = e.t0;
@@ -427,6 +428,18 @@ std::vector<FieldVariable> field_variables(const Experiment &e, const GridStages
     return variables;
 }
 
+// The names and units of the grid's two axes: the system's first two components, or a slice's axes.
+StateAxes plane_axes(const ResolvedExperiment &r) {
+    StateAxes axes;
+    const PluginInfo &sys = r.system.info();
+    for (std::size_t i = 0; i < 2; ++i) {
+        const std::size_t c = r.plane_component(i);
+        if (c < sys.state_names.size()) axes.names.push_back(sys.state_names[c]);
+        if (c < sys.state_units.size()) axes.units.push_back(sys.state_units[c]);
+    }
+    return axes;
+}
+
 // Stage 4: fields.nc, the FTLE picture and barriers.json, each written atomically into the staging folder `out`.
 void write_result_files(const ResolvedExperiment &r, const RunOptions &options, const GridStages &grid,
                         const std::vector<FieldVariable> &variables, const json &barriers, const fs::path &out,
@@ -441,11 +454,15 @@ void write_result_files(const ResolvedExperiment &r, const RunOptions &options, 
                            {"t1", e.t1},
                            {"gradient_method", to_string(grid.gradient)},
                            {"experiment", r.resolved.dump()}};
+        if (e.slice) { // the slice: its axes (the coordinates x and y), tensor and fixed components
+            attributes["slice_axes"] = e.slice->axes[0] + " " + e.slice->axes[1];
+            attributes["slice_tensor"] = r.resolved["cauchy_green"].value("slice_tensor", "full");
+            for (const auto &[name, value] : e.slice->fixed) attributes["slice_fixed_" + name] = value;
+        }
         if (options.keep_results) summary.field_attributes = attributes;
         if (options.write_files) {
             const fs::path file = out / "fields.nc";
-            const StateAxes state_axes{r.system.info().state_names, r.system.info().state_units};
-            write_fields_netcdf(file, e.grid, variables, *grid.mask, attributes, state_axes);
+            write_fields_netcdf(file, e.grid, variables, *grid.mask, attributes, plane_axes(r));
             summary.files.push_back(file);
         }
     }
@@ -454,8 +471,8 @@ void write_result_files(const ResolvedExperiment &r, const RunOptions &options, 
         plot.title = "FTLE, " + r.system.info().name + " + " + r.forcing.info().name + ", t = " +
                      fmt::format("{:g}", e.t0) + " to " + fmt::format("{:g}", e.t1);
         plot.colorbar_label = "FTLE";
-        plot.x_label = state_axis_label(r.system.info(), 0);
-        plot.y_label = state_axis_label(r.system.info(), 1);
+        plot.x_label = state_axis_label(r.system.info(), r.plane_component(0));
+        plot.y_label = state_axis_label(r.system.info(), r.plane_component(1));
         const fs::path file = out / "ftle.png";
         plot_field_png(file, e.grid, grid.cg.ftle, *grid.mask, plot);
         summary.files.push_back(file);
@@ -468,7 +485,7 @@ void write_result_files(const ResolvedExperiment &r, const RunOptions &options, 
 }
 
 // RunOptions::keep_results: what fields.nc and barriers.json hold, in memory.
-void keep_results(const Experiment &e, const PluginInfo &system, const GridStages &grid,
+void keep_results(const Experiment &e, const StateAxes &state_axes, const GridStages &grid,
                   const std::vector<FieldVariable> &variables, const json &barriers, RunSummary &summary) {
     summary.grid = e.grid;
     summary.mask = *grid.mask;
@@ -477,7 +494,6 @@ void keep_results(const Experiment &e, const PluginInfo &system, const GridStage
         const NetcdfAttributes a = variable_attributes(v);
         summary.fields.push_back({v.name, a.long_name, a.units, v.masked_by, *v.values});
     }
-    const StateAxes state_axes{system.state_names, system.state_units};
     for (std::size_t c = 0; c < 2; ++c) {
         const NetcdfAttributes a = coordinate_attributes(c, state_axes);
         std::vector<double> values(c == 0 ? e.grid.nx : e.grid.ny);
@@ -549,7 +565,7 @@ RunSummary run_stages(const ResolvedExperiment &r, const RunOptions &options) {
         throw IoError(staging.final_names(error.what()) + storage_hint(out)); // a full disk shows up as "HDF error"
     }
     record.manifest["provenance"] = detail::run_provenance(r, record.manifest, summary.files, out);
-    if (options.keep_results) keep_results(e, r.system.info(), grid, variables, found.items, summary);
+    if (options.keep_results) keep_results(e, plane_axes(r), grid, variables, found.items, summary);
     if (!options.write_files) summary.files.clear(); // the validation products' files went to the private folder
     return finish_run(record, options, staging, run_start, std::move(summary));
 }

@@ -275,7 +275,7 @@ RunSummary run_as_tile_worker(const ResolvedExperiment &r, const RunOptions &opt
     if (options.threads > 0) omp_set_num_threads(options.threads);
     const Experiment &e = r.experiment;
     if (r.need_cauchy_green || r.need_positions) {
-        const Dynamics dynamics{&r.system, &r.forcing};
+        const Dynamics dynamics = r.dynamics();
         compute_grid_fields(dynamics, e.grid, e.t0, e.t1, e.integrator, e.bounds, plan_fields(r));
     }
     return {};

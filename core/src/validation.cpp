@@ -123,6 +123,33 @@ void Stage::poincare(const PoincareSpec &spec, json &summary) {
     if (in.plots) draw_poincare({spec, it, n_seeds, t_start, chosen});
 }
 
+void Stage::section(const SectionSpec &spec, json &summary) {
+    const std::size_t dim = in.dynamics.system->dimension(); // the normal's size: checked by resolve_experiment
+    const double t_start = spec.t_start.value_or(in.t0), t_end = spec.t_end.value_or(in.t1);
+    if (!(t_end > t_start))
+        throw ConfigError("/validation/section/t_end", "must be after t_start (sections run forward in time)");
+    std::vector<double> seeds;
+    for (const auto &s : spec.seeds) seeds.insert(seeds.end(), s.begin(), s.end());
+    spdlog::info("validation: section crossings of {} seeds over [{}, {}]", spec.seeds.size(), t_start, t_end);
+    const SectionCrossings c = section_crossings(in.dynamics, in.integrator, in.bounds, seeds, t_start, t_end,
+                                                 spec.normal, spec.offset, spec.direction, spec.crossings, spec.sample);
+    std::string csv = "seed,crossing,t";
+    for (std::size_t i = 0; i < dim; ++i) csv += ",s" + std::to_string(i);
+    csv += "\n";
+    for (std::size_t k = 0; k < c.times.size(); ++k) {
+        csv += fmt::format("{},{},{}", c.seeds[k], k, csv_number(c.times[k]));
+        for (std::size_t i = 0; i < dim; ++i) csv += "," + csv_number(c.states[dim * k + i]);
+        csv += "\n";
+    }
+    write_table("section.csv", csv);
+    summary = {{"file", "section.csv"}, {"seeds", spec.seeds.size()}, {"crossings", c.times.size()},
+               {"masked", c.masked}, {"t_start", t_start}, {"t_end", t_end},
+               {"integrator_stats", c.stats.to_json()}};
+    if (c.masked > 0)
+        warn(fmt::format("validation section: {} of {} seeds masked before t_end", c.masked, spec.seeds.size()));
+    if (in.plots) draw_section(spec, c);
+}
+
 void Stage::tracers(const std::vector<TracerCloudSpec> &clouds, json &summary) {
     std::string csv = "cloud,tracer,t,x,y\n";
     summary = {{"file", "tracers.csv"}, {"clouds", json::array()}};
@@ -323,6 +350,11 @@ ValidationOutput run_validation(const ValidationSpec &spec, const ValidationInpu
         json &s = result.summary["poincare"];
         ProductTimer timer(s);
         stage.poincare(*spec.poincare, s);
+    }
+    if (spec.section) {
+        json &s = result.summary["section"];
+        ProductTimer timer(s);
+        stage.section(*spec.section, s);
     }
     if (!spec.tracers.empty()) {
         json &s = result.summary["tracers"];

@@ -3,6 +3,7 @@
 // `rel_def`) and its tube through extended phase space; and the small rules the products share (times, which
 // barriers bound the regular regions).
 #include <geobarrier/curves.hpp>
+#include <geobarrier/errors.hpp>
 #include <geobarrier/validation.hpp>
 
 #include <fmt/format.h>
@@ -109,6 +110,17 @@ Snapshots advect_snapshots(const Dynamics &dynamics, const IntegratorSettings &s
                            const std::optional<Bounds> &bounds, const std::vector<double> &xy, double t_from,
                            const std::vector<double> &times) {
     const std::size_t n = xy.size() / 2;
+    // On a slice of a system with more components every chain carries whole states (dim per point), so that a
+    // segment starts where the last one ended, not back on the slice; positions are their slice components.
+    const Slice *slice = dynamics.system && dynamics.system->dimension() > 2 ? dynamics.slice : nullptr;
+    const std::size_t dim = slice ? dynamics.system->dimension() : 2;
+    const std::size_t ax = slice ? slice->axes[0] : 0, ay = slice ? slice->axes[1] : 1;
+    std::vector<double> start(dim * n);
+    for (std::size_t p = 0; p < n; ++p) {
+        if (slice) std::copy(slice->state.begin(), slice->state.end(), start.begin() + dim * p);
+        start[dim * p + ax] = xy[2 * p];
+        start[dim * p + ay] = xy[2 * p + 1];
+    }
     Snapshots out;
     out.positions.assign(times.size(), std::vector<double>());
     std::vector<bool> masked(n, false);
@@ -118,41 +130,167 @@ Snapshots advect_snapshots(const Dynamics &dynamics, const IntegratorSettings &s
     std::sort(forward.begin(), forward.end(), [&](std::size_t a, std::size_t b) { return times[a] < times[b]; });
     std::sort(backward.begin(), backward.end(), [&](std::size_t a, std::size_t b) { return times[a] > times[b]; });
     for (const auto *chain : {&forward, &backward}) {
-        std::vector<double> current = xy;
+        std::vector<double> current = start;
         std::vector<bool> dead(n, false);
         double t_current = t_from;
         for (std::size_t idx : *chain) {
             const double t = times[idx];
             if (t != t_current) {
-                std::vector<double> x0, y0;
                 std::vector<std::size_t> alive;
                 for (std::size_t p = 0; p < n; ++p)
-                    if (!dead[p]) {
-                        alive.push_back(p);
-                        x0.push_back(current[2 * p]);
-                        y0.push_back(current[2 * p + 1]);
-                    }
+                    if (!dead[p]) alive.push_back(p);
                 if (!alive.empty()) {
-                    const AdvectResult a = advect_points(dynamics, x0, y0, t_current, t, settings, false, bounds);
-                    out.stats.add(a.stats);
+                    // The segment from t_current to t: new states of the alive points, and their masks.
+                    std::vector<std::uint8_t> mask;
+                    std::vector<double> moved;
+                    if (slice) {
+                        const StateFlowMap a = flow_map_of_states( // the slice only places the bounds box
+                            dynamics, alive.size(),
+                            [&](std::size_t q, double *x) {
+                                std::copy_n(current.begin() + dim * alive[q], dim, x);
+                            },
+                            t_current, t, settings, false, bounds);
+                        out.stats.add(a.stats);
+                        mask = a.mask;
+                        moved = a.state;
+                    } else {
+                        std::vector<double> x0, y0;
+                        for (std::size_t p : alive) {
+                            x0.push_back(current[2 * p]);
+                            y0.push_back(current[2 * p + 1]);
+                        }
+                        const AdvectResult a = advect_points(dynamics, x0, y0, t_current, t, settings, false, bounds);
+                        out.stats.add(a.stats);
+                        mask = a.mask;
+                        for (std::size_t q = 0; q < alive.size(); ++q) {
+                            moved.push_back(a.x[q]);
+                            moved.push_back(a.y[q]);
+                        }
+                    }
                     for (std::size_t q = 0; q < alive.size(); ++q) {
                         const std::size_t p = alive[q];
-                        if (a.mask[q] != 0) {
+                        if (mask[q] != 0) {
                             dead[p] = true;
                             masked[p] = true;
-                            current[2 * p] = current[2 * p + 1] = nan_value;
+                            std::fill_n(current.begin() + dim * p, dim, nan_value);
                         } else {
-                            current[2 * p] = a.x[q];
-                            current[2 * p + 1] = a.y[q];
+                            std::copy_n(moved.begin() + dim * q, dim, current.begin() + dim * p);
                         }
                     }
                 }
                 t_current = t;
             }
-            out.positions[idx] = current;
+            std::vector<double> positions(2 * n);
+            for (std::size_t p = 0; p < n; ++p) {
+                positions[2 * p] = current[dim * p + ax];
+                positions[2 * p + 1] = current[dim * p + ay];
+            }
+            out.positions[idx] = std::move(positions);
         }
     }
     out.masked = static_cast<std::size_t>(std::count(masked.begin(), masked.end(), true));
+    return out;
+}
+
+SectionCrossings section_crossings(const Dynamics &dynamics, const IntegratorSettings &settings,
+                                   const std::optional<Bounds> &bounds, const std::vector<double> &seeds,
+                                   double t_start, double t_end, const std::vector<double> &normal, double offset,
+                                   int direction, std::size_t max_crossings, double sample) {
+    const Dynamics &whole = dynamics; // whole states; a slice only places the bounds box
+    const std::size_t dim = dynamics.system->dimension();
+    if (normal.size() != dim)
+        throw Error("section_crossings: a normal of " + std::to_string(normal.size()) + " components for a system of "
+                    "dimension " + std::to_string(dim));
+    if (!(sample > 0.0) || !(t_end > t_start)) throw Error("section_crossings: needs sample > 0 and t_end > t_start");
+    const std::size_t n = seeds.size() / dim;
+    SectionCrossings out;
+    out.dimension = static_cast<unsigned>(dim);
+    const auto g = [&](const double *x) {
+        double s = -offset;
+        for (std::size_t i = 0; i < dim; ++i) s += normal[i] * x[i];
+        return s;
+    };
+    // normal . v(x, t): the rate of g along the trajectory.
+    const auto rate = [&](const double *x, double t) {
+        double f = 0.0;
+        if (dynamics.forcing && dynamics.system->uses_forcing()) dynamics.forcing->evaluate(1, &t, &f);
+        std::vector<double> v(dim);
+        std::int32_t status = GB_OK;
+        dynamics.system->rhs(1, 1, &t, x, &f, v.data(), &status);
+        double s = 0.0;
+        for (std::size_t i = 0; i < dim; ++i) s += normal[i] * v[i];
+        return s;
+    };
+    // x(t) from the state a at time ta (one trajectory); false when masked.
+    const auto advance = [&](const double *a, double ta, double t, double *x) {
+        if (t == ta) {
+            std::copy_n(a, dim, x);
+            return true;
+        }
+        const StateFlowMap r = flow_map_of_states(
+            whole, 1, [&](std::size_t, double *s) { std::copy_n(a, dim, s); }, ta, t, settings, false, bounds);
+        out.stats.add(r.stats);
+        if (r.mask[0] != 0) return false;
+        std::copy_n(r.state.begin(), dim, x);
+        return true;
+    };
+    const auto wanted = [&](double g0, double g1) {
+        const bool up = g0 < 0.0 && g1 >= 0.0, down = g0 > 0.0 && g1 <= 0.0;
+        return direction > 0 ? up : direction < 0 ? down : up || down;
+    };
+    std::vector<double> current = seeds, next;
+    std::vector<std::size_t> alive(n);
+    for (std::size_t p = 0; p < n; ++p) alive[p] = p;
+    std::vector<double> x(dim), a(dim);
+    for (double t = t_start; t < t_end && !alive.empty() && out.times.size() < max_crossings;) {
+        const double t_next = std::min(t_end, t + sample);
+        const StateFlowMap r = flow_map_of_states(
+            whole, alive.size(), [&](std::size_t q, double *s) { std::copy_n(current.begin() + dim * alive[q], dim, s); },
+            t, t_next, settings, false, bounds);
+        out.stats.add(r.stats);
+        std::vector<std::size_t> still;
+        for (std::size_t q = 0; q < alive.size(); ++q) {
+            const std::size_t p = alive[q];
+            if (r.mask[q] != 0) {
+                ++out.masked;
+                continue;
+            }
+            const double *before = &current[dim * p], *after = &r.state[dim * q];
+            const double g0 = g(before), g1 = g(after);
+            if (wanted(g0, g1) && out.times.size() < max_crossings) {
+                // Newton from the end of the bracket nearer the root's linear estimate, safeguarded by bisection.
+                double lo = t, hi = t_next, glo = g0;
+                double tc = t + (t_next - t) * g0 / (g0 - g1);
+                std::copy_n(before, dim, a.begin());
+                bool ok = true;
+                for (int iteration = 0; iteration < 100; ++iteration) {
+                    if (!(ok = advance(a.data(), t, tc, x.data()))) break;
+                    const double gc = g(x.data());
+                    if (gc == 0.0) break;
+                    if ((gc < 0.0) == (glo < 0.0)) lo = tc, glo = gc;
+                    else hi = tc;
+                    const double slope = rate(x.data(), tc);
+                    double t_new = slope != 0.0 ? tc - gc / slope : 0.5 * (lo + hi);
+                    if (!(t_new > lo && t_new < hi)) t_new = 0.5 * (lo + hi);
+                    const bool done = std::abs(t_new - tc) <= 1e-13 * std::max(1.0, std::abs(tc));
+                    tc = t_new;
+                    if (done) {
+                        ok = advance(a.data(), t, tc, x.data());
+                        break;
+                    }
+                }
+                if (ok) {
+                    out.states.insert(out.states.end(), x.begin(), x.end());
+                    out.times.push_back(tc);
+                    out.seeds.push_back(p);
+                }
+            }
+            std::copy_n(after, dim, current.begin() + dim * p);
+            still.push_back(p);
+        }
+        alive.swap(still);
+        t = t_next;
+    }
     return out;
 }
 

@@ -59,6 +59,7 @@ struct Stage {
 
     // The products (validation.cpp): compute, write the table, summarise, draw.
     void poincare(const PoincareSpec &spec, nlohmann::json &summary);
+    void section(const SectionSpec &spec, nlohmann::json &summary);
     void tracers(const std::vector<TracerCloudSpec> &clouds, nlohmann::json &summary);
     void trajectories(const TrajectoriesSpec &spec, nlohmann::json &summary);
     void forcing(const ForcingSpec &spec, nlohmann::json &summary);
@@ -80,6 +81,7 @@ struct Stage {
         const std::vector<std::size_t> &seeded_from; // the barriers seeds were spread along
     };
     void draw_poincare(const PoincarePicture &p);
+    void draw_section(const SectionSpec &spec, const SectionCrossings &crossings);
     // The cloud at times[k] for every k >= 1 (times[0] is the release); returns the pictures' names.
     nlohmann::json draw_tracers(std::size_t cloud, const Snapshots &snaps, const std::vector<double> &times);
     struct TrajectoryPictures {

@@ -35,15 +35,21 @@ std::vector<std::array<double, 2>> read_points(const json &v, const std::string 
     return out;
 }
 
-std::vector<double> read_times(const json &v, const std::string &path) {
-    if (!v.is_array() || v.empty()) throw ConfigError(path, short_dump(v) + " must be a non-empty array of times");
+// An array of at least `min_size` finite numbers: `what` names the array, `item` one entry, in messages.
+std::vector<double> read_numbers(const json &v, const std::string &path, std::size_t min_size, const std::string &what,
+                                 const std::string &item) {
+    if (!v.is_array() || v.size() < min_size) throw ConfigError(path, short_dump(v) + " must be " + what);
     std::vector<double> out;
     for (std::size_t i = 0; i < v.size(); ++i) {
         if (!v[i].is_number() || !std::isfinite(v[i].get<double>()))
-            throw ConfigError(path + "/" + std::to_string(i), short_dump(v[i]) + " must be a finite time");
+            throw ConfigError(path + "/" + std::to_string(i), short_dump(v[i]) + " must be a finite " + item);
         out.push_back(v[i].get<double>());
     }
     return out;
+}
+
+std::vector<double> read_times(const json &v, const std::string &path) {
+    return read_numbers(v, path, 1, "a non-empty array of times", "time");
 }
 
 // [lo, hi] with lo <= hi (equal is allowed: a lattice of one column).
@@ -139,6 +145,41 @@ bool enabled_or_object(const json &v, const std::string &path) {
     return true;
 }
 
+// The "section" product: the plane (one normal entry per state component), the direction and whole-state seeds.
+SectionSpec read_section(const json &v, const std::string &path) {
+    Reader r(v, path);
+    SectionSpec s;
+    const auto numbers = [](const json &a, const std::string &where, const char *what) {
+        return read_numbers(a, where, 2, std::string(what) + " (an array of numbers, one per state component)",
+                            "number");
+    };
+    s.normal = numbers(r.get("normal"), r.child("normal"), "the plane's normal");
+    if (std::all_of(s.normal.begin(), s.normal.end(), [](double v) { return v == 0.0; }))
+        throw ConfigError(r.child("normal"), "is zero; the plane needs a normal");
+    s.offset = r.number("offset", 0.0);
+    const double direction = r.number("direction", 1.0);
+    if (direction != 1.0 && direction != -1.0 && direction != 0.0)
+        throw ConfigError(r.child("direction"), short_dump(r.get("direction")) + " must be 1 (normal . x "
+                                                "increasing), -1 (decreasing) or 0 (both)");
+    s.direction = static_cast<int>(direction);
+    const json &seeds = r.get("seeds");
+    if (!seeds.is_array() || seeds.empty())
+        throw ConfigError(r.child("seeds"), short_dump(seeds) + " must be a non-empty array of whole states");
+    for (std::size_t i = 0; i < seeds.size(); ++i) {
+        const std::string where = r.child("seeds") + "/" + std::to_string(i);
+        s.seeds.push_back(numbers(seeds[i], where, "a whole state"));
+        if (s.seeds.back().size() != s.normal.size())
+            throw ConfigError(where, "has " + std::to_string(s.seeds.back().size()) + " components and the "
+                                     "normal " + std::to_string(s.normal.size()));
+    }
+    s.t_start = r.optional_number("t_start");
+    s.t_end = r.optional_number("t_end");
+    s.crossings = r.count("crossings", s.crossings, 1, 10000000);
+    s.sample = r.positive("sample", s.sample);
+    r.finish();
+    return s;
+}
+
 }  // namespace
 
 ValidationSpec parse_validation(const json &j, const std::string &path) {
@@ -161,6 +202,7 @@ ValidationSpec parse_validation(const json &j, const std::string &path) {
                               "no seeds: give \"seeds\": [[x, y], ...], a \"lattice\" or \"barrier_points\" > 0");
         spec.poincare = p;
     }
+    if (root.has("section")) spec.section = read_section(root.get("section"), root.child("section"));
     if (root.has("tracers")) {
         const json &t = root.get("tracers");
         if (t.is_array()) {
@@ -220,7 +262,7 @@ ValidationSpec parse_validation(const json &j, const std::string &path) {
     }
     root.finish();
     if (spec.empty())
-        throw ConfigError(path, "{} asks for nothing; give one of poincare, tracers, trajectories, forcing, "
+        throw ConfigError(path, "{} asks for nothing; give one of poincare, section, tracers, trajectories, forcing, "
                                 "advect_barriers");
     return spec;
 }
@@ -252,6 +294,13 @@ json validation_to_json(const ValidationSpec &spec, double t0, double t1) {
         if (!p.seeds.empty()) j["seeds"] = points_json(p.seeds);
         if (p.lattice) j["lattice"] = lattice_json(*p.lattice);
         out["poincare"] = j;
+    }
+    if (spec.section) {
+        const SectionSpec &s = *spec.section;
+        out["section"] = {{"normal", s.normal},       {"offset", s.offset},
+                          {"direction", s.direction}, {"seeds", s.seeds},
+                          {"t_start", s.t_start.value_or(t0)}, {"t_end", s.t_end.value_or(t1)},
+                          {"crossings", s.crossings}, {"sample", s.sample}};
     }
     if (!spec.tracers.empty()) {
         json clouds = json::array();

@@ -72,7 +72,9 @@ std::string Stage::base_title() const { return in.title.empty() ? std::string() 
 
 // Axis labels "name [unit]" from the system's declared state names and units (ABI 1.2), "t [time]" for time.
 std::string Stage::state_label(std::size_t i) const {
-    return in.dynamics.system ? state_axis_label(in.dynamics.system->info(), i) : std::string(i == 0 ? "x" : "y");
+    const std::size_t component = in.dynamics.slice ? in.dynamics.slice->axes[i] : i; // a slice's axes
+    return in.dynamics.system ? state_axis_label(in.dynamics.system->info(), component)
+                              : std::string(i == 0 ? "x" : "y");
 }
 
 std::string Stage::time_label() const {
@@ -142,6 +144,19 @@ void Stage::draw_poincare(const PoincarePicture &p) {
             plot.series.push_back(s);
     }
     save(plot, "poincare.png");
+}
+
+// The crossings on the grid's plane (a slice's axes, else the first two components).
+void Stage::draw_section(const SectionSpec &spec, const SectionCrossings &c) {
+    XYPlot plot = phase_plot(fmt::format("event section, {} crossings of {} seeds", c.times.size(), spec.seeds.size()));
+    PlotSeries cloud = data_cloud("crossings");
+    const std::size_t ax = in.dynamics.slice ? in.dynamics.slice->axes[0] : 0;
+    const std::size_t ay = in.dynamics.slice ? in.dynamics.slice->axes[1] : 1;
+    for (std::size_t k = 0; k < c.times.size(); ++k)
+        cloud.xy.insert(cloud.xy.end(), {c.states[c.dimension * k + ax], c.states[c.dimension * k + ay]});
+    cloud.marker_px = cloud_marker_px(cloud.xy.size() / 2);
+    plot.series.push_back(cloud);
+    save(plot, "section.png");
 }
 
 nlohmann::json Stage::draw_tracers(std::size_t cloud_index, const Snapshots &snaps, const std::vector<double> &times) {

@@ -61,8 +61,22 @@ struct ThrowingFactory {
     void rhs(const Batch &, double *) const {}
 };
 
+// Seven state components, one more than the engine integrates (flow_map.hpp, max_dimension): x_i' = 0.
+struct SevenDimensional {
+    static constexpr const char *name = "seven-dimensional", *version = "0.0.1",
+                                *doc = "x' = 0 in 7 dimensions, beyond the engine's limit (test)";
+    static constexpr unsigned dimension = 7;
+    static constexpr bool uses_forcing = false;
+    static constexpr const char *state_names[] = {"a", "b", "c", "d", "e", "f", "g"},
+                                *state_units[] = {"", "", "", "", "", "", ""};
+    explicit SevenDimensional(const Params &) {}
+    template <class Real> void field(double, const Real *, double, Real *dxdt) const {
+        for (unsigned i = 0; i < dimension; ++i) dxdt[i] = Real(0.0);
+    }
+};
+
 } // namespace
 
-GEOBARRIER_PLUGINS(geobarrier::sdk::system<NanSystem>(), geobarrier::sdk::system<Oscillator>(),
+GEOBARRIER_PLUGINS(geobarrier::sdk::system<SevenDimensional>(), geobarrier::sdk::system<NanSystem>(), geobarrier::sdk::system<Oscillator>(),
                    geobarrier::sdk::forcing<NanForcing>(), geobarrier::sdk::system<ThrowingSystem>(),
                    geobarrier::sdk::system<ThrowingFactory>())

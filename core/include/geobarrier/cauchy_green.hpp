@@ -8,7 +8,9 @@
 
 #include <geobarrier/grid.hpp>
 
+#include <array>
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace geobarrier {
@@ -68,6 +70,37 @@ CauchyGreenField cauchy_green_field(const Grid &grid, const std::vector<double> 
 std::uint64_t cauchy_green_into(CauchyGreenField &out, std::size_t first, std::size_t count, const double *dF,
                                 const std::uint8_t *mask, const std::int32_t *dF_exponent, const double *log_det,
                                 double abs_duration);
+
+// --- n-dimensional systems (dimension 2 .. max_dimension of flow_map.hpp) ---
+
+// The Cauchy–Green tensor C = DF^T DF of an n x n gradient DF = 2^exponent G (G row-major, n^2 values), from the
+// singular value decomposition of G (Eigen's JacobiSVD: C = V S^2 V^T, so C is never formed and its eigenvalues
+// keep their relative accuracy where forming C would square G's condition number). lambda holds C's eigenvalues in
+// ascending order (+Inf / 0 where they leave the double range), eigenvectors the matching unit eigenvectors
+// (n per eigenvalue: eigenvectors[i * n + j] is component j of the i-th), ftle = log(lambda_max) / (2 |T|) computed
+// in logarithms (finite however large DF is). When log_abs_det (Liouville's log|det DF|) is finite, the smallest
+// eigenvalue is det(DF)^2 over the product of the others, free of the cancellation that loses it in the SVD once
+// lambda_max / lambda_min exceeds ~1/eps^2.
+struct CauchyGreenND {
+    unsigned dimension = 0;
+    std::vector<double> lambda;       // ascending
+    std::vector<double> eigenvectors; // dimension x dimension; row i = eigenvector of lambda[i]
+    double ftle = 0.0;
+    double log_lambda_max = 0.0, log_lambda_min = 0.0;
+};
+CauchyGreenND cauchy_green_nd(const double *dF, unsigned dimension, double abs_duration, int exponent = 0,
+                              double log_abs_det = std::numeric_limits<double>::quiet_NaN());
+
+// A slice of an n-dimensional system (grid.hpp, Slice): the 2 x 2 gradient `out` (row-major) whose Cauchy–Green
+// tensor out^T out is the slice's view of DF = 2^exponent dF (n x n, row-major) on the components axes[0], axes[1],
+// and the log|det| that goes with it (NaN: take it from out's entries), so that the planar pipeline (cauchy_green_at
+// with the same exponent) computes the slice's fields:
+//   full:       out = diag(s_max, s_min), the extreme singular values of dF: eigenvalues s_max^2, s_min^2 of the
+//               whole C (s_min from Liouville's log_abs_det when finite); its eigenvectors mean nothing on the slice
+//   restricted: out = R of the QR factorisation of the n x 2 columns DF P (Householder), R^T R = P^T C P exactly
+//   projected:  out = the 2 x 2 block of dF on the axes
+void slice_gradient(const double *dF, unsigned dimension, const std::array<unsigned, 2> &axes, SliceTensor tensor,
+                    int exponent, double log_abs_det, double *out, double &out_log_abs_det);
 
 }  // namespace geobarrier
 

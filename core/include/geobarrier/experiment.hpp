@@ -12,6 +12,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <functional>
@@ -40,6 +41,14 @@ struct ProductInfo {
 };
 const std::vector<ProductInfo> &known_products();
 
+// A grid over two state components of an n-dimensional system, the others fixed ("grid": {"axes": [...],
+// "fixed": {...}}), by the state names the system declares; checked against them when the experiment is resolved.
+struct GridSliceSpec {
+    std::array<std::string, 2> axes;
+    std::vector<std::pair<std::string, double>> fixed; // as written, in order
+    SliceTensor tensor = SliceTensor::full;            // "cauchy_green": {"slice_tensor": ...}
+};
+
 struct Experiment {
     std::filesystem::path file; // where it was read from ("" for in-memory)
     nlohmann::json source;      // the JSON as written
@@ -51,6 +60,7 @@ struct Experiment {
     std::vector<std::filesystem::path> plugin_paths; // resolved against the file's folder
 
     Grid grid;
+    std::optional<GridSliceSpec> slice; // the grid's "axes" and "fixed" when given
     double t0 = 0.0, t1 = 1.0;
     std::optional<Bounds> bounds;
     std::string quality = "standard";     // the preset: draft | standard | publication (quality_preset)
@@ -108,11 +118,17 @@ struct ResolvedExperiment {
     PluginRegistry registry;
     System system;
     Forcing forcing;
+    std::optional<Slice> slice; // the grid's slice, component indices resolved against the system's state names
     std::vector<Extractor> extractors;
     GradientMethod gradient = GradientMethod::none;
     bool need_positions = false;
     bool need_cauchy_green = false;
     nlohmann::json resolved; // the experiment with every default filled in, for the manifest
+
+    // What the flow map integrates: the system, its forcing and the grid's slice (if any).
+    Dynamics dynamics() const { return Dynamics{&system, &forcing, slice ? &*slice : nullptr}; }
+    // The state component along the grid's x (i = 0) or y (i = 1): the slice's axes, else 0 and 1.
+    std::size_t plane_component(std::size_t i) const { return slice ? slice->axes[i] : i; }
 };
 
 ResolvedExperiment resolve_experiment(const Experiment &experiment);

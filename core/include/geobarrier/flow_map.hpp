@@ -55,6 +55,11 @@ struct IntegratorSettings {
     double step_tolerance = 0.0;
 };
 
+// The largest state dimension the engine integrates (its kernels are compiled for each dimension 2 .. max_dimension;
+// the variational equations of dimension N carry N + N^2 + 1 components per lane). Systems of higher dimension are
+// refused with an error naming /system/plugin.
+constexpr unsigned max_dimension = 6;
+
 // Checked fixed steps never go below step * min_step_fraction: a lane whose error still exceeds the tolerance there
 // is masked mask_unstable (the explicit stepper is unstable at any step the run can afford; try rosenbrock4).
 constexpr double min_step_fraction = 1.0 / 1024;
@@ -68,16 +73,21 @@ constexpr double min_rtol = 1e-14;
 // auxiliary-grid group) at a time.
 std::size_t lanes_per_batch(const IntegratorSettings &settings);
 
-// An optional box: trajectories that leave it are masked (mask_left_bounds).
+// An optional box: trajectories that leave it are masked (mask_left_bounds). It limits state components 0 and 1, or a
+// slice's two axes (Dynamics::slice).
 struct Bounds {
     double x_min, x_max, y_min, y_max;
 };
 
 // What to integrate: the system, its forcing (may be null when unused), the
 // interval, the settings and the optional bounds.
+// Systems of dimension above 2 are seen by the planar functions below (advect_points, compute_grid_flow_map,
+// flow_map_at_points) on a slice: their (x, y) are the slice's axes, the other components start at the slice's fixed
+// values, and their DF is the slice's 2 x 2 gradient (Slice::tensor). flow_map_of_states integrates whole states.
 struct Dynamics {
     const System *system = nullptr;
     const Forcing *forcing = nullptr;
+    const Slice *slice = nullptr; // required for systems of dimension > 2 in the planar functions; else ignored
 };
 
 // The engine's settings, by the engine's own names: a bad one is reported as an EngineSettingError naming it. The
@@ -156,6 +166,24 @@ struct AdvectResult {
 AdvectResult advect_points(const Dynamics &dynamics, const std::vector<double> &x0, const std::vector<double> &y0,
                            double t0, double t1, const IntegratorSettings &settings, bool variational,
                            const std::optional<Bounds> &bounds = std::nullopt, const ProgressFn &progress = {});
+
+// The flow map of whole states of a system of any dimension 2 .. max_dimension: point k starts at the state `start`
+// writes (dimension values), and the result holds every component of the final state and, with `variational`, the
+// whole n x n DF. Dynamics::slice, if any, only says which two components the bounds box limits (else 0 and 1). Points next to each other share a batch. Every point masked is a result, not an
+// error. The auxiliary grid is planar only (use the variational equations).
+struct StateFlowMap {
+    unsigned dimension = 0;
+    std::vector<double> state;             // final states, dimension per point (NaN where masked)
+    std::vector<double> dF;                // variational only: dimension^2 per point, row-major; see dF_exponent
+    std::vector<std::int32_t> dF_exponent; // variational only: DF = 2^dF_exponent * dF (see AdvectResult)
+    std::vector<double> log_det;           // variational only: log|det DF| (Liouville)
+    std::vector<std::uint8_t> mask;        // MaskBits per point
+    IntegratorStats stats;
+};
+using StateStartFn = std::function<void(std::size_t k, double *state)>;
+StateFlowMap flow_map_of_states(const Dynamics &dynamics, std::size_t count, const StateStartFn &start, double t0,
+                                double t1, const IntegratorSettings &settings, bool variational,
+                                const std::optional<Bounds> &bounds = std::nullopt, const ProgressFn &progress = {});
 
 // How the gradient of the flow map is computed on the grid.
 enum class GradientMethod {

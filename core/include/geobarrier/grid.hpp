@@ -3,8 +3,10 @@
 #ifndef GEOBARRIER_GRID_HPP
 #define GEOBARRIER_GRID_HPP
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 
 namespace geobarrier {
 
@@ -20,6 +22,24 @@ struct Grid {
     double dy() const { return (y_max - y_min) / static_cast<double>(ny - 1); }
     double x(std::size_t j) const { return x_min + dx() * static_cast<double>(j); }
     double y(std::size_t i) const { return y_min + dy() * static_cast<double>(i); }
+};
+
+// How the Cauchy–Green tensor of an n-dimensional system is seen on a two-dimensional slice of its phase space
+// (docs/experiment-format.md, "Grids as slices", says when each is the right one). Each is handed to the planar
+// pipeline as a 2 x 2 gradient G whose G^T G has the eigenvalues below (cauchy_green.hpp, slice_gradient).
+enum class SliceTensor {
+    full,       // C = DF^T DF of the whole n x n DF: FTLE from its largest eigenvalue; eigenvectors not in the slice
+    restricted, // P^T C P (P: the slice's two unit vectors): stretching of perturbations within the slice, measured in
+                // the whole phase space; eigenvectors in the slice
+    projected   // B^T B, B the 2 x 2 block of DF on the slice's axes: the derivative of the map from the slice to its
+                // projection; the planar Cauchy–Green tensor when the slice is invariant (uncoupled components)
+};
+
+// A grid over two components of an n-dimensional state (the slice's axes), the other components fixed.
+struct Slice {
+    std::array<unsigned, 2> axes{0, 1}; // state components along the grid's x and y
+    std::vector<double> state;          // every component's initial value (the axes' entries are ignored)
+    SliceTensor tensor = SliceTensor::full;
 };
 
 // Why a grid point is masked; a point's mask is the OR of these bits, 0 = valid.

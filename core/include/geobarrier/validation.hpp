@@ -78,13 +78,28 @@ struct AdvectBarriersSpec {
     std::size_t tube_rows = 97;     // tube slices, evenly spaced over the span of `times`
 };
 
+// An event section (systems of any dimension, autonomous ones above all): the crossings of the hyperplane
+// normal . x = offset in `direction` by trajectories of whole states (section_crossings below).
+struct SectionSpec {
+    std::vector<double> normal; // one entry per state component
+    double offset = 0.0;
+    int direction = 1; // +1, -1, or 0 for both
+    std::vector<std::vector<double>> seeds; // whole initial states
+    std::optional<double> t_start, t_end; // default: t0, t1
+    std::size_t crossings = 10000;        // at most, over all seeds
+    double sample = 0.1;                  // bracketing interval (time); crossings closer than it may be missed
+};
+
 struct ValidationSpec {
     std::optional<PoincareSpec> poincare;
+    std::optional<SectionSpec> section;
     std::vector<TracerCloudSpec> tracers;
     std::optional<TrajectoriesSpec> trajectories;
     std::optional<ForcingSpec> forcing;
     std::optional<AdvectBarriersSpec> advect_barriers;
-    bool empty() const { return !poincare && tracers.empty() && !trajectories && !forcing && !advect_barriers; }
+    bool empty() const {
+        return !poincare && !section && tracers.empty() && !trajectories && !forcing && !advect_barriers;
+    }
 };
 
 // Reads the experiment's "validation" object (docs/experiment-format.md). Every error is a ConfigError naming the
@@ -119,6 +134,26 @@ Snapshots advect_snapshots(const Dynamics &dynamics, const IntegratorSettings &s
 Snapshots poincare_iterates(const Dynamics &dynamics, const IntegratorSettings &settings,
                             const std::optional<Bounds> &bounds, const std::vector<double> &seeds, double t_start,
                             double period, std::size_t iterations);
+
+// An event section of an autonomous (or any) system of any dimension: the states where trajectories cross the
+// hyperplane normal . x = offset, in the chosen direction (+1: normal . x increasing, -1: decreasing, 0: both). The
+// whole states (Dynamics::slice is ignored) advance together in chunks of `sample` time; a chunk whose ends lie on
+// both sides brackets a crossing, which is then located by Newton's method on g(t) = normal . x(t) - offset with
+// g'(t) = normal . v(x(t), t), each iterate integrated afresh from the bracket's start (bisection where Newton
+// leaves the bracket), until the time changes by less than 1e-13 max(1, |t|): the crossing of the integrated
+// trajectory, to the integrator's own accuracy. Integration stops at t_end or after max_crossings crossings.
+struct SectionCrossings {
+    unsigned dimension = 0;
+    std::vector<double> states;      // dimension per crossing
+    std::vector<double> times;       // per crossing
+    std::vector<std::size_t> seeds;  // per crossing: the seed it came from
+    std::size_t masked = 0;          // seeds whose trajectory was masked before t_end
+    IntegratorStats stats;
+};
+SectionCrossings section_crossings(const Dynamics &dynamics, const IntegratorSettings &settings,
+                                   const std::optional<Bounds> &bounds, const std::vector<double> &seeds,
+                                   double t_start, double t_end, const std::vector<double> &normal, double offset,
+                                   int direction, std::size_t max_crossings, double sample);
 
 // One barrier advected to several times: length, delta_l (eq. `rel_def`) and, for closed ones, enclosed area.
 struct StretchingSample {

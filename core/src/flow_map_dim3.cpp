@@ -1,0 +1,4 @@
+// The flow-map engine for systems of dimension 3 in a translation unit of its own (flow_map.cpp,
+// flow_map_engine::run_batches_for).
+#define GEOBARRIER_FLOW_MAP_DIMENSION 3
+#include "flow_map.cpp"

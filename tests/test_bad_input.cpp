@@ -128,8 +128,11 @@ void check_outcome(const Case &c, const fs::path &dir, const Outcome &o, const f
 // that nothing is written there also see that nothing was compiled.
 Case equations_case(std::string name, json params, std::vector<std::string> message) {
     Case c = json_case(
-        std::move(name), [params](json &j) { j["system"] = {{"plugin", "equations"}, {"params", params}}; }, 2,
-        std::move(message));
+        std::move(name),
+        [params](json &j) {
+            j["system"] = {{"plugin", "equations"}, {"params", params}};
+        },
+        2, std::move(message));
     c.prefix = "GEOBARRIER_EQUATIONS_CACHE=out/equations-cache";
     return c;
 }
@@ -172,8 +175,8 @@ std::vector<Case> equations_battery() {
                        {"rhs/1, column 1", "'system' is not a function"}));
     add(equations_case("equations: three state components", {{"state", {"x", "y", "z"}}, {"rhs", {"y", "x", "z"}}},
                        {"/system/params/state", "give 2 state names"}));
-    add(equations_case("equations: a constant given as text", {{"state", {"x", "y"}}, {"rhs", {"y", "-d*x"}},
-                                                                {"constants", {{"d", "0.1"}}}},
+    add(equations_case("equations: a constant given as text",
+                       {{"state", {"x", "y"}}, {"rhs", {"y", "-d*x"}}, {"constants", {{"d", "0.1"}}}},
                        {"/system/params/constants/d", "is not a number"}));
     return cases;
 }
@@ -444,7 +447,10 @@ std::vector<Case> slice_battery() {
     auto add = [&](Case c) { cases.push_back(std::move(c)); };
     const auto coupled = [](json &j) {
         j["system"] = {{"plugin", "coupled-duffing"}};
-        j["grid"] = {{"axes", {"x1", "v1"}}, {"x1", {-1.5, 1.5}}, {"v1", {-1, 1}}, {"n", {11, 9}},
+        j["grid"] = {{"axes", {"x1", "v1"}},
+                     {"x1", {-1.5, 1.5}},
+                     {"v1", {-1, 1}},
+                     {"n", {11, 9}},
                      {"fixed", {{"x2", 0}, {"v2", 0}}}};
     };
     add(json_case("slice: an axis names an unknown component, with a hint",

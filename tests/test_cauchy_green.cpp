@@ -32,7 +32,7 @@ void check_frame(const CauchyGreenPoint &p) {
     CHECK(p.lambda1 <= p.lambda2);
 }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("saddle gradient diag(e^{aT}, e^{-aT}): lambda2 = e^{2aT}, lambda1 = e^{-2aT}, ftle = a") {
     // Relative 1e-14 is ~45 ulp: exp, one square and the scaled eigenvalue each add one rounding.
@@ -155,8 +155,8 @@ TEST_CASE("cauchy_green_field: masked points are NaN, degenerate points flagged 
     grid.ny = 2;
     const double e = std::exp(1.0), nan = std::numeric_limits<double>::quiet_NaN();
     // Points: saddle, identity (degenerate), masked, saddle, NaN gradient (unmasked), rotation (degenerate).
-    std::vector<double> dF = {e, 0, 0, 1 / e, 1, 0, 0, 1, nan, nan, nan, nan,
-                              e, 0, 0, 1 / e, nan, 0, 0, 1, 0, -1, 1, 0};
+    std::vector<double> dF = {e, 0, 0, 1 / e, 1,   0, 0, 1, nan, nan, nan, nan,
+                              e, 0, 0, 1 / e, nan, 0, 0, 1, 0,   -1,  1,   0};
     std::vector<std::uint8_t> mask = {0, 0, mask_left_bounds, 0, 0, 0};
     const CauchyGreenField f = cauchy_green_field(grid, dF, mask, 0.5);
     CHECK(f.degenerate_count == 2);

@@ -59,7 +59,7 @@ json tiny_experiment() {
     })");
 }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("--version and --help work") {
     const Result v = run("--version");
@@ -73,33 +73,30 @@ TEST_CASE("command-line typos exit 2 with one line and a did-you-mean") {
     struct Case {
         const char *args, *expected;
     };
-    for (const Case &c : {Case{"rnu exp.json", "'rnu' is not a geobarrier command; did you mean 'run'?"},
-                          Case{"valdiate exp.json", "did you mean 'validate'?"},
-                          Case{"no-such-command", "'no-such-command' is not a geobarrier command"},
-                          Case{"run exp.json --quite", "unknown option '--quite' for geobarrier run; did you mean "
-                                                       "'--quiet'?"},
-                          Case{"run exp.json --bogus", "unknown option '--bogus' for geobarrier run"},
-                          Case{"plugins --jsno", "did you mean '--json'?"},
-                          Case{"--verison", "did you mean '--version'?"},
-                          Case{"check-plugin duffing --t-min -5 --tmax 5", "did you mean '--t-max'?"},
-                          Case{"run exp.json --threads 0", "--threads"},
-                          Case{"", "subcommand"},
-                          // Every command's name misspelt, in another case, or cut short.
-                          Case{"swep s.json", "'swep' is not a geobarrier command; did you mean 'sweep'? (commands: "
-                                              "run, validate, sweep, plugins, check-plugin)"},
-                          Case{"check-plugins duffing", "did you mean 'check-plugin'?"},
-                          Case{"plugin", "did you mean 'plugins'?"},
-                          Case{"RUN exp.json", "did you mean 'run'?"},
-                          // Every command's options misspelt, and an option of another command.
-                          Case{"sweep s.json --proceses 2", "unknown option '--proceses' for geobarrier sweep; did "
-                                                            "you mean '--processes'?"},
-                          Case{"plugins --json --plugin-pth x", "did you mean '--plugin-path'?"},
-                          Case{"check-plugin --al", "did you mean '--all'?"},
-                          Case{"validate exp.json --quiet", "unknown option '--quiet' for geobarrier validate"},
-                          // Values and arguments missing or too many.
-                          Case{"run exp.json --out", "--out"},
-                          Case{"run", "file is required"},
-                          Case{"run exp.json extra.json", "extra.json"}}) {
+    for (const Case &c :
+         {Case{"rnu exp.json", "'rnu' is not a geobarrier command; did you mean 'run'?"},
+          Case{"valdiate exp.json", "did you mean 'validate'?"},
+          Case{"no-such-command", "'no-such-command' is not a geobarrier command"},
+          Case{"run exp.json --quite", "unknown option '--quite' for geobarrier run; did you mean "
+                                       "'--quiet'?"},
+          Case{"run exp.json --bogus", "unknown option '--bogus' for geobarrier run"},
+          Case{"plugins --jsno", "did you mean '--json'?"}, Case{"--verison", "did you mean '--version'?"},
+          Case{"check-plugin duffing --t-min -5 --tmax 5", "did you mean '--t-max'?"},
+          Case{"run exp.json --threads 0", "--threads"}, Case{"", "subcommand"},
+          // Every command's name misspelt, in another case, or cut short.
+          Case{"swep s.json", "'swep' is not a geobarrier command; did you mean 'sweep'? (commands: "
+                              "run, validate, sweep, plugins, check-plugin)"},
+          Case{"check-plugins duffing", "did you mean 'check-plugin'?"}, Case{"plugin", "did you mean 'plugins'?"},
+          Case{"RUN exp.json", "did you mean 'run'?"},
+          // Every command's options misspelt, and an option of another command.
+          Case{"sweep s.json --proceses 2", "unknown option '--proceses' for geobarrier sweep; did "
+                                            "you mean '--processes'?"},
+          Case{"plugins --json --plugin-pth x", "did you mean '--plugin-path'?"},
+          Case{"check-plugin --al", "did you mean '--all'?"},
+          Case{"validate exp.json --quiet", "unknown option '--quiet' for geobarrier validate"},
+          // Values and arguments missing or too many.
+          Case{"run exp.json --out", "--out"}, Case{"run", "file is required"},
+          Case{"run exp.json extra.json", "extra.json"}}) {
         const Result r = run(c.args);
         CHECK_MESSAGE(r.status == 2, c.args);
         CHECK_MESSAGE(contains(r.output, "geobarrier: error: "), c.args, r.output);
@@ -242,8 +239,8 @@ TEST_CASE("the manifest's provenance lists the files the extractors wrote themse
     j["time"]["t1"] = 6;
     j["extractors"] = {{{"plugin", "hyperbolic"}}};
     const fs::path out = tmp / "out";
-    const Result r = run("run " + write_experiment(tmp, "extract.json", j).string() + " --out " + out.string() +
-                         " --quiet");
+    const Result r =
+        run("run " + write_experiment(tmp, "extract.json", j).string() + " --out " + out.string() + " --quiet");
     REQUIRE(r.status == 0);
     const json m = json::parse(std::ifstream(out / "manifest.json"));
     const json listed = m["provenance"]["extractor_files"];

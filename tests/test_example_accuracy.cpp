@@ -15,7 +15,7 @@ json example() {
     std::ifstream in(geobarrier::test::source_dir() / "experiments" / "duffing-ftle.json");
     return json::parse(in);
 }
-}  // namespace
+} // namespace
 
 TEST_CASE("experiments/duffing-ftle.json: paper tolerances and an auxiliary grid") {
     const auto e = geobarrier::test::ftle_error_against_reference(example(), json::object(), 3000);

@@ -89,7 +89,7 @@ ResolvedExperiment resolved_with_test_plugins(const json &j) {
     return resolve_experiment(parse_experiment(with_paths));
 }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("a minimal experiment parses with documented defaults") {
     const Experiment e = parse_experiment(minimal_experiment());
@@ -243,7 +243,7 @@ TEST_CASE("a full run writes fields.nc, ftle.png and a manifest with statistics"
     CHECK(m["resolved"]["forcing"]["params"]["amplitude"] == 0.08);
     CHECK(m["stages"].size() >= 2); // the flow map (with the Cauchy-Green fields, tile by tile) and the output
     CHECK(m["stages"][0]["stage"] == "flow map");
-    CHECK(m["tiles"]["count"] == 1); // 21 x 13 points: one tile
+    CHECK(m["tiles"]["count"] == 1);       // 21 x 13 points: one tile
     CHECK(m["tiles"]["kept"].size() == 7); // ftle, eigenvalues, eigenvectors
     CHECK(m["plugins"][0]["name"] == "duffing");
     // Conservative system: det DF = 1, so lambda1 * lambda2 = 1 (DESIGN §4: lambda1 = det^2 / lambda2).
@@ -320,6 +320,6 @@ TEST_CASE("resolving refuses the engine's bad settings at their JSON paths") {
     }
     e = parse_experiment(minimal_experiment());
     e.integrator.engine = "warp";
-    CHECK_THROWS_WITH_AS(resolve_experiment(e), "/integrator/engine: unknown engine \"warp\"; expected lockstep or odeint",
-                         ConfigError);
+    CHECK_THROWS_WITH_AS(resolve_experiment(e),
+                         "/integrator/engine: unknown engine \"warp\"; expected lockstep or odeint", ConfigError);
 }

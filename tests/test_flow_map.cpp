@@ -36,7 +36,7 @@ IntegratorSettings settings_for(const std::string &method, double tol, std::size
 // Classic RK4 applied to x' = a x multiplies by this per step of size h.
 double rk4_factor(double z) { return 1.0 + z + z * z / 2.0 + z * z * z / 6.0 + z * z * z * z / 24.0; }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("linear saddle: flow map = (x0 e^{aT}, y0 e^{-aT}) for every stepper, both time directions, any batch") {
     const double a = 0.8;
@@ -218,8 +218,8 @@ TEST_CASE("unforced undamped Duffing conserves H = y^2/2 - x^2/2 + x^4/4") {
             CHECK(r.stats.masked == 0);
             double worst = 0.0;
             for (std::size_t k = 0; k < x0.size(); ++k)
-                worst = std::max(worst, std::abs(test::duffing_energy(r.x[k], r.y[k]) -
-                                                 test::duffing_energy(x0[k], y0[k])));
+                worst = std::max(worst,
+                                 std::abs(test::duffing_energy(r.x[k], r.y[k]) - test::duffing_energy(x0[k], y0[k])));
             MESSAGE(method << ": max |dH| = " << worst);
             // Local errors <= 1e-10 (1 + |x|) in state give |dH| <= |grad H| 1e-10 per step, N ~ 10^2-10^3 steps.
             CHECK(worst < 1e-7);
@@ -266,8 +266,8 @@ TEST_CASE("forced Duffing: variational and auxiliary-grid gradients agree") {
         }
         worst_df = std::max(worst_df, diff / norm);
         worst_ftle = std::max(worst_ftle, std::abs(cv.ftle[p] - ca.ftle[p]));
-        worst_pos = std::max(worst_pos, std::max(std::abs(var.flow_x[p] - aux.flow_x[p]),
-                                                 std::abs(var.flow_y[p] - aux.flow_y[p])));
+        worst_pos = std::max(
+            worst_pos, std::max(std::abs(var.flow_x[p] - aux.flow_x[p]), std::abs(var.flow_y[p] - aux.flow_y[p])));
     }
     MESSAGE("max |DF_var - DF_aux| / max|DF| = " << worst_df << ", max |ftle diff| = " << worst_ftle
                                                  << ", max position diff = " << worst_pos);
@@ -480,9 +480,9 @@ TEST_CASE("statistics are consistent with the steppers' stage counts") {
             CHECK(st.rhs_evaluations == 10 * 4 * 6);
         }
         const nlohmann::json j = st.to_json();
-        for (const char *key : {"trajectories", "batches", "steps", "rejected_steps", "rhs_evaluations", "masked",
-                                "masked_left_bounds", "masked_non_finite", "masked_step_limit",
-                                "masked_invalid_state", "wall_seconds"})
+        for (const char *key :
+             {"trajectories", "batches", "steps", "rejected_steps", "rhs_evaluations", "masked", "masked_left_bounds",
+              "masked_non_finite", "masked_step_limit", "masked_invalid_state", "wall_seconds"})
             CHECK(j.contains(key));
         CHECK(j["steps"].get<std::uint64_t>() == st.steps);
     }
@@ -507,14 +507,14 @@ TEST_CASE("step limit and progress: no hang, remaining lanes masked, progress re
     IntegratorSettings s = settings_for("dopri5", 1e-12, 8);
     s.max_steps = 5; // far too few for T = 10 at 1e-12
     std::atomic<std::size_t> calls{0}, last_total{0}, max_done{0};
-    const AdvectResult r = advect_points(dyn, x0, y0, 0.0, 10.0, s, false, std::nullopt,
-                                         [&](std::size_t done, std::size_t total) {
-                                             ++calls;
-                                             last_total = total;
-                                             std::size_t m = max_done.load();
-                                             while (done > m && !max_done.compare_exchange_weak(m, done)) {
-                                             }
-                                         });
+    const AdvectResult r =
+        advect_points(dyn, x0, y0, 0.0, 10.0, s, false, std::nullopt, [&](std::size_t done, std::size_t total) {
+            ++calls;
+            last_total = total;
+            std::size_t m = max_done.load();
+            while (done > m && !max_done.compare_exchange_weak(m, done)) {
+            }
+        });
     CHECK(r.stats.masked_step_limit == 50);
     CHECK(std::all_of(r.mask.begin(), r.mask.end(), [](std::uint8_t m) { return m == mask_step_limit; }));
     CHECK(std::all_of(r.x.begin(), r.x.end(), [](double v) { return std::isnan(v); }));
@@ -575,9 +575,9 @@ TEST_CASE("the engine names a bad setting; the experiment layer maps it to its J
     }
     CHECK_THROWS_AS(advect_points(dyn, x0, y0, 0.0, 1.0, bad, false), EngineSettingError);
     Grid grid;
-    CHECK_THROWS_AS(compute_grid_flow_map(dyn, grid, 0.0, 1.0, IntegratorSettings{}, GradientMethod::auxiliary_grid,
-                                          0.0, false),
-                    EngineSettingError);
+    CHECK_THROWS_AS(
+        compute_grid_flow_map(dyn, grid, 0.0, 1.0, IntegratorSettings{}, GradientMethod::auxiliary_grid, 0.0, false),
+        EngineSettingError);
     // Every setting has a path in the experiment file.
     for (int k = 0; k <= static_cast<int>(EngineSetting::grid); ++k)
         CHECK(json_path_of(static_cast<EngineSetting>(k)).rfind('/', 0) == 0);

@@ -29,12 +29,14 @@ IntegratorSettings lockstep(const std::string &method, bool adaptive, double ste
     s.method = method;
     s.adaptive = adaptive;
     s.batch = batch;
-    if (adaptive) s.rtol = s.atol = step_or_tol;
-    else s.step = step_or_tol;
+    if (adaptive)
+        s.rtol = s.atol = step_or_tol;
+    else
+        s.step = step_or_tol;
     return s;
 }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("lockstep kernel, linear saddle: positions and DF = diag(e^{aT}, e^{-aT}) for every tableau") {
     const double a = 0.8;
@@ -51,17 +53,23 @@ TEST_CASE("lockstep kernel, linear saddle: positions and DF = diag(e^{aT}, e^{-a
     // over N = |T| / h steps: dop853 with h = 0.25 (|ah| = 0.2): 20 * 0.2^9 / 9! = 2.8e-11; rk4 with h = 0.01:
     // |T| a^5 h^4 / 120 = 1.4e-10. The bounds leave a factor ~30 for the methods' own error constants.
     // Adaptive: local errors <= tol (1 + |x|), carried to t1 growing like the solution: <= N tol, N <= 200.
-    const Case cases[] = {{"dop853", false, 0.25, 1e-9}, {"rk4", false, 0.01, 5e-9},     {"dop853", true, 1e-10, 2e-8},
-                          {"dopri5", true, 1e-10, 2e-8}, {"rkf78", true, 1e-10, 2e-8}};
+    const Case cases[] = {{"dop853", false, 0.25, 1e-9},
+                          {"rk4", false, 0.01, 5e-9},
+                          {"dop853", true, 1e-10, 2e-8},
+                          {"dopri5", true, 1e-10, 2e-8},
+                          {"rkf78", true, 1e-10, 2e-8}};
     for (const Case &c : cases) {
         for (double T : {5.0, -5.0}) {
             CAPTURE(c.method);
             CAPTURE(c.adaptive);
             CAPTURE(T);
-            const AdvectResult r = advect_points(dyn, x0, y0, 0.0, T, lockstep(c.method, c.adaptive, c.step_or_tol), true);
+            const AdvectResult r =
+                advect_points(dyn, x0, y0, 0.0, T, lockstep(c.method, c.adaptive, c.step_or_tol), true);
             CHECK(r.stats.masked == 0);
-            if (c.adaptive) CHECK(r.stats.steps <= 200 * r.stats.batches);
-            else CHECK(r.stats.steps == static_cast<std::uint64_t>(std::ceil(5.0 / c.step_or_tol - 1e-9)) * 3);
+            if (c.adaptive)
+                CHECK(r.stats.steps <= 200 * r.stats.batches);
+            else
+                CHECK(r.stats.steps == static_cast<std::uint64_t>(std::ceil(5.0 / c.step_or_tol - 1e-9)) * 3);
             const double ex = std::exp(a * T), ey = std::exp(-a * T), big = std::exp(a * std::abs(T));
             for (std::size_t k = 0; k < x0.size(); ++k) {
                 CHECK(std::abs(r.x[k] - x0[k] * ex) <= c.bound * (1.0 + big));
@@ -128,8 +136,8 @@ TEST_CASE("lockstep kernel, unforced Duffing: H = y^2/2 - x^2/2 + x^4/4 is conse
         CHECK(r.stats.masked == 0);
         double worst = 0.0;
         for (std::size_t k = 0; k < x0.size(); ++k)
-            worst = std::max(worst, std::abs(test::duffing_energy(r.x[k], r.y[k]) -
-                                             test::duffing_energy(x0[k], y0[k])));
+            worst =
+                std::max(worst, std::abs(test::duffing_energy(r.x[k], r.y[k]) - test::duffing_energy(x0[k], y0[k])));
         MESSAGE("dop853 adaptive=" << c.settings.adaptive << ": max |dH| = " << worst);
         CHECK(worst < c.bound);
     }
@@ -169,8 +177,8 @@ TEST_CASE("the plugin's fused step (ABI 1.2 advance) gives the stage-by-stage ke
     const Dynamics dyn{&duffing, &cosine};
     REQUIRE(duffing.has_advance());
     std::vector<double> x0, y0;
-    test::sample_points(37, x0, y0); // batches of 16 leave a partial last batch
-    x0[5] = std::nan("");      // masked from the start: the fused path must leave it masked too
+    test::sample_points(37, x0, y0);        // batches of 16 leave a partial last batch
+    x0[5] = std::nan("");                   // masked from the start: the fused path must leave it masked too
     const Bounds box{-1.3, 1.3, -1.1, 1.1}; // some lanes leave it mid-run and are frozen there
     for (const std::string method : {"dop853", "rk4"}) {
         for (const bool variational : {true, false}) {
@@ -190,7 +198,9 @@ TEST_CASE("the plugin's fused step (ABI 1.2 advance) gives the stage-by-stage ke
                 CHECK(a.stats.masked_left_bounds > 0);
                 CHECK(a.mask == b.mask);
                 double worst = 0.0; // relative difference over every unmasked output
-                auto compare = [&](double u, double v) { worst = std::max(worst, std::abs(u - v) / (1.0 + std::abs(v))); };
+                auto compare = [&](double u, double v) {
+                    worst = std::max(worst, std::abs(u - v) / (1.0 + std::abs(v)));
+                };
                 for (std::size_t k = 0; k < x0.size(); ++k) {
                     if (b.mask[k] != 0) continue;
                     compare(a.x[k], b.x[k]);
@@ -239,14 +249,16 @@ TEST_CASE("the default (standard preset) FTLE of the paper's first example match
     const Dynamics dyn{&duffing, &cosine};
     const Grid grid{-1.8, 1.8, -1.2, 1.2, 46, 31}; // x range, y range, nx, ny
     const double T = 8 * pi;
-    const Experiment e = parse_experiment(nlohmann::json{{"system", {{"plugin", "duffing"}}},
-                                                         {"grid", {{"x", {-1.8, 1.8}}, {"y", {-1.2, 1.2}}, {"n", {46, 31}}}},
-                                                         {"time", {{"t0", 0}, {"t1", T}}},
-                                                         {"products", {"ftle"}}});
+    const Experiment e =
+        parse_experiment(nlohmann::json{{"system", {{"plugin", "duffing"}}},
+                                        {"grid", {{"x", {-1.8, 1.8}}, {"y", {-1.2, 1.2}}, {"n", {46, 31}}}},
+                                        {"time", {{"t0", 0}, {"t1", T}}},
+                                        {"products", {"ftle"}}});
     CHECK(e.quality == "standard");
     CHECK(e.integrator.method == "dop853");
     CHECK_FALSE(e.integrator.adaptive);
-    const GridFlowMap ours = compute_grid_flow_map(dyn, grid, 0.0, T, e.integrator, GradientMethod::variational, 0.0, false);
+    const GridFlowMap ours =
+        compute_grid_flow_map(dyn, grid, 0.0, T, e.integrator, GradientMethod::variational, 0.0, false);
     IntegratorSettings tight;
     tight.engine = "odeint";
     tight.method = "rkf78";
@@ -313,8 +325,8 @@ TEST_CASE("quality presets: names, overrides, errors") {
                          ConfigError);
     CHECK_THROWS_WITH_AS(experiment({{"integrator", {{"method", "rk4"}, {"step", 0.1}, {"adaptive", true}}}}),
                          doctest::Contains("/integrator/adaptive"), ConfigError);
-    CHECK_THROWS_WITH_AS(experiment({{"integrator", {{"engine", "odeint"}}}}),
-                         doctest::Contains("/integrator/engine"), ConfigError);
+    CHECK_THROWS_WITH_AS(experiment({{"integrator", {{"engine", "odeint"}}}}), doctest::Contains("/integrator/engine"),
+                         ConfigError);
     CHECK_THROWS_WITH_AS(experiment({{"integrator", {{"engine", "boost"}}}}), doctest::Contains("\"boost\""),
                          ConfigError);
 }
@@ -338,7 +350,7 @@ FtlePair ftle_pair(const Dynamics &dyn, const Grid &grid, double T, const Integr
     return r;
 }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("checked fixed steps: on the paper's first example every step passes, bit for bit the unchecked run") {
     const System duffing = make_system("duffing");
@@ -352,7 +364,8 @@ TEST_CASE("checked fixed steps: on the paper's first example every step passes, 
         checked.fused = plain.fused = fused;
         plain.step_tolerance = 0.0;
         REQUIRE(checked.step_tolerance > 0.0);
-        const GridFlowMap a = compute_grid_flow_map(dyn, grid, 0.0, T, checked, GradientMethod::variational, 0.0, false);
+        const GridFlowMap a =
+            compute_grid_flow_map(dyn, grid, 0.0, T, checked, GradientMethod::variational, 0.0, false);
         const GridFlowMap b = compute_grid_flow_map(dyn, grid, 0.0, T, plain, GradientMethod::variational, 0.0, false);
         CHECK(a.stats.rejected_steps == 0);
         CHECK(a.stats.steps == a.stats.planned_steps);
@@ -435,10 +448,10 @@ TEST_CASE("draft preset: the damped attractor in backward time meets draft's sta
     IntegratorSettings tight;
     tight.method = "rkf78";
     tight.rtol = tight.atol = 1e-12;
-    const GridFlowMap ours = compute_grid_flow_map(dyn, grid, 0.0, T, draft, GradientMethod::variational, 0.0, false,
-                                                   bounds);
-    const GridFlowMap exact = compute_grid_flow_map(dyn, grid, 0.0, T, tight, GradientMethod::variational, 0.0, false,
-                                                    bounds);
+    const GridFlowMap ours =
+        compute_grid_flow_map(dyn, grid, 0.0, T, draft, GradientMethod::variational, 0.0, false, bounds);
+    const GridFlowMap exact =
+        compute_grid_flow_map(dyn, grid, 0.0, T, tight, GradientMethod::variational, 0.0, false, bounds);
     const auto f_ours = cauchy_green_field(grid, ours.dF, ours.mask, -T, ours.dF_exponent, ours.log_det).ftle;
     const auto f_exact = cauchy_green_field(grid, exact.dF, exact.mask, -T, exact.dF_exponent, exact.log_det).ftle;
     double mean = 0.0, worst = 0.0;
@@ -459,7 +472,7 @@ TEST_CASE("draft preset: the damped attractor in backward time meets draft's sta
     MESSAGE("draft, damped attractor: " << ours.stats.steps << " steps for " << ours.stats.planned_steps
                                         << " planned; FTLE error mean " << mean << ", max " << worst);
     CHECK(ours.stats.steps > ours.stats.planned_steps); // the checked steps refined
-    CHECK(masked_only_ours <= grid.size() / 100);      // no more than 1% masked beyond the reference's own
-    CHECK(mean <= 1e-3);                               // draft's stated accuracy (mean / max: 1e-3 / 0.3)
+    CHECK(masked_only_ours <= grid.size() / 100);       // no more than 1% masked beyond the reference's own
+    CHECK(mean <= 1e-3);                                // draft's stated accuracy (mean / max: 1e-3 / 0.3)
     CHECK(worst <= 0.3);
 }

@@ -42,8 +42,14 @@ int run(const std::vector<std::string> &command, const fs::path &log) {
 // mpirun for this machine only: we may run as root (containers), more ranks than cores, and no single-copy
 // mechanism between ranks (containers often forbid the ptrace it needs).
 std::vector<std::string> mpirun(int ranks) {
-    return {GEOBARRIER_MPIEXEC, "--allow-run-as-root", "--oversubscribe", "--mca", "btl_vader_single_copy_mechanism",
-            "none", "-np", std::to_string(ranks)};
+    return {GEOBARRIER_MPIEXEC,
+            "--allow-run-as-root",
+            "--oversubscribe",
+            "--mca",
+            "btl_vader_single_copy_mechanism",
+            "none",
+            "-np",
+            std::to_string(ranks)};
 }
 
 struct Variable {
@@ -109,7 +115,7 @@ TEST_CASE("mpirun -np 2 and -np 3 (oversubscribed): the fields of the single pro
         const fs::path out = dir / ("np" + std::to_string(ranks));
         auto command = mpirun(ranks);
         for (const std::string &a : {program, std::string("run"), exp, std::string("--out"), out.string(),
-                                    std::string("--threads"), std::string("1"), std::string("--quiet")})
+                                     std::string("--threads"), std::string("1"), std::string("--quiet")})
             command.push_back(a);
         const int code = run(command, dir / "mpi.log");
         CAPTURE(geobarrier::test::read_text(dir / "mpi.log"));
@@ -145,9 +151,9 @@ TEST_CASE("mpirun -np 2 geobarrier sweep: the ranks share the members, rank 0 wr
         "figures": ["ftle_max"], "plot": false})");
     std::ofstream(dir / "sweep.json") << sweep.dump();
     auto command = mpirun(2);
-    for (const std::string &a : {geobarrier::test::geobarrier_program().string(), std::string("sweep"),
-                                (dir / "sweep.json").string(), std::string("--out"), (dir / "out").string(),
-                                std::string("--threads"), std::string("1")})
+    for (const std::string &a :
+         {geobarrier::test::geobarrier_program().string(), std::string("sweep"), (dir / "sweep.json").string(),
+          std::string("--out"), (dir / "out").string(), std::string("--threads"), std::string("1")})
         command.push_back(a);
     const int code = run(command, dir / "mpi.log");
     const std::string log = geobarrier::test::read_text(dir / "mpi.log");
@@ -160,11 +166,11 @@ TEST_CASE("mpirun -np 2 geobarrier sweep: the ranks share the members, rank 0 wr
         CHECK(line.find(",done,") != std::string::npos);
     }
     CHECK(rows == 6);
-    for (int k = 0; k < 5; ++k)
-        CHECK(fs::exists(dir / "out" / ("member-00" + std::to_string(k)) / "manifest.json"));
+    for (int k = 0; k < 5; ++k) CHECK(fs::exists(dir / "out" / ("member-00" + std::to_string(k)) / "manifest.json"));
     // One report, from rank 0.
     std::size_t reports = 0;
-    for (std::size_t at = log.find("swept 5 members"); at != std::string::npos; at = log.find("swept 5 members", at + 1))
+    for (std::size_t at = log.find("swept 5 members"); at != std::string::npos;
+         at = log.find("swept 5 members", at + 1))
         ++reports;
     CHECK(reports == 1);
     fs::remove_all(dir);

@@ -10,8 +10,8 @@
 
 #include <test_support.hpp>
 
-#include <doctest/doctest.h>
 #include <Eigen/Dense>
+#include <doctest/doctest.h>
 
 #include <algorithm>
 #include <cmath>
@@ -53,7 +53,7 @@ double coupled_duffing_energy(const double *s, double k) {
     return one(s[0], s[1]) + one(s[2], s[3]) + 0.5 * k * (s[0] - s[2]) * (s[0] - s[2]);
 }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("linear n-D saddles: DF = Q diag(e^{a T}) Q^T and the Cauchy-Green eigenvalues e^{2 a T}, dimensions 3-6, "
           "every engine path") {
@@ -156,7 +156,8 @@ TEST_CASE("the n x n Cauchy-Green tensor: SVD eigenvalues agree with Eigen's Sel
     CHECK(cg.ftle == doctest::Approx(std::log(eig.eigenvalues()(n - 1)) / 4.0).epsilon(1e-12));
     // Extreme stretching: DF = diag(1e12, 1e-12, 3, 1/3) in a rotated basis; C's smallest eigenvalue 1e-24 is below
     // eps * 1e24 and lost in any eigen-solver of C, but Liouville's det DF = 1 gives it back.
-    const Eigen::MatrixXd dF = linear_nd_dF(n, 0.0, 0.4, 1.0) * Eigen::Vector4d(1e12, 1e-12, 3.0, 1.0 / 3.0).asDiagonal() *
+    const Eigen::MatrixXd dF = linear_nd_dF(n, 0.0, 0.4, 1.0) *
+                               Eigen::Vector4d(1e12, 1e-12, 3.0, 1.0 / 3.0).asDiagonal() *
                                linear_nd_dF(n, 0.0, 0.4, 1.0).transpose();
     for (unsigned i = 0; i < n; ++i)
         for (unsigned j = 0; j < n; ++j) row_major[i * n + j] = dF(i, j);
@@ -225,7 +226,8 @@ json slice_experiment(const std::string &tensor) {
       "forcing": {"plugin": "cosine", "params": {"amplitude": 0.08}},
       "grid":    {"axes": ["x1", "v1"], "x1": [-1.5, 1.5], "v1": [-1, 1], "n": [21, 15],
                   "fixed": {"x2": 0.4, "v2": -0.2}},
-      "cauchy_green": {"method": "variational", "slice_tensor": ")" + tensor + R"("},
+      "cauchy_green": {"method": "variational", "slice_tensor": ")" +
+                       tensor + R"("},
       "time":    {"t0": 0, "t1": 12},
       "products": ["ftle", "eigenvalues"]
     })");
@@ -248,7 +250,7 @@ const std::vector<double> &field(const RunSummary &s, const std::string &name) {
     return none;
 }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("a slice of the uncoupled system (k = 0) reproduces the planar Duffing FTLE to 1e-10") {
     json planar = slice_experiment("restricted");
@@ -291,8 +293,8 @@ TEST_CASE("event sections: crossings of a hyperplane located to the integrator's
     for (int p = 0; p < 5; ++p) seeds.insert(seeds.end(), {0.1 * (p + 1), 1.0, 0.2, 1.0});
     const double t0 = 0.3;
     // x0 = 1 upward: t* = t0 + ln(1 / x0(0)) / 0.5 (between 0 and 4.6 after t0; sampled every 0.7).
-    const SectionCrossings up = section_crossings(dyn, s, std::nullopt, seeds, t0, t0 + 6.0, {1, 0, 0, 0}, 1.0, +1,
-                                                  100, 0.7);
+    const SectionCrossings up =
+        section_crossings(dyn, s, std::nullopt, seeds, t0, t0 + 6.0, {1, 0, 0, 0}, 1.0, +1, 100, 0.7);
     REQUIRE(up.times.size() == 5); // the fifth seed starts at 0.5 ... each crosses once
     for (std::size_t c = 0; c < up.times.size(); ++c) {
         const std::size_t p = up.seeds[c];
@@ -304,8 +306,8 @@ TEST_CASE("event sections: crossings of a hyperplane located to the integrator's
     }
     // The same plane downward: x0 only grows, so no crossing; x1 = 0.5 downward at t0 + 2 ln 2 for every seed.
     CHECK(section_crossings(dyn, s, std::nullopt, seeds, t0, t0 + 6.0, {1, 0, 0, 0}, 1.0, -1, 100, 0.7).times.empty());
-    const SectionCrossings down = section_crossings(dyn, s, std::nullopt, seeds, t0, t0 + 6.0, {0, 2, 0, 0}, 1.0, -1,
-                                                    3, 0.7);
+    const SectionCrossings down =
+        section_crossings(dyn, s, std::nullopt, seeds, t0, t0 + 6.0, {0, 2, 0, 0}, 1.0, -1, 3, 0.7);
     REQUIRE(down.times.size() == 3); // max_crossings
     for (double t : down.times) CHECK(std::abs(t - (t0 + 2.0 * std::log(2.0))) < 1e-10);
 }

@@ -31,22 +31,18 @@ namespace {
 class ScratchDir {
   public:
     explicit ScratchDir(const std::string &name)
-        : m_path(fs::temp_directory_path() / ("geobarrier-test-output-" + std::to_string(::getpid()) + "-" + name))
-    {
+        : m_path(fs::temp_directory_path() / ("geobarrier-test-output-" + std::to_string(::getpid()) + "-" + name)) {
         fs::remove_all(m_path);
         fs::create_directories(m_path);
     }
-    ~ScratchDir()
-    {
+    ~ScratchDir() {
         std::error_code ignored;
         fs::remove_all(m_path, ignored);
     }
     const fs::path &path() const { return m_path; }
-    std::vector<std::string> entries() const
-    {
+    std::vector<std::string> entries() const {
         std::vector<std::string> names;
-        for (const auto &entry : fs::directory_iterator(m_path))
-            names.push_back(entry.path().filename().string());
+        for (const auto &entry : fs::directory_iterator(m_path)) names.push_back(entry.path().filename().string());
         return names;
     }
 
@@ -54,20 +50,16 @@ class ScratchDir {
     fs::path m_path;
 };
 
-std::string read_all(const fs::path &path)
-{
+std::string read_all(const fs::path &path) {
     std::ifstream in(path, std::ios::binary);
     return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
 }
 
-void nc_ok(int status)
-{
-    if (status != NC_NOERR)
-        FAIL(nc_strerror(status));
+void nc_ok(int status) {
+    if (status != NC_NOERR) FAIL(nc_strerror(status));
 }
 
-std::string text_attribute(int ncid, int varid, const char *name)
-{
+std::string text_attribute(int ncid, int varid, const char *name) {
     std::size_t length = 0;
     nc_ok(nc_inq_attlen(ncid, varid, name, &length));
     std::string text(length, '\0');
@@ -75,10 +67,9 @@ std::string text_attribute(int ncid, int varid, const char *name)
     return text;
 }
 
-}  // namespace
+} // namespace
 
-TEST_CASE("write_file_atomically: the target appears only when complete")
-{
+TEST_CASE("write_file_atomically: the target appears only when complete") {
     ScratchDir dir("complete");
     const fs::path target = dir.path() / "result.txt";
     const std::string text(100000, 'a');
@@ -107,8 +98,7 @@ TEST_CASE("write_file_atomically: the target appears only when complete")
     CHECK(dir.entries() == std::vector<std::string>{"result.txt"});
 }
 
-TEST_CASE("write_file_atomically: a failing writer leaves the target untouched and no temporary file")
-{
+TEST_CASE("write_file_atomically: a failing writer leaves the target untouched and no temporary file") {
     ScratchDir dir("failing");
     const fs::path target = dir.path() / "fields.nc";
     geobarrier::write_text_file(target, "old content");
@@ -131,8 +121,7 @@ TEST_CASE("write_file_atomically: a failing writer leaves the target untouched a
     CHECK_FALSE(fs::exists(dir.path() / "missing"));
 }
 
-TEST_CASE("write_fields_netcdf: round trip of a 4 x 3 grid with two variables and a mask")
-{
+TEST_CASE("write_fields_netcdf: round trip of a 4 x 3 grid with two variables and a mask") {
     ScratchDir dir("netcdf");
     const fs::path file = dir.path() / "fields.nc";
     const Grid grid{-1.5, 1.5, 0.0, 2.0, 4, 3}; // x range, y range, nx, ny
@@ -140,17 +129,28 @@ TEST_CASE("write_fields_netcdf: round trip of a 4 x 3 grid with two variables an
     // Row-major, row = y. a has a NaN at an unmasked point (k = 3): it must become _FillValue too.
     const std::vector<double> a{0.5, 1.0, 1.5, nan, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0, 5.5, 6.0};
     std::vector<double> b(grid.size());
-    for (std::size_t k = 0; k < b.size(); ++k)
-        b[k] = -0.1 * static_cast<double>(k) + 1e-17;
-    const std::vector<std::uint8_t> mask{0, geobarrier::mask_left_bounds, 0, 0,
-                                         geobarrier::mask_degenerate, 0, geobarrier::mask_non_finite, 0,
-                                         0, geobarrier::mask_step_limit | geobarrier::mask_invalid_state, 0, 0};
+    for (std::size_t k = 0; k < b.size(); ++k) b[k] = -0.1 * static_cast<double>(k) + 1e-17;
+    const std::vector<std::uint8_t> mask{0,
+                                         geobarrier::mask_left_bounds,
+                                         0,
+                                         0,
+                                         geobarrier::mask_degenerate,
+                                         0,
+                                         geobarrier::mask_non_finite,
+                                         0,
+                                         0,
+                                         geobarrier::mask_step_limit | geobarrier::mask_invalid_state,
+                                         0,
+                                         0};
     std::vector<FieldVariable> variables(2);
     variables[0] = {"lambda2", "largest eigenvalue of the Cauchy-Green tensor", "1", &a,
                     geobarrier::mask_trajectory_bits};
     variables[1] = {"ftle", "finite-time Lyapunov exponent", "1/s", &b,
                     geobarrier::mask_trajectory_bits | geobarrier::mask_degenerate};
-    const nlohmann::json globals{{"title", "test fields"}, {"t0", 0.25}, {"n_steps", 40}, {"converged", true},
+    const nlohmann::json globals{{"title", "test fields"},
+                                 {"t0", 0.25},
+                                 {"n_steps", 40},
+                                 {"converged", true},
                                  {"forcing", {{"name", "cosine"}}}};
     geobarrier::write_fields_netcdf(file, grid, variables, mask, globals);
     CHECK(dir.entries() == std::vector<std::string>{"fields.nc"});
@@ -267,8 +267,7 @@ TEST_CASE("write_fields_netcdf: round trip of a 4 x 3 grid with two variables an
     nc_ok(nc_close(ncid));
 }
 
-TEST_CASE("cf_units: UDUNITS-2 strings pass; the model's own scales become \"1\" with their meaning")
-{
+TEST_CASE("cf_units: UDUNITS-2 strings pass; the model's own scales become \"1\" with their meaning") {
     using geobarrier::cf_units;
     for (const char *unit : {"rad", "1/s", "m s-1", "rad/s", "K"}) {
         CAPTURE(unit);
@@ -287,8 +286,7 @@ TEST_CASE("cf_units: UDUNITS-2 strings pass; the model's own scales become \"1\"
     CHECK(cf_units("times").units == "times"); // a whole word only, not a prefix
 }
 
-TEST_CASE("write_fields_netcdf: coordinate units from the system's state units, model units explained")
-{
+TEST_CASE("write_fields_netcdf: coordinate units from the system's state units, model units explained") {
     ScratchDir dir("netcdf-units");
     const fs::path file = dir.path() / "fields.nc";
     const Grid grid{-3.0, 3.0, -2.0, 2.0, 3, 2};
@@ -313,8 +311,7 @@ TEST_CASE("write_fields_netcdf: coordinate units from the system's state units, 
     nc_ok(nc_close(ncid));
 }
 
-TEST_CASE("write_fields_netcdf: bad arguments are refused before anything is written")
-{
+TEST_CASE("write_fields_netcdf: bad arguments are refused before anything is written") {
     ScratchDir dir("netcdf-bad");
     Grid grid;
     grid.nx = 4;
@@ -331,8 +328,7 @@ TEST_CASE("write_fields_netcdf: bad arguments are refused before anything is wri
     CHECK(dir.entries().empty());
 }
 
-TEST_CASE("plot_field_png: a PNG of the requested width")
-{
+TEST_CASE("plot_field_png: a PNG of the requested width") {
     ScratchDir dir("png");
     const fs::path file = dir.path() / "lambda2.png";
     const Grid grid{-2.0, 2.0, -1.0, 1.0, 41, 21}; // x range, y range, nx, ny
@@ -361,8 +357,7 @@ TEST_CASE("plot_field_png: a PNG of the requested width")
     CHECK(png.substr(12, 4) == "IHDR");
     auto be32 = [&](std::size_t at) {
         std::uint32_t v = 0;
-        for (std::size_t i = 0; i < 4; ++i)
-            v = (v << 8) | static_cast<unsigned char>(png[at + i]);
+        for (std::size_t i = 0; i < 4; ++i) v = (v << 8) | static_cast<unsigned char>(png[at + i]);
         return v;
     };
     CHECK(be32(16) == 640u);
@@ -371,20 +366,17 @@ TEST_CASE("plot_field_png: a PNG of the requested width")
 
     // An unknown colour is refused before PLplot starts, and nothing is written.
     plot.curves[0].color = "chartreuse-ish";
-    CHECK_THROWS_AS(geobarrier::plot_field_png(dir.path() / "other.png", grid, values, mask, plot),
-                    geobarrier::Error);
+    CHECK_THROWS_AS(geobarrier::plot_field_png(dir.path() / "other.png", grid, values, mask, plot), geobarrier::Error);
     CHECK(dir.entries() == std::vector<std::string>{"lambda2.png"});
 }
 
-TEST_CASE("plot_field_png: concurrent calls are serialised and each picture is whole")
-{
+TEST_CASE("plot_field_png: concurrent calls are serialised and each picture is whole") {
     ScratchDir dir("png-threads");
     Grid grid;
     grid.nx = 8;
     grid.ny = 8;
     std::vector<double> values(grid.size());
-    for (std::size_t k = 0; k < values.size(); ++k)
-        values[k] = static_cast<double>(k);
+    for (std::size_t k = 0; k < values.size(); ++k) values[k] = static_cast<double>(k);
     const std::vector<std::uint8_t> mask(grid.size(), 0);
     FieldPlot plot;
     plot.width_px = 300;
@@ -398,8 +390,7 @@ TEST_CASE("plot_field_png: concurrent calls are serialised and each picture is w
                 failures[t] = 1;
             }
         });
-    for (std::thread &thread : threads)
-        thread.join();
+    for (std::thread &thread : threads) thread.join();
     CHECK(failures == std::vector<int>(4, 0));
     for (int t = 0; t < 4; ++t) {
         const std::string png = read_all(dir.path() / ("p" + std::to_string(t) + ".png"));

@@ -93,9 +93,7 @@ Extent extent_of(const Image &image, int r, int g, int b, int tolerance = 40) {
 }
 
 // Viridis and the other colour-map entries are saturated; white paper, black text and grey axes are not.
-bool colourful(const std::uint8_t *p) {
-    return std::max({p[0], p[1], p[2]}) - std::min({p[0], p[1], p[2]}) > 40;
-}
+bool colourful(const std::uint8_t *p) { return std::max({p[0], p[1], p[2]}) - std::min({p[0], p[1], p[2]}) > 40; }
 
 double luminance(const std::uint8_t *p) { return 0.2126 * p[0] + 0.7152 * p[1] + 0.0722 * p[2]; }
 
@@ -108,7 +106,7 @@ PlotSeries circle(double cx, double cy, double rx, double ry, const std::string 
     return s;
 }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("plot_xy_png: lines, markers and a legend; the height follows the aspect") {
     const fs::path dir = fresh_dir("xy");
@@ -194,13 +192,14 @@ TEST_CASE("plot_xyz_png: a shaded tube with curves") {
     tube.cols = 24;
     for (std::size_t r = 0; r < tube.rows; ++r)
         for (std::size_t c = 0; c < tube.cols; ++c)
-            tube.xyz.insert(tube.xyz.end(), {std::cos(2 * M_PI * c / 24), 0.5 * std::sin(2 * M_PI * c / 24),
-                                             static_cast<double>(r)});
+            tube.xyz.insert(tube.xyz.end(),
+                            {std::cos(2 * M_PI * c / 24), 0.5 * std::sin(2 * M_PI * c / 24), static_cast<double>(r)});
     plot.surfaces.push_back(tube);
     PlotSeries3D helix;
     helix.label = "helix";
     helix.color = "red";
-    for (int k = 0; k < 200; ++k) helix.xyz.insert(helix.xyz.end(), {1.5 * std::cos(k * 0.2), std::sin(k * 0.2), k * 0.045});
+    for (int k = 0; k < 200; ++k)
+        helix.xyz.insert(helix.xyz.end(), {1.5 * std::cos(k * 0.2), std::sin(k * 0.2), k * 0.045});
     plot.series.push_back(helix);
     plot.width_px = 600;
     plot_xyz_png(dir / "tube.png", plot);

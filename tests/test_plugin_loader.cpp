@@ -24,14 +24,14 @@ std::string error_of(const std::function<void()> &f) {
     return "";
 }
 bool contains(const std::string &text, const std::string &part) { return text.find(part) != std::string::npos; }
-}  // namespace
+} // namespace
 
 TEST_CASE("the built-in plugins are found with their schemas") {
     const PluginRegistry registry({test::plugin_dir()});
     std::vector<std::string> names;
     for (const auto &h : registry.plugins()) names.push_back(std::string(to_string(h.info.kind)) + "/" + h.info.name);
-    for (const char *expected : {"system/duffing", "system/linear-saddle", "forcing/none", "forcing/cosine",
-                                 "forcing/chaotic-map"})
+    for (const char *expected :
+         {"system/duffing", "system/linear-saddle", "forcing/none", "forcing/cosine", "forcing/chaotic-map"})
         CHECK_MESSAGE(std::find(names.begin(), names.end(), expected) != names.end(), expected);
     CHECK(registry.warnings().empty());
 
@@ -134,10 +134,13 @@ TEST_CASE("parameters are validated against the schema") {
     const std::string unknown = error_of([&] { validate_params(duffing.info, {{"detla", 0.1}}, "/system/params"); });
     CHECK(contains(unknown, "/system/params/detla"));
     CHECK(contains(unknown, "did you mean \"delta\""));
-    const std::string wrong_type = error_of([&] { validate_params(duffing.info, {{"alpha", "one"}}, "/system/params"); });
+    const std::string wrong_type = error_of([&] {
+        validate_params(duffing.info, {{"alpha", "one"}}, "/system/params");
+    });
     CHECK(contains(wrong_type, "/system/params/alpha"));
     CHECK(contains(wrong_type, "not a number"));
-    CHECK(contains(error_of([&] { validate_params(duffing.info, json::array(), "/system/params"); }), "expected an object"));
+    CHECK(contains(error_of([&] { validate_params(duffing.info, json::array(), "/system/params"); }),
+                   "expected an object"));
 
     const PluginHandle &chaotic = test::registry().find(PluginKind::forcing, "chaotic-map", "/forcing/plugin");
     const auto seed = std::find_if(chaotic.info.params.begin(), chaotic.info.params.end(),

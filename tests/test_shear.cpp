@@ -5,8 +5,8 @@
 #include <geobarrier/line_field.hpp>
 #include <geobarrier/shear.hpp>
 
-#include <doctest/doctest.h>
 #include <circular_shear.hpp>
+#include <doctest/doctest.h>
 
 #include <cmath>
 #include <functional>

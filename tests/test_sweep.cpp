@@ -31,8 +31,9 @@ namespace {
 // A small undamped Duffing experiment; trajectories leaving [-3, 3]^2 are masked.
 json small_base(int n, double t1) {
     return json::parse(R"({"system": {"plugin": "duffing"}, "forcing": {"plugin": "cosine"},
-        "grid": {"x": [-1, 1], "y": [-1, 1], "n": [)" + std::to_string(n) + "," + std::to_string(n) +
-                       R"(]}, "time": {"t0": 0, "t1": )" + std::to_string(t1) + R"(},
+        "grid": {"x": [-1, 1], "y": [-1, 1], "n": [)" +
+                       std::to_string(n) + "," + std::to_string(n) + R"(]}, "time": {"t0": 0, "t1": )" +
+                       std::to_string(t1) + R"(},
         "bounds": {"x": [-3, 3], "y": [-3, 3]}, "products": ["ftle"], "output": {"plots": false}})");
 }
 
@@ -52,7 +53,8 @@ struct Exit {
 };
 
 // Starts the program with `args`; `on_started(pid)` runs while it does (may signal it); returns its exit.
-Exit run_program(const fs::path &dir, std::vector<std::string> args, const std::function<void(pid_t)> &on_started = {}) {
+Exit run_program(const fs::path &dir, std::vector<std::string> args,
+                 const std::function<void(pid_t)> &on_started = {}) {
     const std::string program = test::geobarrier_program().string();
     args.insert(args.begin(), program);
     posix_spawn_file_actions_t actions;
@@ -171,8 +173,10 @@ TEST_CASE("sweep files are checked like experiments: JSON path, value and rule i
     CHECK(config_error(with({{{"path", "/forcing/parms/amplitude"}, {"values", {1}}}}), true) ==
           "/parameters/0/path: member-000 (amplitude = 1): /forcing/parms: unknown key; did you mean \"params\"?");
     CHECK(config_error(with({{{"path", "/forcing/params/amplitude"}, {"values", {1}}}}), true).empty());
-    CHECK(config_error(with({{{"path", "forcing"}, {"values", {1}}}})).rfind("/parameters/0/path: \"forcing\" is not "
-                                                                              "a JSON pointer", 0) == 0);
+    CHECK(config_error(with({{{"path", "forcing"}, {"values", {1}}}}))
+              .rfind("/parameters/0/path: \"forcing\" is not "
+                     "a JSON pointer",
+                     0) == 0);
     CHECK(config_error(with({{{"path", "/grid/n/2"}, {"values", {1}}}})) ==
           "/parameters/0/path: \"/grid/n/2\": \"/grid/n\" is an array of 2 elements; \"2\" is not the index of one");
     CHECK(config_error(with({{{"path", "/output/dir"}, {"values", {"a"}}}})).rfind("/parameters/0/path:", 0) == 0);
@@ -198,8 +202,8 @@ TEST_CASE("sweep files are checked like experiments: JSON path, value and rule i
     CHECK(config_error(sweep, true) == "/parameters/0/values/2: member-002 (t1 = 0): /time/t1: equals t0; the "
                                        "interval must have nonzero length");
     sweep = with({{{"path", "/forcing/params/omega"}, {"values", {1, "fast"}}}});
-    CHECK(config_error(sweep, true).rfind("/parameters/0/values/1: member-001 (omega = fast): /forcing/params/omega:",
-                                          0) == 0);
+    CHECK(config_error(sweep, true)
+              .rfind("/parameters/0/values/1: member-001 (omega = fast): /forcing/params/omega:", 0) == 0);
 }
 
 TEST_CASE("a sweep of 8 members with one failing: the others finish, the failure is reported, the summary has all") {

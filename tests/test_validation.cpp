@@ -34,8 +34,8 @@ IntegratorSettings tight() {
 double duffing_h(double x, double y) { return 0.5 * y * y - 0.5 * x * x + 0.25 * x * x * x * x; }
 
 fs::path fresh_dir(const std::string &name) {
-    const fs::path dir = fs::temp_directory_path() / ("geobarrier-test-validation-" + name + "-" +
-                                                      std::to_string(::getpid()));
+    const fs::path dir =
+        fs::temp_directory_path() / ("geobarrier-test-validation-" + name + "-" + std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
     return dir;
@@ -81,7 +81,7 @@ std::vector<double> duffing_level_curve(double h, std::size_t n) {
     return xy;
 }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("point_in_polygon on known shapes") {
     const std::vector<double> square = {0, 0, 1, 0, 1, 1, 0, 1};
@@ -214,8 +214,7 @@ TEST_CASE("advected length of straight segments and areas under the linear saddl
     const StretchingHistory hq = stretching_history(dynamics, tight(), std::nullopt, square, true, 0.0, {T}, 0.005);
     CHECK(hq.area0 == doctest::Approx(0.04).epsilon(1e-14));
     CHECK(hq.samples[0].area == doctest::Approx(0.04).epsilon(1e-9));
-    CHECK(hq.samples[0].length ==
-          doctest::Approx(2 * 0.2 * (std::exp(a * T) + std::exp(-a * T))).epsilon(1e-9));
+    CHECK(hq.samples[0].length == doctest::Approx(2 * 0.2 * (std::exp(a * T) + std::exp(-a * T))).epsilon(1e-9));
 }
 
 TEST_CASE("an invariant closed orbit keeps its length and area when advected (elliptic check of eq. rel_def)") {
@@ -256,7 +255,8 @@ TEST_CASE("trajectories: inside or outside the outermost elliptic barrier, by po
         Barrier b;
         b.kind = "elliptic";
         b.closed = true;
-        for (int k = 0; k < 100; ++k) b.xy.insert(b.xy.end(), {1 + r * std::cos(M_PI * k / 50), r * std::sin(M_PI * k / 50)});
+        for (int k = 0; k < 100; ++k)
+            b.xy.insert(b.xy.end(), {1 + r * std::cos(M_PI * k / 50), r * std::sin(M_PI * k / 50)});
         return b;
     };
     std::vector<Barrier> barriers = {ring(0.1), ring(0.3)};
@@ -274,7 +274,7 @@ TEST_CASE("trajectories: inside or outside the outermost elliptic barrier, by po
     const fs::path dir = fresh_dir("inside");
     const ValidationOutput out = run_validation(spec, input, dir);
     const json &list = out.summary["trajectories"]["trajectories"];
-    CHECK(list[0]["inside"] == true);  // between the rings: inside the outermost
+    CHECK(list[0]["inside"] == true); // between the rings: inside the outermost
     CHECK(list[1]["inside"] == false);
     CHECK(list[2]["inside"] == true);
     CHECK(out.summary["trajectories"]["elliptic_barriers_used"] == 1);
@@ -296,7 +296,8 @@ TEST_CASE("barrier tubes and their VTK file") {
     const System saddle = test::make_system("linear-saddle", {{"a", 0.5}});
     const Forcing none = test::make_forcing("none");
     std::vector<double> circle;
-    for (int k = 0; k < 40; ++k) circle.insert(circle.end(), {0.3 * std::cos(M_PI * k / 20), 0.3 * std::sin(M_PI * k / 20)});
+    for (int k = 0; k < 40; ++k)
+        circle.insert(circle.end(), {0.3 * std::cos(M_PI * k / 20), 0.3 * std::sin(M_PI * k / 20)});
     BarrierTube tube = barrier_tube({&saddle, &none}, tight(), std::nullopt, circle, true, 0.0, {0.0, 0.5, 1.0}, 32);
     REQUIRE(tube.rows == 3);
     REQUIRE(tube.columns == 32);

@@ -33,8 +33,8 @@
 #include <vector>
 
 namespace fs = std::filesystem;
-using nlohmann::json;
 using geobarrier::bench::peak_lane_fma_rate;
+using nlohmann::json;
 
 namespace {
 
@@ -46,7 +46,7 @@ const char *const gnu_time = "/usr/bin/time";
 struct ProcessResult {
     int status = -1;
     double wall_seconds = 0;
-    double peak_mib = 0; // the child's maximum resident set size
+    double peak_mib = 0;     // the child's maximum resident set size
     double user_seconds = 0; // the child's user CPU time (all its threads): steadier than wall time on a shared machine
     std::string output;
 };
@@ -395,7 +395,8 @@ class Bench {
     }
 
     // The SciPy baseline (apps/bench/baselines/scipy_baseline.py: one stacked solve_ivp RK45 at the paper's
-    // tolerances, auxiliary grid), run from a copy (the source tree may be read-only) with the reference folder as its data.
+    // tolerances, auxiliary grid), run from a copy (the source tree may be read-only) with the reference folder as its
+    // data.
     std::optional<Row> scipy(const std::string &section, std::size_t n, const std::vector<double> &exact) {
         // Debian's interpreter (python3-scipy), which a python3 earlier on PATH (pyenv, a venv) may hide.
         const std::string python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
@@ -574,8 +575,8 @@ std::vector<SuiteCase> suite_cases() {
     const auto vdp = [](double mu) { return json{{"plugin", "van-der-pol"}, {"params", {{"mu", mu}}}}; };
     const json wide_bounds = {{"x", {-20, 20}}, {"y", {-40, 40}}};
     return {
-        {"duffing: W (paper example 1, T = 8π)", suite_experiment(duffing(0), cosine(0.08, 1), {-1.8, 1.8, -1.2, 1.2},
-                                                                  0, horizon)},
+        {"duffing: W (paper example 1, T = 8π)",
+         suite_experiment(duffing(0), cosine(0.08, 1), {-1.8, 1.8, -1.2, 1.2}, 0, horizon)},
         {"duffing: damped attractor (δ = 0.15, A = 0.3, T = −8π, bounds)",
          suite_experiment(duffing(0.15), cosine(0.3, 1), {-1.8, 1.8, -1.2, 1.2}, 0, -horizon,
                           {{"x", {-20, 20}}, {"y", {-20, 20}}})},
@@ -603,8 +604,8 @@ std::vector<SuiteCase> suite_cases() {
          suite_experiment({{"plugin", "shear-vortex"}, {"params", {{"omega", 1}, {"shear", 1}}}}, nullptr,
                           {-1, 1, -1, 1}, 0, two_pi)},
         {"parallel shear jet (experiments/parallel-shear-jet.json, T = 10)",
-         suite_experiment({{"plugin", "parallel-shear"}, {"params", {{"profile", "jet"}}}}, nullptr, {0, 4, -2, 2},
-                          0, 10)},
+         suite_experiment({{"plugin", "parallel-shear"}, {"params", {{"profile", "jet"}}}}, nullptr, {0, 4, -2, 2}, 0,
+                          10)},
     };
 }
 
@@ -628,13 +629,15 @@ std::string ndim_section(Bench &bench, std::size_t n, int repeat) {
     json slice = workload_w(n);
     slice["description"] = "workload W's grid on the (x1, v1) slice of coupled-duffing";
     slice["system"] = {{"plugin", "coupled-duffing"}, {"params", {{"k", 0.1}}}};
-    slice["grid"] = {{"axes", {"x1", "v1"}}, {"x1", {-1.8, 1.8}}, {"v1", {-1.2, 1.2}}, {"n", {n, n}},
+    slice["grid"] = {{"axes", {"x1", "v1"}},
+                     {"x1", {-1.8, 1.8}},
+                     {"v1", {-1.2, 1.2}},
+                     {"n", {n, n}},
                      {"fixed", {{"x2", 0}, {"v2", 0}}}};
     std::vector<Row> rows;
-    for (const auto &[workload, experiment] : {std::pair<std::string, json>{"W (planar duffing, 2 components)",
-                                                                            workload_w(n)},
-                                               std::pair<std::string, json>{"coupled-duffing slice (4 components)",
-                                                                            slice}}) {
+    for (const auto &[workload, experiment] :
+         {std::pair<std::string, json>{"W (planar duffing, 2 components)", workload_w(n)},
+          std::pair<std::string, json>{"coupled-duffing slice (4 components)", slice}}) {
         Row r = bench.run("ndim", workload, experiment, {"default", json::object(), 2}, {}, nan_value, repeat);
         bench.add(r);
         rows.push_back(r);
@@ -664,7 +667,8 @@ std::string ndim_section(Bench &bench, std::size_t n, int repeat) {
 std::string suite_section(Bench &bench, std::size_t n) {
     std::ostringstream md;
     md << "## Accuracy suite: every preset on every built-in system\n\n"
-          "Each system at " << n << " × " << n << " grid points (the double gyre " << n << " × " << n / 2
+          "Each system at "
+       << n << " × " << n << " grid points (the double gyre " << n << " × " << n / 2
        << "), 2 threads, against its exact field (geobarrier: rkf78 adaptive at rtol = atol = 1e-12, variational "
           "equations). *Masked*: points the preset masked where the exact field is finite. *Verdict*: `meets` "
           "= mean and interior max within the preset's stated accuracy (draft 1e-3 / 0.3, standard 1e-4 / 0.05, "
@@ -687,11 +691,12 @@ std::string suite_section(Bench &bench, std::size_t n) {
         }
         const std::vector<double> exact = read_doubles(ref_file, nx * ny);
         for (const PresetTarget &target : preset_targets) {
-            Row r = bench.run("suite", c.name, base, {std::string("quality ") + target.quality,
-                                                      {{"quality", target.quality}}, 2}, exact);
+            Row r = bench.run("suite", c.name, base,
+                              {std::string("quality ") + target.quality, {{"quality", target.quality}}, 2}, exact);
             const fs::path manifest_file = bench.out / "run" / "manifest.json";
             json manifest = json::object();
-            if (std::isfinite(r.wall) && fs::exists(manifest_file)) manifest = json::parse(std::ifstream(manifest_file));
+            if (std::isfinite(r.wall) && fs::exists(manifest_file))
+                manifest = json::parse(std::ifstream(manifest_file));
             std::string warnings;
             bool names_integrator = false;
             for (const auto &w : manifest.value("warnings", json::array())) {
@@ -710,14 +715,15 @@ std::string suite_section(Bench &bench, std::size_t n) {
             md << "| " << c.name << " | " << target.quality << " | " << (failed ? "≠ 0" : "0") << " | "
                << fixed(r.wall, 2) << " | " << fixed(r.flow_map, 2) << " | "
                << (planned > 0 ? fixed(steps / planned, 2) : "–") << " | " << sci(r.err.mean) << " | "
-               << sci(r.err.interior_max) << " | " << r.err.missing << " (" << fixed(100 * masked_share, 1)
-               << "%) | " << verdict << " | " << (failed ? r.note : warnings) << " |\n";
+               << sci(r.err.interior_max) << " | " << r.err.missing << " (" << fixed(100 * masked_share, 1) << "%) | "
+               << verdict << " | " << (failed ? r.note : warnings) << " |\n";
             r.note = verdict;
             bench.add(r);
         }
     }
-    md << "\n" << (fails == 0 ? "Every row meets its preset's accuracy or warns naming the integrator."
-                              : std::to_string(fails) + " rows are silently wrong (verdict FAILS).")
+    md << "\n"
+       << (fails == 0 ? "Every row meets its preset's accuracy or warns naming the integrator."
+                      : std::to_string(fails) + " rows are silently wrong (verdict FAILS).")
        << "\n\n";
     std::cout << "accuracy suite at N = " << n << ": " << fails << " silently wrong rows\n";
     return md.str();
@@ -752,8 +758,8 @@ json workload_w_equations(std::size_t n, bool with_constants) {
 struct EquationsVariant {
     std::string label;
     json experiment;
-    double flow_map = nan_value; // best wall time of the flow-map stage
-    double user = nan_value;     // best user CPU time of the whole run
+    double flow_map = nan_value;            // best wall time of the flow-map stage
+    double user = nan_value;                // best user CPU time of the whole run
     double max_ftle_difference = nan_value; // against the built-in plugin's field
 };
 
@@ -761,7 +767,7 @@ struct EquationsTiming {
     std::size_t n = 0;
     int repeat = 0;
     double first_validate = nan_value, cached_validate = nan_value; // `validate`: compiling, then from the cache
-    std::vector<EquationsVariant> variants; // the built-in plugin first
+    std::vector<EquationsVariant> variants;                         // the built-in plugin first
     std::string note;
 };
 
@@ -775,8 +781,8 @@ EquationsRun run_for_equations(const Bench &bench, const json &experiment, const
     const fs::path file = bench.out / ("equations-" + tag + ".json"), dir = bench.out / ("equations-" + tag);
     std::ofstream(file) << experiment.dump(2);
     fs::remove_all(dir);
-    const auto r = run_process({bench.program.string(), "run", file.string(), "--out", dir.string(), "--quiet",
-                                "--threads", "2"});
+    const auto r =
+        run_process({bench.program.string(), "run", file.string(), "--out", dir.string(), "--quiet", "--threads", "2"});
     if (r.status != 0) throw std::runtime_error("equations section, " + tag + ": " + first_line(r.output));
     EquationsRun out;
     out.user = r.user_seconds;
@@ -794,10 +800,10 @@ EquationsTiming equations_section(const Bench &bench, std::size_t n, int repeat)
     EquationsTiming timing;
     timing.n = n;
     timing.repeat = std::max(repeat, 1);
-    timing.variants = {{"built-in duffing", workload_w(n)},
-                       {"equations \"x - x^3 + f\"", workload_w_equations(n, false)},
-                       {"equations \"alpha*x - beta*x^3 - delta*y + f\", constants 1, 1, 0",
-                        workload_w_equations(n, true)}};
+    timing.variants = {
+        {"built-in duffing", workload_w(n)},
+        {"equations \"x - x^3 + f\"", workload_w_equations(n, false)},
+        {"equations \"alpha*x - beta*x^3 - delta*y + f\", constants 1, 1, 0", workload_w_equations(n, true)}};
     const fs::path cache = bench.out / "equations-cache";
     fs::remove_all(cache);
     ::setenv("GEOBARRIER_EQUATIONS_CACHE", cache.c_str(), 1);
@@ -851,8 +857,8 @@ void equations_markdown(std::ostream &md, const EquationsTiming &t) {
         md << "| " << v.label << " | " << fixed(v.flow_map, 2) << " | " << fixed(v.flow_map / builtin.flow_map, 3)
            << " | " << fixed(v.user, 2) << " | " << fixed(v.user / builtin.user, 3) << " | "
            << sci(v.max_ftle_difference) << " |\n";
-    md << "\nFirst compile: `geobarrier validate` took " << fixed(t.first_validate, 2)
-       << " s with an empty cache and " << fixed(t.cached_validate, 2) << " s from the cache, so the compile costs "
+    md << "\nFirst compile: `geobarrier validate` took " << fixed(t.first_validate, 2) << " s with an empty cache and "
+       << fixed(t.cached_validate, 2) << " s from the cache, so the compile costs "
        << "about " << fixed(t.first_validate - t.cached_validate, 2) << " s, once. Without its constants the "
        << "equations' Jacobian entry d(y')/dy is the literal 0 and y' has no alpha, beta, delta products, which "
           "the built-in plugin computes at run time.\n\n";
@@ -1125,9 +1131,9 @@ void report_threads(Bench &bench, const BenchOptions &o, const std::vector<Row> 
     if (thread_rows.size() != 2) return;
     const double speedup = thread_rows[0].wall / thread_rows[1].wall;
     const double engine = thread_rows[0].flow_map / thread_rows[1].flow_map;
-    bench.md << "## Threads\n\nThe default at N = " << o.n << " on 1 and 2 threads (best of two runs each): "
-             << fixed(speedup, 2) << "× for the whole process, " << fixed(engine, 2)
-             << "× for the flow-map stage (target ≥ 1.8×).\n\n";
+    bench.md << "## Threads\n\nThe default at N = " << o.n
+             << " on 1 and 2 threads (best of two runs each): " << fixed(speedup, 2) << "× for the whole process, "
+             << fixed(engine, 2) << "× for the flow-map stage (target ≥ 1.8×).\n\n";
     bench.table(thread_rows);
     std::cout << "threads: 2 vs 1 at N = " << o.n << ": " << fixed(speedup, 2) << "x (flow map " << fixed(engine, 2)
               << "x)\n";
@@ -1153,8 +1159,7 @@ void report_widths(std::ostream &md, std::size_t n, const std::vector<Row> &widt
        << " vector-lane operations (multiply-adds counted once) per trajectory-step. The floor is that many "
           "operations at the core's peak rate of lane multiply-adds, measured in the same run for each width "
           "(independent FMA chains on one core, best slice): "
-       << sci(peak[0]) << " per second with 8-lane (AVX-512) vectors, " << sci(peak[1])
-       << " with 4-lane (AVX2) vectors"
+       << sci(peak[0]) << " per second with 8-lane (AVX-512) vectors, " << sci(peak[1]) << " with 4-lane (AVX2) vectors"
        << (peak[0] > 0 && peak[0] < 1.5 * peak[1]
                ? " — no faster than AVX2 per core on this CPU (one 512-bit FMA unit, or a throttled clock), "
                  "so the AVX2 build loses nothing here"
@@ -1168,8 +1173,8 @@ void report_widths(std::ostream &md, std::size_t n, const std::vector<Row> &widt
     for (std::size_t i = 0; i < width_rows.size(); ++i) {
         const Row &r = width_rows[i];
         const double rate = lane_steps / (r.flow_map * r.threads), floor_rate = peak[i] / ops;
-        md << "| " << r.name << " | " << fixed(r.wall, 2) << " | " << fixed(r.flow_map, 2) << " | "
-           << fixed(r.ratio, 1) << " | " << sci(rate) << " | " << sci(floor_rate) << " | "
+        md << "| " << r.name << " | " << fixed(r.wall, 2) << " | " << fixed(r.flow_map, 2) << " | " << fixed(r.ratio, 1)
+           << " | " << sci(rate) << " | " << sci(floor_rate) << " | "
            << (floor_rate > 0 ? fixed(100 * rate / floor_rate, 0) + "%" : std::string("–")) << " |\n";
     }
     md << "\n";
@@ -1221,8 +1226,7 @@ void report_extraction(std::ostream &md, std::size_t extraction_n, const std::ve
         for (const auto &s : r.stages) {
             const double t = s["wall_seconds"].get<double>();
             md << "| " << r.workload << " | " << r.name << " | " << fixed(r.wall, 2) << " | "
-               << s["stage"].get<std::string>() << " | " << fixed(t, 2) << " | " << fixed(t / r.flow_map, 2)
-               << " |\n";
+               << s["stage"].get<std::string>() << " | " << fixed(t, 2) << " | " << fixed(t / r.flow_map, 2) << " |\n";
             if (s["stage"].get<std::string>().rfind("extractor", 0) == 0)
                 std::cout << r.workload << " (" << r.name << "): " << s["stage"].get<std::string>() << " "
                           << fixed(t, 2) << " s = " << fixed(t / r.flow_map, 2) << "x the flow map ("

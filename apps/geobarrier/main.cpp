@@ -113,7 +113,8 @@ int command_validate(const fs::path &file) {
     for (const auto &item : validation.items()) std::cout << " validation:" << item.key();
     std::cout << ")\n";
     // Warnings on stderr (e.g. a clamped rtol): stdout holds only the verdict.
-    for (const auto &w : experiment.warnings) std::cerr << "geobarrier: warning: " << file.string() << ": " << w << "\n";
+    for (const auto &w : experiment.warnings)
+        std::cerr << "geobarrier: warning: " << file.string() << ": " << w << "\n";
     return 0;
 }
 
@@ -149,10 +150,10 @@ int command_plugins(bool as_json, const std::vector<std::string> &extra) {
             std::cout << "  " << h.info.name << " " << h.info.version << " - " << h.info.doc << "\n";
             if (h.info.composite())
                 std::cout << "      (composite: combines "
-                          << (h.info.max_terms == 1 ? std::string("1 forcing, given as \"base\"")
-                                                    : std::to_string(h.info.min_terms) + " to " +
-                                                          std::to_string(h.info.max_terms) +
-                                                          " forcings, given as \"terms\"")
+                          << (h.info.max_terms == 1
+                                  ? std::string("1 forcing, given as \"base\"")
+                                  : std::to_string(h.info.min_terms) + " to " + std::to_string(h.info.max_terms) +
+                                        " forcings, given as \"terms\"")
                           << ")\n";
             if (!h.info.domain_min.empty()) {
                 std::cout << "      (domain";
@@ -162,9 +163,13 @@ int command_plugins(bool as_json, const std::vector<std::string> &extra) {
             }
             for (const auto &p : h.info.params) {
                 std::cout << "      " << p.name << " (" << to_string(p.type);
-                if (p.type == ParamType::string) std::cout << ", default \"" << p.default_string << "\"";
-                else if (p.type == ParamType::boolean) std::cout << ", default " << (p.default_value ? "true" : "false");
-                else std::cout << ", default " << p.default_value << ", range [" << p.min_value << ", " << p.max_value << "]";
+                if (p.type == ParamType::string)
+                    std::cout << ", default \"" << p.default_string << "\"";
+                else if (p.type == ParamType::boolean)
+                    std::cout << ", default " << (p.default_value ? "true" : "false");
+                else
+                    std::cout << ", default " << p.default_value << ", range [" << p.min_value << ", " << p.max_value
+                              << "]";
                 if (!p.unit.empty()) std::cout << ", " << p.unit;
                 std::cout << "): " << p.doc << "\n";
             }
@@ -361,7 +366,7 @@ std::string command_line_error(const CLI::App &app, const CLI::ParseError &error
            " --help)";
 }
 
-}  // namespace
+} // namespace
 
 int main(int argc, char **argv) {
     // MPI only when launched by mpirun (docs/cluster.md); started directly, the program is one process as ever.
@@ -452,7 +457,9 @@ int main(int argc, char **argv) {
         return fail(128 + signal);
     };
     try {
-        if (*run) return command_run(run_file, run_out.empty() ? std::nullopt : std::optional<fs::path>(run_out), threads, quiet);
+        if (*run)
+            return command_run(run_file, run_out.empty() ? std::nullopt : std::optional<fs::path>(run_out), threads,
+                               quiet);
         if (*validate) return command_validate(validate_file);
         if (*sweep) {
             if (!sweep_out.empty()) sweep_options.output_dir = sweep_out;

@@ -21,20 +21,17 @@ std::string quoted(const std::filesystem::path &path) { return "'" + path.string
 
 // ".<name>.tmp-<pid>-<counter>": hidden, recognisably ours, and unique across the threads of this process (the
 // counter) and across concurrent processes writing the same target (the pid).
-std::filesystem::path temporary_path_for(const std::filesystem::path &target)
-{
+std::filesystem::path temporary_path_for(const std::filesystem::path &target) {
     static std::atomic<unsigned long> counter{0};
     const unsigned long n = counter.fetch_add(1, std::memory_order_relaxed);
-    const std::string name =
-        "." + target.filename().string() + ".tmp-" + std::to_string(static_cast<long>(::getpid())) + "-" +
-        std::to_string(n);
+    const std::string name = "." + target.filename().string() + ".tmp-" +
+                             std::to_string(static_cast<long>(::getpid())) + "-" + std::to_string(n);
     return target.parent_path() / name;
 }
 
 // Flushes the temporary file's data to disk before the rename, so that after a power loss the target is either
 // the old file or the complete new one, never an empty file with the new name.
-void sync_file(const std::filesystem::path &target, const std::filesystem::path &temp)
-{
+void sync_file(const std::filesystem::path &target, const std::filesystem::path &temp) {
     const int fd = ::open(temp.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd < 0) {
         const int err = errno;
@@ -53,8 +50,7 @@ void sync_file(const std::filesystem::path &target, const std::filesystem::path 
 }
 
 // Best effort: makes the rename itself durable. A failure here cannot be acted on, so it is ignored.
-void sync_directory(const std::filesystem::path &dir)
-{
+void sync_directory(const std::filesystem::path &dir) {
     const int fd = ::open(dir.empty() ? "." : dir.c_str(), O_RDONLY | O_DIRECTORY | O_CLOEXEC);
     if (fd >= 0) {
         ::fsync(fd);
@@ -62,19 +58,16 @@ void sync_directory(const std::filesystem::path &dir)
     }
 }
 
-void remove_quietly(const std::filesystem::path &path)
-{
+void remove_quietly(const std::filesystem::path &path) {
     std::error_code ignored;
     std::filesystem::remove(path, ignored);
 }
 
-}  // namespace
+} // namespace
 
 void write_file_atomically(const std::filesystem::path &target,
-                           const std::function<void(const std::filesystem::path &temp)> &write)
-{
-    if (target.filename().empty())
-        throw IoError(quoted(target) + ": not a file name");
+                           const std::function<void(const std::filesystem::path &temp)> &write) {
+    if (target.filename().empty()) throw IoError(quoted(target) + ": not a file name");
     const std::filesystem::path dir = target.parent_path();
     std::error_code ec;
     if (!dir.empty() && !std::filesystem::is_directory(dir, ec))
@@ -96,8 +89,7 @@ void write_file_atomically(const std::filesystem::path &target,
     sync_directory(dir);
 }
 
-void write_text_file(const std::filesystem::path &target, const std::string &text)
-{
+void write_text_file(const std::filesystem::path &target, const std::string &text) {
     write_file_atomically(target, [&](const std::filesystem::path &temp) {
         std::FILE *file = std::fopen(temp.c_str(), "wb");
         if (file == nullptr) {
@@ -118,4 +110,4 @@ void write_text_file(const std::filesystem::path &target, const std::string &tex
     });
 }
 
-}  // namespace geobarrier
+} // namespace geobarrier

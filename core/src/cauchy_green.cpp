@@ -29,7 +29,7 @@ double det2(double a, double b, double c, double d) {
     return f + e;
 }
 
-}  // namespace
+} // namespace
 
 CauchyGreenPoint cauchy_green_at(double f11, double f12, double f21, double f22, double abs_duration) {
     return cauchy_green_at(f11, f12, f21, f22, abs_duration, 0, std::numeric_limits<double>::quiet_NaN());
@@ -141,8 +141,7 @@ CauchyGreenField cauchy_green_field(const Grid &grid, const std::vector<double> 
     const std::size_t count = grid.size();
     if (dF.size() != 4 * count || mask.size() != count)
         throw Error("cauchy_green_field: grid of " + std::to_string(count) + " points but " +
-                    std::to_string(dF.size()) + " gradient values and " + std::to_string(mask.size()) +
-                    " mask values");
+                    std::to_string(dF.size()) + " gradient values and " + std::to_string(mask.size()) + " mask values");
     if ((!dF_exponent.empty() && dF_exponent.size() != count) || (!log_det.empty() && log_det.size() != count))
         throw Error("cauchy_green_field: grid of " + std::to_string(count) + " points but " +
                     std::to_string(dF_exponent.size()) + " DF exponents and " + std::to_string(log_det.size()) +
@@ -151,8 +150,8 @@ CauchyGreenField cauchy_green_field(const Grid &grid, const std::vector<double> 
     CauchyGreenField field;
     field.grid = grid;
     field.mask = mask;
-    for (auto *v : {&field.lambda1, &field.lambda2, &field.ftle, &field.xi1_x, &field.xi1_y, &field.xi2_x,
-                    &field.xi2_y})
+    for (auto *v :
+         {&field.lambda1, &field.lambda2, &field.ftle, &field.xi1_x, &field.xi1_y, &field.xi2_x, &field.xi2_y})
         v->assign(count, nan);
     field.degenerate_count =
         cauchy_green_into(field, 0, count, dF.data(), mask.data(), dF_exponent.empty() ? nullptr : dF_exponent.data(),
@@ -192,7 +191,8 @@ std::uint64_t cauchy_green_into(CauchyGreenField &out, std::size_t first, std::s
             c = cauchy_green_at(f[0], f[1], f[2], f[3], abs_duration, dF_exponent ? dF_exponent[p] : 0,
                                 log_det ? log_det[p] : nan, parts);
             // An unmasked but unusable gradient (NaN/Inf from upstream): flag it rather than pass NaN on.
-            if (!std::isfinite(c.ftle)) out_mask[p] |= mask_non_finite;
+            if (!std::isfinite(c.ftle))
+                out_mask[p] |= mask_non_finite;
             else if (c.degenerate) {
                 out_mask[p] |= mask_degenerate;
                 ++degenerate;
@@ -301,4 +301,4 @@ void slice_gradient(const double *dF, unsigned dimension, const std::array<unsig
     }
 }
 
-}  // namespace geobarrier
+} // namespace geobarrier

@@ -1,20 +1,20 @@
 // The plugin conformance checks of <geobarrier/conformance.hpp>: each check calls the plugin through the same
 // System/Forcing wrappers the runner uses and reports what it found, with the offending values.
+#include "tiles.hpp"
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/conformance.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/line_field.hpp>
-#include <geobarrier/shear.hpp>
-#include "tiles.hpp"
 #include <geobarrier/rk_tableaux.hpp>
 #include <geobarrier/sdk.hpp>
+#include <geobarrier/shear.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <exception>
-#include <functional>
 #include <filesystem>
+#include <functional>
 #include <limits>
 #include <map>
 #include <memory>
@@ -88,9 +88,9 @@ ConformanceCheck guarded(const std::string &name, const std::function<Conformanc
 // ------------------------------------------------------------ ABI and schema
 
 ConformanceCheck check_abi(const PluginInfo &info) {
-    const std::string versions = "plugin ABI " + std::to_string(info.abi_major) + "." +
-                                 std::to_string(info.abi_minor) + ", core ABI " +
-                                 std::to_string(GB_ABI_VERSION_MAJOR) + "." + std::to_string(GB_ABI_VERSION_MINOR);
+    const std::string versions = "plugin ABI " + std::to_string(info.abi_major) + "." + std::to_string(info.abi_minor) +
+                                 ", core ABI " + std::to_string(GB_ABI_VERSION_MAJOR) + "." +
+                                 std::to_string(GB_ABI_VERSION_MINOR);
     if (info.abi_major != GB_ABI_VERSION_MAJOR) return fail("abi_version", versions);
     return pass("abi_version", versions);
 }
@@ -214,8 +214,8 @@ Box make_box(const ConformanceOptions &given, const PluginInfo &info) {
     Box b{expand(o.state_min, "state_min"), expand(o.state_max, "state_max")};
     for (unsigned i = 0; i < dim; ++i)
         if (!(b.lo[i] < b.hi[i]) || !std::isfinite(b.lo[i]) || !std::isfinite(b.hi[i]))
-            throw Error("conformance options: state box component " + std::to_string(i) + " [" + num(b.lo[i]) +
-                        ", " + num(b.hi[i]) + "] is empty or not finite");
+            throw Error("conformance options: state box component " + std::to_string(i) + " [" + num(b.lo[i]) + ", " +
+                        num(b.hi[i]) + "] is empty or not finite");
     return b;
 }
 
@@ -262,18 +262,24 @@ enum class Quantity { rhs, jacobian, divergence };
 
 const char *to_string(Quantity q) {
     switch (q) {
-    case Quantity::rhs: return "rhs";
-    case Quantity::jacobian: return "jacobian";
-    case Quantity::divergence: return "divergence";
+    case Quantity::rhs:
+        return "rhs";
+    case Quantity::jacobian:
+        return "jacobian";
+    case Quantity::divergence:
+        return "divergence";
     }
     return "?";
 }
 
 std::size_t rows(Quantity q, unsigned dim) {
     switch (q) {
-    case Quantity::rhs: return dim;
-    case Quantity::jacobian: return static_cast<std::size_t>(dim) * dim;
-    case Quantity::divergence: return 1;
+    case Quantity::rhs:
+        return dim;
+    case Quantity::jacobian:
+        return static_cast<std::size_t>(dim) * dim;
+    case Quantity::divergence:
+        return 1;
     }
     return 0;
 }
@@ -330,14 +336,14 @@ ConformanceCheck check_system_batch(const System &system, const Sample &s, doubl
                 ++compared;
                 if (!close(a, b, rtol))
                     return fail(name, std::string(to_string(q)) + " row " + std::to_string(r) + " of lane " +
-                                          std::to_string(k) + ": " + num(a) + " in a batch of " +
-                                          std::to_string(s.n) + " (ld " + std::to_string(s.ld) + "), " + num(b) +
-                                          " alone (" + lane_state(s, k) + ")");
+                                          std::to_string(k) + ": " + num(a) + " in a batch of " + std::to_string(s.n) +
+                                          " (ld " + std::to_string(s.ld) + "), " + num(b) + " alone (" +
+                                          lane_state(s, k) + ")");
             }
         }
     }
-    return pass(name, std::to_string(compared) + " values agree (n = " + std::to_string(s.n) + ", ld = " +
-                          std::to_string(s.ld) + ", relative tolerance " + short_num(rtol) + ")");
+    return pass(name, std::to_string(compared) + " values agree (n = " + std::to_string(s.n) +
+                          ", ld = " + std::to_string(s.ld) + ", relative tolerance " + short_num(rtol) + ")");
 }
 
 // Entries past the n lanes (the ld - n padding of each row, and of lane_status) belong to the caller.
@@ -497,8 +503,8 @@ ConformanceCheck check_system_finite(const System &system, Random &rng, const Bo
     }
     std::string box_text;
     for (unsigned i = 0; i < dim; ++i) box_text += (i ? " x [" : "[") + num(box.lo[i]) + ", " + num(box.hi[i]) + "]";
-    return pass(name, std::to_string(n) + " states in " + box_text + ", t in [" + num(o.t_min) + ", " +
-                          num(o.t_max) + "]: all finite and valid");
+    return pass(name, std::to_string(n) + " states in " + box_text + ", t in [" + num(o.t_min) + ", " + num(o.t_max) +
+                          "]: all finite and valid");
 }
 
 // One step of tableau Tab over the sample's lanes (all at the time of lane 0, step h), with the variational
@@ -639,8 +645,9 @@ void check_system(const PluginHandle &handle, const ParamValues &values, const B
     else
         out.push_back(skip("advance_equals_stages",
                            handle.info.abi_minor < 2
-                               ? "no fused step: the plugin was built for ABI " + std::to_string(handle.info.abi_major) +
-                                     "." + std::to_string(handle.info.abi_minor) + ", before the fused step (1.2)"
+                               ? "no fused step: the plugin was built for ABI " +
+                                     std::to_string(handle.info.abi_major) + "." +
+                                     std::to_string(handle.info.abi_minor) + ", before the fused step (1.2)"
                                : "no fused step: the system gives no per-lane `field` (sdk.hpp); fixed-step flow maps "
                                  "take the slower stage-by-stage path"));
 }
@@ -711,15 +718,15 @@ void check_forcing(const PluginHandle &handle, const ParamValues &values, const 
                 return fail("batch_equals_scalar", "t = " + num(t[k]) + ": " + num(batch[k]) + " in a batch of " +
                                                        std::to_string(n) + ", " + num(single[0]) + " alone");
         }
-        return pass("batch_equals_scalar", std::to_string(n) + " values agree (relative tolerance " +
-                                               short_num(o.batch_rtol) + ")");
+        return pass("batch_equals_scalar",
+                    std::to_string(n) + " values agree (relative tolerance " + short_num(o.batch_rtol) + ")");
     }));
     out.push_back(guarded("lanes_untouched", [&] {
         const std::vector<double> batch = evaluate(a, t, n);
         for (std::size_t k = n; k < ld; ++k)
             if (!same_bits(batch[k], output_sentinel))
-                return fail("lanes_untouched", "wrote f[" + std::to_string(k) + "] past the n = " +
-                                                   std::to_string(n) + " times");
+                return fail("lanes_untouched",
+                            "wrote f[" + std::to_string(k) + "] past the n = " + std::to_string(n) + " times");
         return pass("lanes_untouched", "only the n requested values are written");
     }));
     out.push_back(guarded("determinism", [&] {
@@ -742,10 +749,9 @@ void check_forcing(const PluginHandle &handle, const ParamValues &values, const 
                                   : o.t_min + (o.t_max - o.t_min) * static_cast<double>(k) / static_cast<double>(m - 1);
         const std::vector<double> f = evaluate(a, times, m);
         for (std::size_t k = 0; k < m; ++k)
-            if (!std::isfinite(f[k]))
-                return fail("finite_on_sample_times", "f(" + num(times[k]) + ") = " + num(f[k]));
-        return pass("finite_on_sample_times", std::to_string(m) + " times in [" + num(o.t_min) + ", " +
-                                                  num(o.t_max) + "]: all finite");
+            if (!std::isfinite(f[k])) return fail("finite_on_sample_times", "f(" + num(times[k]) + ") = " + num(f[k]));
+        return pass("finite_on_sample_times",
+                    std::to_string(m) + " times in [" + num(o.t_min) + ", " + num(o.t_max) + "]: all finite");
     }));
 }
 
@@ -770,7 +776,7 @@ struct SyntheticVortex {
         xy[1] = s * x + c * y;
         if (!dF) return;
         const double gx = 2.0 * shear * duration * x, gy = 2.0 * shear * duration * y; // grad(theta)
-        const double rx = -s * x - c * y, ry = c * x - s * y;                           // R'(theta) x
+        const double rx = -s * x - c * y, ry = c * x - s * y;                          // R'(theta) x
         dF[0] = c + rx * gx;
         dF[1] = -s + rx * gy;
         dF[2] = s + ry * gx;
@@ -815,12 +821,14 @@ ConformanceCheck check_extractor_behaviour(const Extractor &extractor) {
         inputs.push_back({field.c_str(), found->second->data()});
     }
     const char *const names[2] = {"x", "y"}, *const units[2] = {"length", "length"};
-    const gb_extract_input input{grid.x_min, grid.x_max, grid.y_min, grid.y_max, grid.nx, grid.ny, v.t0, v.t1,
-                                 cg.mask.data(), static_cast<std::uint32_t>(inputs.size()), inputs.data(), nullptr, 0,
-                                 names, units};
+    const gb_extract_input input{
+        grid.x_min,    grid.x_max, grid.y_min, grid.y_max,     grid.nx,
+        grid.ny,       v.t0,       v.t1,       cg.mask.data(), static_cast<std::uint32_t>(inputs.size()),
+        inputs.data(), nullptr,    0,          names,          units};
     // The extractor's own files, if any, go to a folder of its own that is removed afterwards.
-    const std::filesystem::path folder = std::filesystem::temp_directory_path() /
-                                         ("geobarrier-check-" + extractor.info().name + "-" + std::to_string(::getpid()));
+    const std::filesystem::path folder =
+        std::filesystem::temp_directory_path() /
+        ("geobarrier-check-" + extractor.info().name + "-" + std::to_string(::getpid()));
     std::filesystem::create_directories(folder);
     struct RemoveFolder {
         std::filesystem::path path;
@@ -833,8 +841,8 @@ ConformanceCheck check_extractor_behaviour(const Extractor &extractor) {
     gb_extract_input in = input;
     in.output_dir = folder_text.c_str();
     ExtractServices services;
-    services.advect = [&v](std::size_t n, const double *xy, double t_from, double t_to, double *xy_out,
-                           double *dF_out, std::uint8_t *mask_out) {
+    services.advect = [&v](std::size_t n, const double *xy, double t_from, double t_to, double *xy_out, double *dF_out,
+                           std::uint8_t *mask_out) {
         for (std::size_t k = 0; k < n; ++k) {
             v.flow(xy[2 * k], xy[2 * k + 1], t_from, t_to, xy_out + 2 * k, dF_out ? dF_out + 4 * k : nullptr);
             mask_out[k] = 0;
@@ -869,8 +877,10 @@ ConformanceCheck check_extractor_behaviour(const Extractor &extractor) {
         }
         const double spread = (r_max - r_min) / (0.5 * (r_max + r_min));
         if (!(spread <= 0.02))
-            return fail(name, who + ": closed, but not a circle about the centre as every closed barrier of this flow "
-                                    "is: radius from " + num(r_min) + " to " + num(r_max));
+            return fail(name, who +
+                                  ": closed, but not a circle about the centre as every closed barrier of this flow "
+                                  "is: radius from " +
+                                  num(r_min) + " to " + num(r_max));
         worst_spread = std::max(worst_spread, spread);
         ++closed;
     }
@@ -885,11 +895,12 @@ ConformanceCheck check_extractor_behaviour(const Extractor &extractor) {
                           " barrier(s) on the grid with finite metrics, the same on a second run" +
                           (closed ? "; " + std::to_string(closed) +
                                         " closed, each a circle about the centre as the known answer says (radius "
-                                        "spread " + short_num(worst_spread) + ")"
+                                        "spread " +
+                                        short_num(worst_spread) + ")"
                                   : ""));
 }
 
-}  // namespace
+} // namespace
 
 std::vector<ConformanceCheck> check_plugin(const PluginHandle &handle, const ConformanceOptions &options) {
     if (!handle.descriptor) throw Error("check_plugin: the plugin handle holds no descriptor");
@@ -908,13 +919,19 @@ std::vector<ConformanceCheck> check_plugin(const PluginHandle &handle, const Con
     out.push_back(guarded("create", [&] {
         values = std::make_unique<ParamValues>(validate_params(info, options.params, "/params"));
         switch (info.kind) {
-        case PluginKind::system: (void)System(handle, *values); break;
-        case PluginKind::forcing: (void)Forcing(handle, *values); break;
-        case PluginKind::extractor: (void)Extractor(handle, *values); break;
+        case PluginKind::system:
+            (void)System(handle, *values);
+            break;
+        case PluginKind::forcing:
+            (void)Forcing(handle, *values);
+            break;
+        case PluginKind::extractor:
+            (void)Extractor(handle, *values);
+            break;
         }
-        return pass("create", "an instance was created from " +
-                                  std::string(options.params.empty() ? "the default parameters"
-                                                                     : "the given parameters"));
+        return pass("create",
+                    "an instance was created from " +
+                        std::string(options.params.empty() ? "the default parameters" : "the given parameters"));
     }));
     if (!out.back().passed) {
         // A parameter no default can stand for (a string, e.g. the data forcing's file, whose default is empty)
@@ -933,10 +950,15 @@ std::vector<ConformanceCheck> check_plugin(const PluginHandle &handle, const Con
 
     try {
         switch (info.kind) {
-        case PluginKind::system: check_system(handle, *values, box, options, out); break;
-        case PluginKind::forcing: check_forcing(handle, *values, options, out); break;
+        case PluginKind::system:
+            check_system(handle, *values, box, options, out);
+            break;
+        case PluginKind::forcing:
+            check_forcing(handle, *values, options, out);
+            break;
         case PluginKind::extractor:
-            out.push_back(guarded("synthetic_field", [&] { return check_extractor_behaviour(Extractor(handle, *values)); }));
+            out.push_back(
+                guarded("synthetic_field", [&] { return check_extractor_behaviour(Extractor(handle, *values)); }));
             break;
         }
     } catch (const std::exception &e) {
@@ -948,9 +970,12 @@ std::vector<ConformanceCheck> check_plugin(const PluginHandle &handle, const Con
 std::string count_checks(const std::vector<ConformanceCheck> &checks) {
     std::size_t passed = 0, skipped = 0, failed = 0, warnings = 0;
     for (const auto &c : checks) {
-        if (c.skipped) ++skipped;
-        else if (c.passed) ++passed;
-        else ++failed;
+        if (c.skipped)
+            ++skipped;
+        else if (c.passed)
+            ++passed;
+        else
+            ++failed;
         warnings += c.passed && c.warning;
     }
     return std::to_string(passed) + " passed, " + std::to_string(skipped) + " skipped, " + std::to_string(failed) +
@@ -972,4 +997,4 @@ std::string format_checks(const std::vector<ConformanceCheck> &checks) {
     return out;
 }
 
-}  // namespace geobarrier
+} // namespace geobarrier

@@ -27,11 +27,14 @@ const std::vector<ProductInfo> &known_products() {
         {"eigenvalues", {"lambda1", "lambda2"}, "Cauchy-Green eigenvalues lambda1 <= lambda2"},
         {"eigenvectors", {"xi1_x", "xi1_y", "xi2_x", "xi2_y"}, "unit Cauchy-Green eigenvectors, xi2 = Omega xi1"},
         {"flow_map", {"flow_x", "flow_y"}, "the flow map F(x0) at t1"},
-        {"strain_deviation", {"strain_deviation"},
+        {"strain_deviation",
+         {"strain_deviation"},
          "geodesic strain deviation d_g^xi1 of strainlines (paper eq. gdev_str, general form for damped systems)"},
-        {"shear_deviation_plus", {"shear_deviation_plus"},
+        {"shear_deviation_plus",
+         {"shear_deviation_plus"},
          "geodesic shear deviation d_g^eta+ of eta+ shearlines (paper eq. dg_shr, general form for damped systems)"},
-        {"shear_deviation_minus", {"shear_deviation_minus"},
+        {"shear_deviation_minus",
+         {"shear_deviation_minus"},
          "geodesic shear deviation d_g^eta- of eta- shearlines (paper eq. dg_shr, general form for damped systems)"},
     };
     return products;
@@ -89,7 +92,7 @@ PluginUse read_plugin_use(const json &j, const std::string &path, int forcing_de
     return use;
 }
 
-}  // namespace
+} // namespace
 
 IntegratorSettings quality_preset(const std::string &quality) {
     // Measured on the paper's first example at N = 1000 (docs/experiment-format.md, "Quality presets"). The fixed
@@ -144,18 +147,30 @@ double default_aux_offset(const IntegratorSettings &integrator, const Grid &grid
 
 std::string json_path_of(EngineSetting setting) {
     switch (setting) {
-    case EngineSetting::system: return "/system/plugin";
-    case EngineSetting::method: return "/integrator/method";
-    case EngineSetting::engine: return "/integrator/engine";
-    case EngineSetting::rtol: return "/integrator/rtol";
-    case EngineSetting::atol: return "/integrator/atol";
-    case EngineSetting::step: return "/integrator/step";
-    case EngineSetting::batch: return "/integrator/batch";
-    case EngineSetting::max_steps: return "/integrator/max_steps";
-    case EngineSetting::time: return "/time";
-    case EngineSetting::gradient: return "/cauchy_green/method";
-    case EngineSetting::offset: return "/cauchy_green/offset";
-    case EngineSetting::grid: return "/grid/n";
+    case EngineSetting::system:
+        return "/system/plugin";
+    case EngineSetting::method:
+        return "/integrator/method";
+    case EngineSetting::engine:
+        return "/integrator/engine";
+    case EngineSetting::rtol:
+        return "/integrator/rtol";
+    case EngineSetting::atol:
+        return "/integrator/atol";
+    case EngineSetting::step:
+        return "/integrator/step";
+    case EngineSetting::batch:
+        return "/integrator/batch";
+    case EngineSetting::max_steps:
+        return "/integrator/max_steps";
+    case EngineSetting::time:
+        return "/time";
+    case EngineSetting::gradient:
+        return "/cauchy_green/method";
+    case EngineSetting::offset:
+        return "/cauchy_green/offset";
+    case EngineSetting::grid:
+        return "/grid/n";
     }
     return "";
 }
@@ -178,8 +193,9 @@ Grid read_grid(const json &section, std::optional<GridSliceSpec> &slice_out) {
         GridSliceSpec slice;
         for (int k = 0; k < 2; ++k) slice.axes[k] = axes[k].get<std::string>();
         if (slice.axes[0] == slice.axes[1])
-            throw ConfigError("/grid/axes/1", "\"" + slice.axes[1] + "\" is the grid's first axis too; name two "
-                                              "different state components");
+            throw ConfigError("/grid/axes/1", "\"" + slice.axes[1] +
+                                                  "\" is the grid's first axis too; name two "
+                                                  "different state components");
         for (int k = 0; k < 2; ++k)
             if (slice.axes[k] == "axes" || slice.axes[k] == "n" || slice.axes[k] == "fixed")
                 throw ConfigError("/grid/axes/" + std::to_string(k),
@@ -192,8 +208,9 @@ Grid read_grid(const json &section, std::optional<GridSliceSpec> &slice_out) {
             for (const auto &[name, value] : fixed.items()) {
                 const std::string path = "/grid/fixed/" + name;
                 if (name == slice.axes[0] || name == slice.axes[1])
-                    throw ConfigError(path, "fixes \"" + name + "\", which is an axis of the grid; a component "
-                                            "is either on an axis or fixed");
+                    throw ConfigError(path, "fixes \"" + name +
+                                                "\", which is an axis of the grid; a component "
+                                                "is either on an axis or fixed");
                 if (!value.is_number() || !std::isfinite(value.get<double>()))
                     throw ConfigError(path, short_dump(value) + " must be a finite number");
                 slice.fixed.emplace_back(name, value.get<double>());
@@ -262,7 +279,8 @@ void read_integrator(const json &section, IntegratorSettings &s, std::vector<std
         throw ConfigError("/integrator/rtol", short_dump(r.get("rtol")) + " must be below 1 (a relative tolerance)");
     if (s.rtol < min_rtol) {
         // Double precision cannot honour it: each step's rounding error alone is ~1e-16 |x|.
-        warnings.push_back("/integrator/rtol: " + short_dump(r.get("rtol")) + " is below what double precision "
+        warnings.push_back("/integrator/rtol: " + short_dump(r.get("rtol")) +
+                           " is below what double precision "
                            "can honour; clamped to 1e-14");
         s.rtol = min_rtol;
     }
@@ -271,8 +289,8 @@ void read_integrator(const json &section, IntegratorSettings &s, std::vector<std
     if (r.has("step_tolerance")) {
         s.step_tolerance = r.number("step_tolerance");
         if (!(s.step_tolerance >= 0.0 && s.step_tolerance < 1.0))
-            throw ConfigError("/integrator/step_tolerance", short_dump(r.get("step_tolerance")) +
-                                                                " must be in [0, 1) (0 turns the step check off)");
+            throw ConfigError("/integrator/step_tolerance",
+                              short_dump(r.get("step_tolerance")) + " must be in [0, 1) (0 turns the step check off)");
     }
     s.batch = r.count("batch", s.batch, 1);
     s.max_steps = r.count("max_steps", s.max_steps, 1);
@@ -287,11 +305,13 @@ void read_cauchy_green(const json &section, Experiment &e) {
     if (r.has("slice_tensor")) {
         const std::string tensor = r.string("slice_tensor", "full", {"full", "restricted", "projected"});
         if (!e.slice)
-            throw ConfigError("/cauchy_green/slice_tensor", "\"" + tensor + "\" applies to grids over a slice "
-                                                            "(\"grid\": {\"axes\": ...}), and this grid names no axes");
-        e.slice->tensor = tensor == "restricted" ? SliceTensor::restricted
-                        : tensor == "projected"  ? SliceTensor::projected
-                                                 : SliceTensor::full;
+            throw ConfigError("/cauchy_green/slice_tensor",
+                              "\"" + tensor +
+                                  "\" applies to grids over a slice "
+                                  "(\"grid\": {\"axes\": ...}), and this grid names no axes");
+        e.slice->tensor = tensor == "restricted"  ? SliceTensor::restricted
+                          : tensor == "projected" ? SliceTensor::projected
+                                                  : SliceTensor::full;
     }
     e.aux_offset = r.positive("offset", default_aux_offset(e.integrator, e.grid));
     if (e.aux_offset > 0.5)
@@ -366,7 +386,7 @@ void read_output(const ObjectReader &root, const fs::path &file, Experiment &e) 
     o.finish();
 }
 
-}  // namespace
+} // namespace
 
 Experiment parse_experiment(const json &j, const fs::path &file) {
     Experiment e;
@@ -377,8 +397,10 @@ Experiment parse_experiment(const json &j, const fs::path &file) {
 
     e.description = root.string("description", std::string());
     e.system = read_plugin_use(root.get("system"), "/system");
-    if (root.has("forcing")) e.forcing = read_plugin_use(root.get("forcing"), "/forcing", 0);
-    else e.forcing = PluginUse{"none", json::object(), "/forcing", {}, ""};
+    if (root.has("forcing"))
+        e.forcing = read_plugin_use(root.get("forcing"), "/forcing", 0);
+    else
+        e.forcing = PluginUse{"none", json::object(), "/forcing", {}, ""};
     e.grid = read_grid(root.get("grid"), e.slice);
     read_time(root.get("time"), e);
     if (root.has("bounds")) e.bounds = read_bounds(root.get("bounds"), e.slice);
@@ -386,8 +408,10 @@ Experiment parse_experiment(const json &j, const fs::path &file) {
     e.quality = root.string("quality", e.quality, {"draft", "standard", "publication"});
     e.integrator = quality_preset(e.quality);
     if (root.has("integrator")) read_integrator(root.get("integrator"), e.integrator, e.warnings);
-    if (root.has("cauchy_green")) read_cauchy_green(root.get("cauchy_green"), e);
-    else e.aux_offset = default_aux_offset(e.integrator, e.grid);
+    if (root.has("cauchy_green"))
+        read_cauchy_green(root.get("cauchy_green"), e);
+    else
+        e.aux_offset = default_aux_offset(e.integrator, e.grid);
     if (root.has("products")) e.products = read_products(root.get("products"));
     if (root.has("extractors")) e.extractors = read_extractors(root.get("extractors"));
     if (root.has("validation")) read_validation(root.get("validation"), e);
@@ -421,7 +445,7 @@ std::string line_column(const std::string &text, std::size_t offset) {
     return std::to_string(line) + ":" + std::to_string(col);
 }
 
-}  // namespace
+} // namespace
 
 json parse_json_text(const std::string &text, const std::string &where) {
     const json::parser_callback_t depth_guard = [](int depth, json::parse_event_t, json &) {
@@ -499,7 +523,7 @@ bool is_cauchy_green_field(const std::string &name) {
     return false;
 }
 
-}  // namespace
+} // namespace
 
 namespace {
 
@@ -508,8 +532,8 @@ namespace {
 class PluginMaker {
   public:
     explicit PluginMaker(ResolvedExperiment &r)
-        : m_r(r), m_base(r.experiment.file.empty() ? fs::current_path()
-                                                   : fs::absolute(r.experiment.file).parent_path()) {}
+        : m_r(r),
+          m_base(r.experiment.file.empty() ? fs::current_path() : fs::absolute(r.experiment.file).parent_path()) {}
 
     std::pair<const PluginHandle *, ParamValues> create(PluginKind kind, const PluginUse &use) const {
         const PluginHandle &h = m_r.registry.find(kind, use.plugin, use.json_path + "/plugin");
@@ -552,8 +576,10 @@ class PluginMaker {
             terms.push_back(forcing(term, term_echo));
             echo_terms.push_back(term_echo);
         }
-        if (use.terms_key == "base") echo["base"] = echo_terms[0];
-        else echo["terms"] = echo_terms;
+        if (use.terms_key == "base")
+            echo["base"] = echo_terms[0];
+        else
+            echo["terms"] = echo_terms;
         return Forcing(*h, values, std::move(terms));
     }
 
@@ -593,9 +619,9 @@ class PluginMaker {
                                                  (info.max_terms == 1 ? "\"base\": {\"plugin\": ...}"
                                                                       : "\"terms\": [{\"plugin\": ...}, ...]"));
         if (use.terms.size() > info.max_terms)
-            throw ConfigError(use.terms[info.max_terms].json_path,
-                              "forcing '" + info.name + "' combines " + range + " other forcing(s), found " +
-                                  std::to_string(use.terms.size()));
+            throw ConfigError(use.terms[info.max_terms].json_path, "forcing '" + info.name + "' combines " + range +
+                                                                       " other forcing(s), found " +
+                                                                       std::to_string(use.terms.size()));
     }
 
     ResolvedExperiment &m_r;
@@ -606,9 +632,12 @@ class PluginMaker {
 std::vector<std::string> state_component_names(const PluginInfo &system) {
     std::vector<std::string> names;
     for (std::uint32_t i = 0; i < system.dimension; ++i) {
-        if (i < system.state_names.size() && !system.state_names[i].empty()) names.push_back(system.state_names[i]);
-        else if (system.dimension == 2) names.push_back(i == 0 ? "x" : "y");
-        else names.push_back("x" + std::to_string(i + 1));
+        if (i < system.state_names.size() && !system.state_names[i].empty())
+            names.push_back(system.state_names[i]);
+        else if (system.dimension == 2)
+            names.push_back(i == 0 ? "x" : "y");
+        else
+            names.push_back("x" + std::to_string(i + 1));
     }
     return names;
 }
@@ -621,19 +650,23 @@ std::optional<Slice> resolve_slice(const Experiment &e, const PluginInfo &system
     for (const auto &n : names) listed += (listed.empty() ? "" : " ") + n;
     if (system.dimension > max_dimension)
         throw ConfigError("/system/plugin", "system '" + system.name + "' has dimension " +
-                                                std::to_string(system.dimension) + "; the flow map engine handles "
-                                                "dimensions 2 to " + std::to_string(max_dimension));
+                                                std::to_string(system.dimension) +
+                                                "; the flow map engine handles "
+                                                "dimensions 2 to " +
+                                                std::to_string(max_dimension));
     if (!e.slice) {
         if (system.dimension != 2)
             throw ConfigError("/grid", "system '" + system.name + "' has " + std::to_string(system.dimension) +
-                                           " state components (" + listed + "): name the two the grid spans with "
+                                           " state components (" + listed +
+                                           "): name the two the grid spans with "
                                            "\"axes\" and fix the others with \"fixed\"");
         return std::nullopt;
     }
     const auto index_of = [&](const std::string &name, const std::string &path) {
         const auto it = std::find(names.begin(), names.end(), name);
         if (it == names.end()) {
-            std::string msg = "\"" + name + "\" is not a state component of system '" + system.name + "' (" + listed + ")";
+            std::string msg =
+                "\"" + name + "\" is not a state component of system '" + system.name + "' (" + listed + ")";
             const std::string hint = did_you_mean(name, names);
             if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
             throw ConfigError(path, msg);
@@ -653,9 +686,10 @@ std::optional<Slice> resolve_slice(const Experiment &e, const PluginInfo &system
     }
     for (std::uint32_t i = 0; i < system.dimension; ++i)
         if (!given[i])
-            throw ConfigError("/grid/fixed", "gives no value for \"" + names[i] + "\", which is not on an axis "
-                                             "either; every component of system '" + system.name + "' (" + listed +
-                                             ") is on an axis or fixed");
+            throw ConfigError("/grid/fixed", "gives no value for \"" + names[i] +
+                                                 "\", which is not on an axis "
+                                                 "either; every component of system '" +
+                                                 system.name + "' (" + listed + ") is on an axis or fixed");
     return slice;
 }
 
@@ -677,22 +711,24 @@ void plan_stages(ResolvedExperiment &r) {
             throw ConfigError("/cauchy_green/method", "\"variational\" needs the system's Jacobian, and system '" +
                                                           system_name + "' provides none; use \"auxiliary-grid\"");
         if (r.slice && r.system.dimension() > 2 && r.gradient == GradientMethod::auxiliary_grid)
-            throw ConfigError("/cauchy_green/method",
-                              "auxiliary-grid handles planar systems; system '" + system_name + "' has dimension " +
-                                  std::to_string(r.system.dimension()) + ": give it a Jacobian (SDK plugins derive "
-                                  "one from a templated field) and use \"variational\"");
+            throw ConfigError("/cauchy_green/method", "auxiliary-grid handles planar systems; system '" + system_name +
+                                                          "' has dimension " + std::to_string(r.system.dimension()) +
+                                                          ": give it a Jacobian (SDK plugins derive "
+                                                          "one from a templated field) and use \"variational\"");
     }
     // The whole n x n tensor's eigenvectors do not lie in the slice: what is built on them needs a 2 x 2 tensor.
     if (r.slice && r.system.dimension() > 2 && r.slice->tensor == SliceTensor::full) {
         std::string needs;
-        for (const char *product : {"eigenvectors", "strain_deviation", "shear_deviation_plus", "shear_deviation_minus"})
+        for (const char *product :
+             {"eigenvectors", "strain_deviation", "shear_deviation_plus", "shear_deviation_minus"})
             if (e.wants(product)) needs += std::string(needs.empty() ? "" : ", ") + "product \"" + product + "\"";
         if (!e.extractors.empty()) needs += std::string(needs.empty() ? "" : ", ") + "extractors";
         if (!needs.empty())
             throw ConfigError("/cauchy_green/slice_tensor",
                               "\"full\" (the default over a slice): the eigenvectors of the whole " +
                                   std::to_string(r.system.dimension()) + " x " + std::to_string(r.system.dimension()) +
-                                  " tensor do not lie in the slice, and " + needs + " need them; use \"restricted\" "
+                                  " tensor do not lie in the slice, and " + needs +
+                                  " need them; use \"restricted\" "
                                   "or \"projected\" (docs/experiment-format.md, grids as slices)");
     }
     // The extractors implement the geodesic theory of two-dimensional flow maps (docs/extractors.md, "Systems of
@@ -701,11 +737,14 @@ void plan_stages(ResolvedExperiment &r) {
     // else: the restricted tensor measures stretching that leaves the slice, whose curves are no material barriers.
     if (r.slice && r.system.dimension() > 2 && !e.extractors.empty()) {
         if (r.slice->tensor != SliceTensor::projected)
-            throw ConfigError(e.extractors.front().json_path,
-                              "extractor '" + e.extractors.front().plugin + "' finds barriers of a two-dimensional "
-                              "flow map, and system '" + system_name + "' has " + std::to_string(r.system.dimension()) +
-                              " components: on a slice it needs \"cauchy_green\": {\"slice_tensor\": \"projected\"} "
-                              "(exact when the slice is invariant, e.g. uncoupled components)");
+            throw ConfigError(
+                e.extractors.front().json_path,
+                "extractor '" + e.extractors.front().plugin +
+                    "' finds barriers of a two-dimensional "
+                    "flow map, and system '" +
+                    system_name + "' has " + std::to_string(r.system.dimension()) +
+                    " components: on a slice it needs \"cauchy_green\": {\"slice_tensor\": \"projected\"} "
+                    "(exact when the slice is invariant, e.g. uncoupled components)");
         r.experiment.warnings.push_back(
             "/extractors: the barriers are those of the slice's projected flow map, material barriers of system '" +
             system_name + "' only where the slice is invariant (e.g. uncoupled components)");
@@ -732,16 +771,19 @@ void echo_settings(const ResolvedExperiment &r, json &resolved) {
                             {"n", {e.grid.nx, e.grid.ny}},
                             {"fixed", fixed}};
     } else {
-        resolved["grid"] = {{"x", {e.grid.x_min, e.grid.x_max}},
-                            {"y", {e.grid.y_min, e.grid.y_max}},
-                            {"n", {e.grid.nx, e.grid.ny}}};
+        resolved["grid"] = {
+            {"x", {e.grid.x_min, e.grid.x_max}}, {"y", {e.grid.y_min, e.grid.y_max}}, {"n", {e.grid.nx, e.grid.ny}}};
     }
     resolved["time"] = {{"t0", e.t0}, {"t1", e.t1}};
     resolved["quality"] = e.quality;
-    resolved["integrator"] = {{"method", e.integrator.method}, {"engine", e.integrator.engine},
-                              {"adaptive", e.integrator.adaptive}, {"rtol", e.integrator.rtol},
-                              {"atol", e.integrator.atol},     {"step", e.integrator.step},
-                              {"batch", e.integrator.batch},   {"max_steps", e.integrator.max_steps},
+    resolved["integrator"] = {{"method", e.integrator.method},
+                              {"engine", e.integrator.engine},
+                              {"adaptive", e.integrator.adaptive},
+                              {"rtol", e.integrator.rtol},
+                              {"atol", e.integrator.atol},
+                              {"step", e.integrator.step},
+                              {"batch", e.integrator.batch},
+                              {"max_steps", e.integrator.max_steps},
                               {"step_tolerance", e.integrator.step_tolerance}};
     if (!e.integrator.adaptive) {
         const double span = std::abs(e.t1 - e.t0), ratio = span / e.integrator.step;
@@ -751,9 +793,9 @@ void echo_settings(const ResolvedExperiment &r, json &resolved) {
     resolved["cauchy_green"] = {{"method", r.need_cauchy_green ? to_string(r.gradient) : "none"},
                                 {"offset", e.aux_offset}};
     if (r.slice)
-        resolved["cauchy_green"]["slice_tensor"] = r.slice->tensor == SliceTensor::restricted ? "restricted"
-                                                   : r.slice->tensor == SliceTensor::projected  ? "projected"
-                                                                                                : "full";
+        resolved["cauchy_green"]["slice_tensor"] = r.slice->tensor == SliceTensor::restricted  ? "restricted"
+                                                   : r.slice->tensor == SliceTensor::projected ? "projected"
+                                                                                               : "full";
     resolved["products"] = e.products;
     resolved["output"] = {{"dir", e.output_dir.string()}, {"plots", e.plots}};
     if (e.bounds)
@@ -762,11 +804,19 @@ void echo_settings(const ResolvedExperiment &r, json &resolved) {
     if (!e.validation.empty()) resolved["validation"] = validation_to_json(e.validation, e.t0, e.t1);
 }
 
-}  // namespace
+} // namespace
 
 ResolvedExperiment resolve_experiment(const Experiment &experiment) {
-    ResolvedExperiment r{experiment, PluginRegistry(PluginRegistry::default_folders(experiment.plugin_paths)),
-                         {}, {}, {}, {}, GradientMethod::none, false, false, json::object()};
+    ResolvedExperiment r{experiment,
+                         PluginRegistry(PluginRegistry::default_folders(experiment.plugin_paths)),
+                         {},
+                         {},
+                         {},
+                         {},
+                         GradientMethod::none,
+                         false,
+                         false,
+                         json::object()};
     const Experiment &e = r.experiment;
     json resolved = e.source;
     const PluginMaker make(r);
@@ -775,10 +825,10 @@ ResolvedExperiment resolve_experiment(const Experiment &experiment) {
     r.extractors = make.extractors(e.extractors, resolved["extractors"]);
     r.slice = resolve_slice(e, r.system.info());
     if (e.validation.section && e.validation.section->normal.size() != r.system.dimension())
-        throw ConfigError("/validation/section/normal",
-                          "has " + std::to_string(e.validation.section->normal.size()) + " components, and system '" +
-                              r.system.info().name + "' has " + std::to_string(r.system.dimension()) +
-                              " (the seeds likewise)");
+        throw ConfigError("/validation/section/normal", "has " + std::to_string(e.validation.section->normal.size()) +
+                                                            " components, and system '" + r.system.info().name +
+                                                            "' has " + std::to_string(r.system.dimension()) +
+                                                            " (the seeds likewise)");
     plan_stages(r);
     // Refuse up front a grid the machine cannot hold (the estimate of the tiled run errs on the high side).
     check_memory(estimate_run_memory(e.grid, e.integrator, plan_fields(r)), available_memory(), e.grid);
@@ -787,4 +837,4 @@ ResolvedExperiment resolve_experiment(const Experiment &experiment) {
     return r;
 }
 
-}  // namespace geobarrier
+} // namespace geobarrier

@@ -20,10 +20,8 @@ namespace {
 class NcChecker {
   public:
     explicit NcChecker(const std::filesystem::path &target) : m_target(target) {}
-    void operator()(int status, const std::string &what) const
-    {
-        if (status != NC_NOERR)
-            throw IoError("'" + m_target.string() + "': " + what + ": " + nc_strerror(status));
+    void operator()(int status, const std::string &what) const {
+        if (status != NC_NOERR) throw IoError("'" + m_target.string() + "': " + what + ": " + nc_strerror(status));
     }
 
   private:
@@ -33,22 +31,18 @@ class NcChecker {
 // Closes the dataset if a step throws, so the temporary file can be removed (its handle would otherwise leak).
 class NcFile {
   public:
-    NcFile(const std::filesystem::path &path, const NcChecker &check)
-    {
+    NcFile(const std::filesystem::path &path, const NcChecker &check) {
         check(nc_create(path.c_str(), NC_NETCDF4 | NC_CLOBBER, &m_id), "cannot create the NetCDF-4 file");
         m_open = true;
     }
-    ~NcFile()
-    {
-        if (m_open)
-            nc_close(m_id);
+    ~NcFile() {
+        if (m_open) nc_close(m_id);
     }
     NcFile(const NcFile &) = delete;
     NcFile &operator=(const NcFile &) = delete;
 
     int id() const { return m_id; }
-    void close(const NcChecker &check)
-    {
+    void close(const NcChecker &check) {
         m_open = false;
         check(nc_close(m_id), "cannot finish writing");
     }
@@ -58,14 +52,12 @@ class NcFile {
     bool m_open = false;
 };
 
-void put_text(int ncid, int varid, const char *name, const std::string &value, const NcChecker &check)
-{
+void put_text(int ncid, int varid, const char *name, const std::string &value, const NcChecker &check) {
     check(nc_put_att_text(ncid, varid, name, value.size(), value.c_str()),
           std::string("cannot write the attribute '") + name + "'");
 }
 
-void put_global_attributes(int ncid, const nlohmann::json &attributes, const NcChecker &check)
-{
+void put_global_attributes(int ncid, const nlohmann::json &attributes, const NcChecker &check) {
     if (!attributes.is_null() && !attributes.is_object())
         throw Error("write_fields_netcdf: global attributes must be a JSON object, got " + attributes.dump());
     const nlohmann::json empty = nlohmann::json::object();
@@ -91,14 +83,12 @@ void put_global_attributes(int ncid, const nlohmann::json &attributes, const NcC
 }
 
 // The long name with what a nondimensional unit stands for, e.g. "FTLE [1/time in the model's units]".
-std::string documented_long_name(const std::string &long_name, const CfUnits &units)
-{
+std::string documented_long_name(const std::string &long_name, const CfUnits &units) {
     return units.meaning.empty() ? long_name : long_name + " [" + units.meaning + "]";
 }
 
 // A coordinate variable (x or y) of the initial conditions, with the system's name and unit for that component.
-void put_coordinate(int ncid, int varid, std::size_t component, const StateAxes &axes, const NcChecker &check)
-{
+void put_coordinate(int ncid, int varid, std::size_t component, const StateAxes &axes, const NcChecker &check) {
     const char *const axis_letters[] = {"X", "Y"};
     const NetcdfAttributes attributes = coordinate_attributes(component, axes);
     put_text(ncid, varid, "long_name", attributes.long_name, check);
@@ -107,8 +97,7 @@ void put_coordinate(int ncid, int varid, std::size_t component, const StateAxes 
 }
 
 void check_arguments(const Grid &grid, const std::vector<FieldVariable> &variables,
-                     const std::vector<std::uint8_t> &mask)
-{
+                     const std::vector<std::uint8_t> &mask) {
     const std::string where = "write_fields_netcdf: ";
     if (grid.nx < 2 || grid.ny < 2)
         throw Error(where + "the grid needs at least 2 x 2 points, got " + std::to_string(grid.nx) + " x " +
@@ -118,8 +107,7 @@ void check_arguments(const Grid &grid, const std::vector<FieldVariable> &variabl
                     std::to_string(grid.size()) + " points");
     std::set<std::string> names{"x", "y", "mask"};
     for (const FieldVariable &variable : variables) {
-        if (variable.values == nullptr)
-            throw Error(where + "variable '" + variable.name + "' has no values");
+        if (variable.values == nullptr) throw Error(where + "variable '" + variable.name + "' has no values");
         if (variable.values->size() != grid.size())
             throw Error(where + "variable '" + variable.name + "' has " + std::to_string(variable.values->size()) +
                         " values, the grid " + std::to_string(grid.size()) + " points");
@@ -128,15 +116,13 @@ void check_arguments(const Grid &grid, const std::vector<FieldVariable> &variabl
     }
 }
 
-}  // namespace
+} // namespace
 
 // UDUNITS-2 (the unit library CF names) knows SI units and their products and powers ("rad", "m s-1", "1/s"). The
 // plugins' units may also name the model's own scales: "time" and "length" of a nondimensional model, "state" for a
 // state component. No unit system defines those, so CF's answer applies: dimensionless "1", and the meaning in words.
-CfUnits cf_units(const std::string &unit)
-{
-    if (unit.empty() || unit == "1" || unit == "-" || unit == "–")
-        return {"1", ""};
+CfUnits cf_units(const std::string &unit) {
+    if (unit.empty() || unit == "1" || unit == "-" || unit == "–") return {"1", ""};
     static const std::set<std::string> model_scales{"time", "length", "state", "model"};
     std::string word;
     for (std::size_t i = 0; i <= unit.size(); ++i) {
@@ -145,8 +131,7 @@ CfUnits cf_units(const std::string &unit)
             word += c;
             continue;
         }
-        if (model_scales.count(word))
-            return {"1", unit + " in the model's own units"};
+        if (model_scales.count(word)) return {"1", unit + " in the model's own units"};
         word.clear();
     }
     return {unit, ""};
@@ -159,14 +144,12 @@ MaskAttributes mask_attributes() {
             "why the values at a grid point are not usable (0 = valid)"};
 }
 
-NetcdfAttributes variable_attributes(const FieldVariable &variable)
-{
+NetcdfAttributes variable_attributes(const FieldVariable &variable) {
     const CfUnits units = cf_units(variable.units);
     return {documented_long_name(variable.long_name.empty() ? variable.name : variable.long_name, units), units.units};
 }
 
-NetcdfAttributes coordinate_attributes(std::size_t component, const StateAxes &axes)
-{
+NetcdfAttributes coordinate_attributes(std::size_t component, const StateAxes &axes) {
     const char *const axis_names[] = {"x", "y"};
     const std::string state_name =
         component < axes.names.size() && !axes.names[component].empty() ? axes.names[component] : axis_names[component];
@@ -176,8 +159,7 @@ NetcdfAttributes coordinate_attributes(std::size_t component, const StateAxes &a
 
 void write_fields_netcdf(const std::filesystem::path &file, const Grid &grid,
                          const std::vector<FieldVariable> &variables, const std::vector<std::uint8_t> &mask,
-                         const nlohmann::json &global_attributes, const StateAxes &axes)
-{
+                         const nlohmann::json &global_attributes, const StateAxes &axes) {
     check_arguments(grid, variables, mask);
     const NcChecker check(file);
     write_file_atomically(file, [&](const std::filesystem::path &temp) {
@@ -225,12 +207,10 @@ void write_fields_netcdf(const std::filesystem::path &file, const Grid &grid,
         check(nc_enddef(ncid), "cannot leave define mode");
 
         std::vector<double> coordinate(grid.nx);
-        for (std::size_t j = 0; j < grid.nx; ++j)
-            coordinate[j] = grid.x(j);
+        for (std::size_t j = 0; j < grid.nx; ++j) coordinate[j] = grid.x(j);
         check(nc_put_var_double(ncid, var_x, coordinate.data()), "cannot write the variable x");
         coordinate.resize(grid.ny);
-        for (std::size_t i = 0; i < grid.ny; ++i)
-            coordinate[i] = grid.y(i);
+        for (std::size_t i = 0; i < grid.ny; ++i) coordinate[i] = grid.y(i);
         check(nc_put_var_double(ncid, var_y, coordinate.data()), "cannot write the variable y");
 
         std::vector<double> data(grid.size());
@@ -249,4 +229,4 @@ void write_fields_netcdf(const std::filesystem::path &file, const Grid &grid,
     });
 }
 
-}  // namespace geobarrier
+} // namespace geobarrier

@@ -44,7 +44,7 @@ struct DifferenceControl {
     double inv_2dx = 0.0, inv_2dy = 0.0;
 };
 
-}  // namespace flow_map_engine
+} // namespace flow_map_engine
 
 namespace {
 
@@ -136,8 +136,10 @@ Method parse_method(const std::string &name) {
     const unsigned dimension = dynamics.system->dimension();
     if (dimension < 2 || dimension > max_dimension)
         throw EngineSettingError(EngineSetting::system, "system '" + dynamics.system->info().name + "' has dimension " +
-                                                            std::to_string(dimension) + "; the flow map engine "
-                                                            "handles dimensions 2 to " + std::to_string(max_dimension));
+                                                            std::to_string(dimension) +
+                                                            "; the flow map engine "
+                                                            "handles dimensions 2 to " +
+                                                            std::to_string(max_dimension));
     if (variational && !dynamics.system->has_jacobian())
         throw EngineSettingError(EngineSetting::gradient,
                                  "system '" + dynamics.system->info().name + "' has no Jacobian; use auxiliary-grid");
@@ -175,12 +177,12 @@ template <unsigned N> struct BatchContext {
     const System *system = nullptr;
     const Forcing *forcing = nullptr; // null when the system does not read the forcing
     bool variational = false;
-    std::size_t n = 0;               // lanes (= ld)
-    std::size_t components = N;      // position_components, or variational_components with DF and log|det DF|
+    std::size_t n = 0;          // lanes (= ld)
+    std::size_t components = N; // position_components, or variational_components with DF and log|det DF|
     std::vector<double> times, forcing_values, jac;
     std::vector<std::int32_t> lane_status;
-    std::vector<std::uint8_t> mask;  // per lane, 0 = active
-    std::vector<std::size_t> frozen; // lanes with mask != 0: their derivatives are zeroed
+    std::vector<std::uint8_t> mask;    // per lane, 0 = active
+    std::vector<std::size_t> frozen;   // lanes with mask != 0: their derivatives are zeroed
     std::vector<std::uint8_t> invalid; // lanes the plugin declared invalid since the last clear_invalid()
     bool any_invalid = false;
     double filled_time = nan_value;
@@ -421,7 +423,8 @@ struct RosenbrockCoefficients {
 // ublas vectors with a (right-hand side, Jacobian) pair; the copies in and out are a few dozen doubles.
 class RosenbrockStepper {
   public:
-    template <unsigned N> void do_step(Rhs<N> sys, const State &x, const State & /*dxdt*/, double t, State &x_out, double dt, State &xerr) {
+    template <unsigned N>
+    void do_step(Rhs<N> sys, const State &x, const State & /*dxdt*/, double t, State &x_out, double dt, State &xerr) {
         const std::size_t size = x.size();
         if (m_x.size() != size) {
             m_x.resize(size, false);
@@ -540,8 +543,7 @@ template <unsigned N> class BatchIntegrator {
             }
         }
         if (m_ctx.variational) // DF = I (diagonal blocks comp_f11 + (N + 1) i); log|det DF| starts at 0
-            for (std::size_t i = 0; i < N; ++i)
-                std::fill_n(m_x.begin() + (comp_f11 + (N + 1) * i) * n, n, 1.0);
+            for (std::size_t i = 0; i < N; ++i) std::fill_n(m_x.begin() + (comp_f11 + (N + 1) * i) * n, n, 1.0);
         check_bounds(nullptr);
         m_steps = m_rejected = 0;
         m_planned = 0;
@@ -554,26 +556,52 @@ template <unsigned N> class BatchIntegrator {
             const bool fused = !adaptive && (checked ? try_fused_checked() : try_fused());
             stats.fused_batches += fused ? 1 : 0;
             if (checked && !fused) switch (m_method) {
-            case Method::dop853: run_checked<detail::Dop853Tableau>(false); break;
-            case Method::dopri5: run_checked<detail::Dopri5Tableau>(false); break;
-            case Method::rkf78: run_checked<detail::Rkf78Tableau>(false); break;
-            case Method::rk4:
-            case Method::rosenbrock4: break;
-            }
-            else if (!fused) switch (m_method) {
-            case Method::dop853: run_lockstep<detail::Dop853Tableau>(adaptive); break;
-            case Method::dopri5: run_lockstep<detail::Dopri5Tableau>(adaptive); break;
-            case Method::rkf78: run_lockstep<detail::Rkf78Tableau>(adaptive); break;
-            case Method::rk4: run_lockstep<detail::Rk4Tableau>(false); break;
-            case Method::rosenbrock4: break;
-            }
+                case Method::dop853:
+                    run_checked<detail::Dop853Tableau>(false);
+                    break;
+                case Method::dopri5:
+                    run_checked<detail::Dopri5Tableau>(false);
+                    break;
+                case Method::rkf78:
+                    run_checked<detail::Rkf78Tableau>(false);
+                    break;
+                case Method::rk4:
+                case Method::rosenbrock4:
+                    break;
+                }
+            else if (!fused)
+                switch (m_method) {
+                case Method::dop853:
+                    run_lockstep<detail::Dop853Tableau>(adaptive);
+                    break;
+                case Method::dopri5:
+                    run_lockstep<detail::Dopri5Tableau>(adaptive);
+                    break;
+                case Method::rkf78:
+                    run_lockstep<detail::Rkf78Tableau>(adaptive);
+                    break;
+                case Method::rk4:
+                    run_lockstep<detail::Rk4Tableau>(false);
+                    break;
+                case Method::rosenbrock4:
+                    break;
+                }
         } else if (m_t0 != m_t1 && m_active > 0) {
             switch (m_method) {
-            case Method::dop853: break; // refused by validate()
-            case Method::dopri5: run_adaptive<Dopri5, true, true>(4); break;
-            case Method::rkf78: run_adaptive<Rkf78, false, true>(7); break;
-            case Method::rk4: run_fixed(); break;
-            case Method::rosenbrock4: run_adaptive<RosenbrockStepper, false, false>(3); break;
+            case Method::dop853:
+                break; // refused by validate()
+            case Method::dopri5:
+                run_adaptive<Dopri5, true, true>(4);
+                break;
+            case Method::rkf78:
+                run_adaptive<Rkf78, false, true>(7);
+                break;
+            case Method::rk4:
+                run_fixed();
+                break;
+            case Method::rosenbrock4:
+                run_adaptive<RosenbrockStepper, false, false>(3);
+                break;
             }
         }
         if (m_ctx.variational) settle_exponents();
@@ -703,9 +731,12 @@ template <unsigned N> class BatchIntegrator {
         }
         for (std::size_t k = 0; k < n; ++k) {
             if (m_ctx.mask[k] != 0) continue;
-            if (m_ctx.invalid[k]) freeze(k, mask_invalid_state);
-            else if (m_bad[k]) freeze(k, mask_non_finite);
-            else continue;
+            if (m_ctx.invalid[k])
+                freeze(k, mask_invalid_state);
+            else if (m_bad[k])
+                freeze(k, mask_non_finite);
+            else
+                continue;
             copy_lane(m_x_new, m_x, k);
             zero_lane(m_dxdt, k);
             if (dxdt_new) zero_lane(*dxdt_new, k);
@@ -735,7 +766,8 @@ template <unsigned N> class BatchIntegrator {
         if (m_bounds) {
             const Bounds &b = *m_bounds;
             for (std::size_t k = 0; k < n; ++k)
-                any |= blown_up(k) | !((bx[k] >= b.x_min) & (bx[k] <= b.x_max) & (by[k] >= b.y_min) & (by[k] <= b.y_max));
+                any |=
+                    blown_up(k) | !((bx[k] >= b.x_min) & (bx[k] <= b.x_max) & (by[k] >= b.y_min) & (by[k] <= b.y_max));
         } else {
             for (std::size_t k = 0; k < n; ++k) any |= blown_up(k);
         }
@@ -960,8 +992,10 @@ template <unsigned N> class BatchIntegrator {
             const std::size_t frozen_before = m_ctx.frozen.size();
             m_ctx.clear_invalid();
             run_stages<Tab>(std::make_index_sequence<Tab::stages - 1>{}, t, h, stride);
-            if constexpr (Tab::fsal) m_x_new.swap(m_y); // the last stage is evaluated at the new state
-            else new_state<Tab>(m_x_new.data(), m_x.data(), m_k.data(), stride, h);
+            if constexpr (Tab::fsal)
+                m_x_new.swap(m_y); // the last stage is evaluated at the new state
+            else
+                new_state<Tab>(m_x_new.data(), m_x.data(), m_k.data(), stride, h);
             ++attempts;
             double err = 0.0;
             if (adaptive) {
@@ -1079,8 +1113,8 @@ template <unsigned N> class BatchIntegrator {
             const double h = lands ? remaining : remaining / pieces;
             m_ctx.clear_invalid();
             if (fused) {
-                const double *forcing = whole ? stage_forcing<Tab>(static_cast<std::size_t>(i), count, t, h)
-                                              : substep_forcing<Tab>(t, h);
+                const double *forcing =
+                    whole ? stage_forcing<Tab>(static_cast<std::size_t>(i), count, t, h) : substep_forcing<Tab>(t, h);
                 if (!fused_step<Tab>(request, forcing, t, h, attempts == 0)) return false;
                 for (std::size_t k : m_ctx.frozen) { // frozen lanes stay put, with no error
                     copy_lane(m_x_new, m_x, k);
@@ -1088,8 +1122,10 @@ template <unsigned N> class BatchIntegrator {
                 }
             } else {
                 run_stages<Tab>(std::make_index_sequence<Tab::stages - 1>{}, t, h, stride);
-                if constexpr (Tab::fsal) m_x_new.swap(m_y);
-                else new_state<Tab>(m_x_new.data(), m_x.data(), m_k.data(), stride, h);
+                if constexpr (Tab::fsal)
+                    m_x_new.swap(m_y);
+                else
+                    new_state<Tab>(m_x_new.data(), m_x.data(), m_k.data(), stride, h);
                 lane_errors<Tab>(); // frozen lanes: zero derivatives, so zero error
             }
             scale_lane_errors(h);
@@ -1107,8 +1143,9 @@ template <unsigned N> class BatchIntegrator {
             t = lands ? t_next : t + h;
             m_x.swap(m_x_new);
             if constexpr (Tab::fsal) {
-                if (!fused) std::copy(m_k.begin() + (Tab::stages - 1) * stride, m_k.begin() + Tab::stages * stride,
-                                      m_k.begin());
+                if (!fused)
+                    std::copy(m_k.begin() + (Tab::stages - 1) * stride, m_k.begin() + Tab::stages * stride,
+                              m_k.begin());
             }
             ++m_steps;
             if (lands) ++i;
@@ -1121,8 +1158,8 @@ template <unsigned N> class BatchIntegrator {
             check_after_step(fused ? nullptr : &m_k);
             if (m_ctx.variational) renormalise(fused ? nullptr : &m_k);
             dt = whole ? h_full
-                       : std::min(h_full, std::abs(h) * std::clamp(err > 0.0 ? 0.9 * std::pow(err, exponent) : 5.0,
-                                                                   0.2, 5.0));
+                       : std::min(h_full,
+                                  std::abs(h) * std::clamp(err > 0.0 ? 0.9 * std::pow(err, exponent) : 5.0, 0.2, 5.0));
         }
         return true;
     }
@@ -1261,9 +1298,12 @@ template <unsigned N> class BatchIntegrator {
     bool try_fused() {
         if (!m_settings.fused || !m_ctx.system->has_advance()) return false;
         switch (m_method) {
-        case Method::dop853: return run_fused<detail::Dop853Tableau>(GB_ADVANCE_DOP853);
-        case Method::rk4: return run_fused<detail::Rk4Tableau>(GB_ADVANCE_RK4);
-        default: return false;
+        case Method::dop853:
+            return run_fused<detail::Dop853Tableau>(GB_ADVANCE_DOP853);
+        case Method::rk4:
+            return run_fused<detail::Rk4Tableau>(GB_ADVANCE_RK4);
+        default:
+            return false;
         }
     }
     template <class Tab> bool run_fused(std::int32_t method) {
@@ -1353,10 +1393,10 @@ template <unsigned N> class BatchIntegrator {
     std::vector<std::int32_t> m_exponent;     // variational: DF = 2^m_exponent[k] * (the state's DF block)
     std::vector<std::uint8_t> m_renormalised; // lanes rescaled at least once
     unsigned m_since_renormalise = 0;
-    std::vector<double> m_lane_error;         // checked fixed steps: each lane's error of the trial step
-    std::vector<double> m_substep_forcing;    // checked fixed steps: forcing at a sub-step's stage times
-    std::uint64_t m_planned = 0;              // fixed steps: the fixed grid's step count (stats.planned_steps)
-    std::vector<double> m_forcing;            // fused steps: forcing at each step's stage times (stage_forcing)
+    std::vector<double> m_lane_error;          // checked fixed steps: each lane's error of the trial step
+    std::vector<double> m_substep_forcing;     // checked fixed steps: forcing at a sub-step's stage times
+    std::uint64_t m_planned = 0;               // fixed steps: the fixed grid's step count (stats.planned_steps)
+    std::vector<double> m_forcing;             // fused steps: forcing at each step's stage times (stage_forcing)
     std::vector<std::uint8_t> m_forcing_known; // per step: m_forcing holds its values
     std::size_t m_forcing_stages = 0;
 };
@@ -1431,11 +1471,12 @@ IntegratorStats run_batches_of(const Dynamics &dynamics, double t0, double t1, c
     return total;
 }
 
-}  // namespace
+} // namespace
 
 // The engine of one dimension N > 2, compiled in its own translation unit: flow_map_dim<N>.cpp compiles this file with
 // GEOBARRIER_FLOW_MAP_DIMENSION = N and only this part of it. The planar engine stays in this unit with its inlining as
-// it was (all five in one unit inlined less of the planar step's bookkeeping), and the build spreads over smaller units.
+// it was (all five in one unit inlined less of the planar step's bookkeeping), and the build spreads over smaller
+// units.
 namespace flow_map_engine {
 template <unsigned N>
 IntegratorStats run_batches_for(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings,
@@ -1453,12 +1494,14 @@ IntegratorStats run_batches_for(const Dynamics &dynamics, double t0, double t1, 
     return run_batches_of<N>(dynamics, t0, t1, settings, variational, bounds, lanes, batch, init, finish, progress,
                              differences, bound_axes);
 }
-template IntegratorStats run_batches_for<GEOBARRIER_FLOW_MAP_DIMENSION>(
-    const Dynamics &, double, double, const IntegratorSettings &, bool, const std::optional<Bounds> &, std::size_t,
-    std::size_t, const InitFn &, const FinishFn &, const ProgressFn &, const DifferenceControl &,
-    const std::array<unsigned, 2> &);
+template IntegratorStats run_batches_for<GEOBARRIER_FLOW_MAP_DIMENSION>(const Dynamics &, double, double,
+                                                                        const IntegratorSettings &, bool,
+                                                                        const std::optional<Bounds> &, std::size_t,
+                                                                        std::size_t, const InitFn &, const FinishFn &,
+                                                                        const ProgressFn &, const DifferenceControl &,
+                                                                        const std::array<unsigned, 2> &);
 #endif
-}  // namespace flow_map_engine
+} // namespace flow_map_engine
 
 #ifndef GEOBARRIER_FLOW_MAP_DIMENSION
 namespace {
@@ -1466,9 +1509,9 @@ namespace {
 // The engine for the system's dimension (validate() has checked it is 2 .. max_dimension). The bounds box limits
 // the slice's axes when there is a slice, else components 0 and 1.
 IntegratorStats run_batches(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings,
-                            bool variational, const std::optional<Bounds> &bounds, std::size_t lanes,
-                            std::size_t batch, const InitFn &init, const FinishFn &finish,
-                            const ProgressFn &progress, const DifferenceControl &differences = {}) {
+                            bool variational, const std::optional<Bounds> &bounds, std::size_t lanes, std::size_t batch,
+                            const InitFn &init, const FinishFn &finish, const ProgressFn &progress,
+                            const DifferenceControl &differences = {}) {
     static_assert(max_dimension == 6, "instantiate the engine for every dimension up to max_dimension");
     const std::array<unsigned, 2> axes = dynamics.slice ? dynamics.slice->axes : std::array<unsigned, 2>{0, 1};
     const auto run = [&](auto dimension) {
@@ -1479,11 +1522,16 @@ IntegratorStats run_batches(const Dynamics &dynamics, double t0, double t1, cons
     case 2:
         return run_batches_of<2>(dynamics, t0, t1, settings, variational, bounds, lanes, batch, init, finish, progress,
                                  differences, axes);
-    case 3: return run(std::integral_constant<unsigned, 3>{});
-    case 4: return run(std::integral_constant<unsigned, 4>{});
-    case 5: return run(std::integral_constant<unsigned, 5>{});
-    case 6: return run(std::integral_constant<unsigned, 6>{});
-    default: throw Error("flow map: dimension " + std::to_string(dynamics.system->dimension()) + " not compiled in");
+    case 3:
+        return run(std::integral_constant<unsigned, 3>{});
+    case 4:
+        return run(std::integral_constant<unsigned, 4>{});
+    case 5:
+        return run(std::integral_constant<unsigned, 5>{});
+    case 6:
+        return run(std::integral_constant<unsigned, 6>{});
+    default:
+        throw Error("flow map: dimension " + std::to_string(dynamics.system->dimension()) + " not compiled in");
     }
 }
 
@@ -1551,15 +1599,14 @@ class PlaneView {
 
 // Every grid point masked is an error, not an empty result: say why, with what to try.
 void require_unmasked_points(const GridFlowMap &out, const IntegratorSettings &settings, const Dynamics &dynamics) {
-    if (out.mask.empty() ||
-        std::any_of(out.mask.begin(), out.mask.end(), [](std::uint8_t m) { return m == 0; }))
+    if (out.mask.empty() || std::any_of(out.mask.begin(), out.mask.end(), [](std::uint8_t m) { return m == 0; }))
         return;
     throw NumericalError("every one of the " + std::to_string(out.mask.size()) + " grid points was masked: " +
                          describe_masking(out.stats, settings, dynamics.system->has_jacobian()) +
                          "; check the grid, the time interval, the bounds and the system");
 }
 
-}  // namespace
+} // namespace
 
 std::size_t lanes_per_batch(const IntegratorSettings &settings) {
     return settings.method == "rosenbrock4" ? 1 : settings.batch;
@@ -1567,8 +1614,8 @@ std::size_t lanes_per_batch(const IntegratorSettings &settings) {
 
 std::string describe_masking(const IntegratorStats &stats, const IntegratorSettings &settings, bool has_jacobian) {
     if (stats.masked == 0) return std::string();
-    std::string text = std::to_string(stats.masked) + " of " + std::to_string(stats.trajectories) +
-                       " trajectories masked (";
+    std::string text =
+        std::to_string(stats.masked) + " of " + std::to_string(stats.trajectories) + " trajectories masked (";
     const std::pair<const char *, std::uint64_t> reasons[] = {{"left the bounds", stats.masked_left_bounds},
                                                               {"blew up or became non-finite", stats.masked_non_finite},
                                                               {"hit the step limit", stats.masked_step_limit},
@@ -1591,8 +1638,7 @@ std::string describe_masking(const IntegratorStats &stats, const IntegratorSetti
                 std::to_string(static_cast<long>(1.0 / min_step_fraction)) +
                 " of the step: the explicit stepper is unstable or far too coarse there (stiff or very fast dynamics), "
                 "not the trajectory; try \"adaptive\": true" +
-                (has_jacobian ? std::string(", \"method\": \"rosenbrock4\" (stiff systems)")
-                              : std::string()) +
+                (has_jacobian ? std::string(", \"method\": \"rosenbrock4\" (stiff systems)") : std::string()) +
                 " or a smaller \"step\"";
     }
     if (stats.masked_step_limit > 0) {
@@ -1622,7 +1668,8 @@ std::string describe_step_refinement(const IntegratorStats &stats, const Integra
                   static_cast<unsigned long long>(stats.planned_steps),
                   static_cast<double>(stats.steps) / static_cast<double>(stats.planned_steps));
     return std::string(text) + "\"adaptive\": true" +
-           (has_jacobian ? ", \"method\": \"rosenbrock4\" (stiff systems)" : "") + " or a smaller \"step\" may be faster";
+           (has_jacobian ? ", \"method\": \"rosenbrock4\" (stiff systems)" : "") +
+           " or a smaller \"step\" may be faster";
 }
 
 nlohmann::json long_horizon_method(GradientMethod method) {
@@ -1638,7 +1685,8 @@ nlohmann::json long_horizon_method(GradientMethod method) {
                 {"detail", "DF = (F(+) - F(-)) / 2d cannot overflow: trajectories growing beyond 1e8 times their "
                            "initial scale are masked as blown up first"},
                 {"det_dF", "from the entries of DF (compensated fma determinant)"}};
-    case GradientMethod::none: break;
+    case GradientMethod::none:
+        break;
     }
     return {{"method", "none"}};
 }
@@ -1685,8 +1733,8 @@ AdvectResult advect_points(const Dynamics &dynamics, const std::vector<double> &
     validate(dynamics, t0, t1, settings, variational);
     const PlaneView plane(dynamics, variational ? GradientMethod::variational : GradientMethod::none, "advect_points");
     if (x0.size() != y0.size())
-        throw Error("advect_points: " + std::to_string(x0.size()) + " x coordinates but " +
-                    std::to_string(y0.size()) + " y coordinates");
+        throw Error("advect_points: " + std::to_string(x0.size()) + " x coordinates but " + std::to_string(y0.size()) +
+                    " y coordinates");
     const std::size_t count = x0.size();
     AdvectResult result;
     result.x.assign(count, nan_value);
@@ -1743,9 +1791,12 @@ void check_flow_map_settings(const Dynamics &dynamics, double t0, double t1, con
 
 const char *to_string(GradientMethod method) {
     switch (method) {
-    case GradientMethod::none: return "none";
-    case GradientMethod::auxiliary_grid: return "auxiliary-grid";
-    case GradientMethod::variational: return "variational";
+    case GradientMethod::none:
+        return "none";
+    case GradientMethod::auxiliary_grid:
+        return "auxiliary-grid";
+    case GradientMethod::variational:
+        return "variational";
     }
     return "?";
 }
@@ -1767,9 +1818,9 @@ GridFlowMap compute_grid_flow_map(const Dynamics &dynamics, const Grid &grid, do
         x = grid.x(p % nx);
         y = grid.y(p / nx);
     };
-    GridFlowMap out = flow_map_at_points(dynamics, grid.size(), start, t0, t1, settings, gradient,
-                                         aux_offset * grid.dx(), aux_offset * grid.dy(), want_positions, bounds,
-                                         progress);
+    GridFlowMap out =
+        flow_map_at_points(dynamics, grid.size(), start, t0, t1, settings, gradient, aux_offset * grid.dx(),
+                           aux_offset * grid.dy(), want_positions, bounds, progress);
     out.grid = grid;
     require_unmasked_points(out, settings, dynamics);
     return out;
@@ -1783,10 +1834,10 @@ std::size_t points_per_batch(const IntegratorSettings &settings, GradientMethod 
     return (lanes_per_batch(settings) + per_point - 1) / per_point;
 }
 
-GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, const StartFn &start, double t0,
-                               double t1, const IntegratorSettings &settings, GradientMethod gradient,
-                               double offset_x, double offset_y, bool want_positions,
-                               const std::optional<Bounds> &bounds, const ProgressFn &progress, GridFlowMap reuse) {
+GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, const StartFn &start, double t0, double t1,
+                               const IntegratorSettings &settings, GradientMethod gradient, double offset_x,
+                               double offset_y, bool want_positions, const std::optional<Bounds> &bounds,
+                               const ProgressFn &progress, GridFlowMap reuse) {
     const bool variational = gradient == GradientMethod::variational;
     validate(dynamics, t0, t1, settings, variational);
     const PlaneView plane(dynamics, gradient, "flow_map_at_points");
@@ -1836,8 +1887,8 @@ GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, cons
                 }
             }
         };
-        out.stats = run_batches(dynamics, t0, t1, settings, variational, bounds, count, lanes_per_batch(settings),
-                                init, finish, progress);
+        out.stats = run_batches(dynamics, t0, t1, settings, variational, bounds, count, lanes_per_batch(settings), init,
+                                finish, progress);
         return out;
     }
 
@@ -1926,6 +1977,6 @@ StateFlowMap flow_map_of_states(const Dynamics &dynamics, std::size_t count, con
     return out;
 }
 
-#endif  // GEOBARRIER_FLOW_MAP_DIMENSION
+#endif // GEOBARRIER_FLOW_MAP_DIMENSION
 
-}  // namespace geobarrier
+} // namespace geobarrier

@@ -62,7 +62,8 @@ class ObjectReader {
             get(key);
         }
         const json &v = m_j.at(key);
-        if (!v.is_number()) throw ConfigError(child(key), short_dump(v) + " is " + type_name(v) + "; expected a number");
+        if (!v.is_number())
+            throw ConfigError(child(key), short_dump(v) + " is " + type_name(v) + "; expected a number");
         const double d = v.get<double>();
         if (!std::isfinite(d)) throw ConfigError(child(key), short_dump(v) + " is not finite");
         return d;
@@ -83,10 +84,10 @@ class ObjectReader {
         const bool bounded = max_value != std::numeric_limits<std::size_t>::max();
         if (!v.is_number_integer() || v.get<long long>() < static_cast<long long>(min_value) ||
             (bounded && v.get<long long>() > static_cast<long long>(max_value)))
-            throw ConfigError(child(key), short_dump(v) + " must be an integer " +
-                                              (bounded ? "from " + std::to_string(min_value) + " to " +
-                                                             std::to_string(max_value)
-                                                       : ">= " + std::to_string(min_value)));
+            throw ConfigError(child(key),
+                              short_dump(v) + " must be an integer " +
+                                  (bounded ? "from " + std::to_string(min_value) + " to " + std::to_string(max_value)
+                                           : ">= " + std::to_string(min_value)));
         return v.get<std::size_t>();
     }
     std::string string(const std::string &key, std::optional<std::string> fallback,
@@ -96,7 +97,8 @@ class ObjectReader {
             get(key);
         }
         const json &v = m_j.at(key);
-        if (!v.is_string()) throw ConfigError(child(key), short_dump(v) + " is " + type_name(v) + "; expected a string");
+        if (!v.is_string())
+            throw ConfigError(child(key), short_dump(v) + " is " + type_name(v) + "; expected a string");
         const std::string s = v.get<std::string>();
         if (!choices.empty() && std::find(choices.begin(), choices.end(), s) == choices.end()) {
             std::string msg = "\"" + s + "\" is not one of:";
@@ -110,7 +112,8 @@ class ObjectReader {
     bool boolean(const std::string &key, bool fallback) const {
         if (!has(key)) return fallback;
         const json &v = m_j.at(key);
-        if (!v.is_boolean()) throw ConfigError(child(key), short_dump(v) + " is " + type_name(v) + "; expected true or false");
+        if (!v.is_boolean())
+            throw ConfigError(child(key), short_dump(v) + " is " + type_name(v) + "; expected true or false");
         return v.get<bool>();
     }
     // [lo, hi] with lo < hi.
@@ -130,7 +133,8 @@ class ObjectReader {
             if (m_known.count(item.key())) continue;
             std::string msg = "unknown key";
             const std::string hint = did_you_mean(item.key(), known);
-            if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
+            if (!hint.empty())
+                msg += "; did you mean \"" + hint + "\"?";
             else {
                 msg += " (allowed here:";
                 for (const auto &k : known) msg += " " + k;
@@ -146,6 +150,6 @@ class ObjectReader {
     mutable std::set<std::string> m_known;
 };
 
-}  // namespace geobarrier::detail
+} // namespace geobarrier::detail
 
-#endif  // GEOBARRIER_SRC_JSON_READER_HPP
+#endif // GEOBARRIER_SRC_JSON_READER_HPP

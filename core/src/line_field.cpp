@@ -295,8 +295,8 @@ LineStatus LineField::evaluate(double x, double y, double ref_x, double ref_y, d
     return LineStatus::ok;
 }
 
-void LineField::evaluate_lanes(std::size_t n, const double *x, const double *y, const double *ref_x, const double *ref_y,
-                               double *vx, double *vy, std::uint8_t *status) const {
+void LineField::evaluate_lanes(std::size_t n, const double *x, const double *y, const double *ref_x,
+                               const double *ref_y, double *vx, double *vy, std::uint8_t *status) const {
     const Grid &g = m_grid;
     if (m_cell.empty()) {
         for (std::size_t k = 0; k < n; ++k) {
@@ -336,7 +336,10 @@ void LineField::evaluate_lanes(std::size_t n, const double *x, const double *y, 
         const double norm = std::sqrt(sx * sx + sy * sy);
         const std::uint8_t c = cell[i * cells_x + j];
         // Status codes as LineStatus: 0 ok, 1 outside, 2 masked, 3 singular (cell codes 0 ok, 1 masked, 2 singular).
-        const std::uint8_t st = !inside ? 1 : c != 0 ? static_cast<std::uint8_t>(c + 1) : !(norm >= min_interpolated_norm) ? 3 : 0;
+        const std::uint8_t st = !inside                            ? 1
+                                : c != 0                           ? static_cast<std::uint8_t>(c + 1)
+                                : !(norm >= min_interpolated_norm) ? 3
+                                                                   : 0;
         const bool ok = st == 0;
         const double inverse = 1.0 / (ok ? norm : 1.0);
         vx[k] = ok ? sx * inverse : rx;

@@ -27,66 +27,53 @@ struct Rgb {
     int r = 0, g = 0, b = 0;
 };
 
-const std::map<std::string, Rgb> &named_colors()
-{
+const std::map<std::string, Rgb> &named_colors() {
     static const std::map<std::string, Rgb> colors{
-        {"black", {0, 0, 0}},          {"white", {255, 255, 255}},   {"red", {214, 39, 40}},
-        {"blue", {31, 119, 180}},      {"grey", {128, 128, 128}},    {"gray", {128, 128, 128}},
-        {"orange", {255, 127, 14}},    {"green", {44, 160, 44}},     {"magenta", {227, 24, 196}},
-        {"cyan", {23, 190, 207}},      {"yellow", {255, 221, 0}},    {"purple", {148, 103, 189}},
-        {"brown", {140, 86, 75}},      {"pink", {247, 129, 191}},
+        {"black", {0, 0, 0}},       {"white", {255, 255, 255}}, {"red", {214, 39, 40}},
+        {"blue", {31, 119, 180}},   {"grey", {128, 128, 128}},  {"gray", {128, 128, 128}},
+        {"orange", {255, 127, 14}}, {"green", {44, 160, 44}},   {"magenta", {227, 24, 196}},
+        {"cyan", {23, 190, 207}},   {"yellow", {255, 221, 0}},  {"purple", {148, 103, 189}},
+        {"brown", {140, 86, 75}},   {"pink", {247, 129, 191}},
     };
     return colors;
 }
 
-int hex_digit(char c)
-{
-    if (c >= '0' && c <= '9')
-        return c - '0';
+int hex_digit(char c) {
+    if (c >= '0' && c <= '9') return c - '0';
     c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    if (c >= 'a' && c <= 'f')
-        return c - 'a' + 10;
+    if (c >= 'a' && c <= 'f') return c - 'a' + 10;
     return -1;
 }
 
-Rgb parse_color(const std::string &text, const char *where = "plot_field_png")
-{
+Rgb parse_color(const std::string &text, const char *where = "plot_field_png") {
     std::string name;
-    for (char c : text)
-        name += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    for (char c : text) name += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
     const auto found = named_colors().find(name);
-    if (found != named_colors().end())
-        return found->second;
+    if (found != named_colors().end()) return found->second;
     if (name.size() == 7 && name[0] == '#') {
         std::array<int, 6> digits{};
         bool ok = true;
-        for (std::size_t i = 0; i < 6; ++i)
-            ok = ok && (digits[i] = hex_digit(name[i + 1])) >= 0;
-        if (ok)
-            return {digits[0] * 16 + digits[1], digits[2] * 16 + digits[3], digits[4] * 16 + digits[5]};
+        for (std::size_t i = 0; i < 6; ++i) ok = ok && (digits[i] = hex_digit(name[i + 1])) >= 0;
+        if (ok) return {digits[0] * 16 + digits[1], digits[2] * 16 + digits[3], digits[4] * 16 + digits[5]};
     }
     std::string known;
-    for (const auto &entry : named_colors())
-        known += (known.empty() ? "" : ", ") + entry.first;
+    for (const auto &entry : named_colors()) known += (known.empty() ? "" : ", ") + entry.first;
     throw Error(std::string(where) + ": unknown colour '" + text + "'; use one of " + known + " or #rrggbb");
 }
 
 // PLplot reads '#' as the start of an escape sequence; labels are plain UTF-8 text, so '#' is doubled.
-std::string plain_text(const std::string &text)
-{
+std::string plain_text(const std::string &text) {
     std::string out;
     for (char c : text) {
         out += c;
-        if (c == '#')
-            out += '#';
+        if (c == '#') out += '#';
     }
     return out;
 }
 
 // Viridis (perceptually uniform, readable in grey and by colour-blind readers) sampled at 8 evenly spaced points;
 // PLplot interpolates linearly in RGB between them.
-void set_viridis_cmap1()
-{
+void set_viridis_cmap1() {
     static const std::array<PLFLT, 8> position{0.0, 1.0 / 7, 2.0 / 7, 3.0 / 7, 4.0 / 7, 5.0 / 7, 6.0 / 7, 1.0};
     static const std::array<PLFLT, 8> red{68, 70, 54, 39, 31, 74, 160, 253};
     static const std::array<PLFLT, 8> green{1, 50, 92, 127, 161, 193, 218, 231};
@@ -124,17 +111,14 @@ bool plottable(double v) { return std::abs(v) <= 1e300; }
 
 // The colour scale spans the finite values at unmasked points only, so one NaN or a blown-up masked trajectory
 // cannot wash out the picture. A constant field gets a small symmetric range around its value.
-ColorRange color_range(const std::vector<double> &values, const std::vector<std::uint8_t> &mask)
-{
+ColorRange color_range(const std::vector<double> &values, const std::vector<std::uint8_t> &mask) {
     double low = std::numeric_limits<double>::infinity(), high = -low;
     for (std::size_t k = 0; k < values.size(); ++k) {
-        if (mask[k] != 0 || !plottable(values[k]))
-            continue;
+        if (mask[k] != 0 || !plottable(values[k])) continue;
         low = std::min(low, values[k]);
         high = std::max(high, values[k]);
     }
-    if (!(low <= high))
-        return {0.0, 1.0};
+    if (!(low <= high)) return {0.0, 1.0};
     if (high - low <= 1e-12 * std::max(std::abs(low), std::abs(high))) {
         const double half = std::abs(low) > 0.0 ? 1e-3 * std::abs(low) : 1e-3;
         return {low - half, high + half};
@@ -152,18 +136,20 @@ struct Ticks {
     bool log = false;
 };
 
-Ticks make_ticks(double low, double high, double target_count)
-{
+Ticks make_ticks(double low, double high, double target_count) {
     Ticks ticks;
     const double raw = (high - low) / std::max(target_count, 1.0);
     const double power = std::pow(10.0, std::floor(std::log10(raw)));
     const double mantissa = raw / power;
-    const double nice =
-        mantissa < 1.5 ? 1.0 : mantissa < 2.25 ? 2.0 : mantissa < 3.5 ? 2.5 : mantissa < 7.5 ? 5.0 : 10.0;
+    const double nice = mantissa < 1.5    ? 1.0
+                        : mantissa < 2.25 ? 2.0
+                        : mantissa < 3.5  ? 2.5
+                        : mantissa < 7.5  ? 5.0
+                                          : 10.0;
     ticks.step = nice * power;
     // The exponent of the largest tick, so the top label reads 1.0×10^-4 rather than 10×10^-5.
-    const double largest = std::max(std::abs(std::round(low / ticks.step)), std::abs(std::round(high / ticks.step))) *
-                           ticks.step;
+    const double largest =
+        std::max(std::abs(std::round(low / ticks.step)), std::abs(std::round(high / ticks.step))) * ticks.step;
     if (largest >= 1e5 || (largest > 0.0 && largest < 1e-3))
         ticks.exponent = static_cast<int>(std::floor(std::log10(largest)));
     const int step_exponent = static_cast<int>(std::floor(std::log10(ticks.step) + 1e-9));
@@ -172,16 +158,14 @@ Ticks make_ticks(double low, double high, double target_count)
 }
 
 // low, high in log10 units.
-Ticks make_log_ticks(double low, double high, double target_count)
-{
+Ticks make_log_ticks(double low, double high, double target_count) {
     Ticks ticks;
     ticks.log = true;
     ticks.step = std::max(1.0, std::ceil((high - low) / std::max(target_count, 1.0)));
     return ticks;
 }
 
-std::string format_tick(double value, const Ticks &ticks)
-{
+std::string format_tick(double value, const Ticks &ticks) {
     char buffer[64];
     if (ticks.log) {
         const long decade = std::lround(value);
@@ -192,8 +176,7 @@ std::string format_tick(double value, const Ticks &ticks)
             std::snprintf(buffer, sizeof buffer, "10#u%ld#d", decade);
         return buffer;
     }
-    if (std::abs(value) < 1e-6 * ticks.step)
-        value = 0.0; // no "-0.0" from rounding at the origin
+    if (std::abs(value) < 1e-6 * ticks.step) value = 0.0; // no "-0.0" from rounding at the origin
     if (ticks.exponent == 0 || value == 0.0) {
         std::snprintf(buffer, sizeof buffer, "%.*f", ticks.exponent == 0 ? ticks.decimals : 0, value);
     } else {
@@ -206,8 +189,7 @@ std::string format_tick(double value, const Ticks &ticks)
 
 // How many character widths a label takes on the page: UTF-8 continuation bytes and PLplot's #u/#d escapes take
 // no room, superscripts about 0.7 of a character.
-double visible_chars(const std::string &text)
-{
+double visible_chars(const std::string &text) {
     double chars = 0.0;
     bool superscript = false;
     for (std::size_t k = 0; k < text.size(); ++k) {
@@ -217,35 +199,31 @@ double visible_chars(const std::string &text)
             ++k;
             continue;
         }
-        if (c == '#' && k + 1 < text.size() && text[k + 1] == '#')
-            ++k;
-        if ((c & 0xC0) == 0x80)
-            continue;
+        if (c == '#' && k + 1 < text.size() && text[k + 1] == '#') ++k;
+        if ((c & 0xC0) == 0x80) continue;
         chars += superscript ? 0.7 : 1.0;
     }
     return chars;
 }
 
 // How many characters the widest tick label of an axis over [low, high] takes.
-double label_chars(double low, double high, const Ticks &ticks)
-{
+double label_chars(double low, double high, const Ticks &ticks) {
     double widest = 1.0;
     for (double v = std::ceil(low / ticks.step) * ticks.step; v <= high + 1e-9 * ticks.step; v += ticks.step)
         widest = std::max(widest, visible_chars(format_tick(v, ticks)));
     return widest;
 }
 
-void write_label(const Ticks &ticks, PLFLT value, char *label, PLINT length)
-{
+void write_label(const Ticks &ticks, PLFLT value, char *label, PLINT length) {
     std::snprintf(label, static_cast<std::size_t>(length), "%s", format_tick(value, ticks).c_str());
 }
 
 // Everything is measured in pixels, derived from the width so that every size scales together. The cairo driver
 // draws text at 72 dots per inch whatever plspage says, so character heights in mm are converted with that.
 constexpr double dots_per_inch = 72.0;
-constexpr double char_width = 0.62;      // glyph width / character height, sans-serif digits, generous
+constexpr double char_width = 0.62;        // glyph width / character height, sans-serif digits, generous
 constexpr double legend_char_width = 0.75; // the same in legend text as PLplot lays it out (measured, digits)
-constexpr double label_scale = 1.1;      // axis and colour bar labels relative to tick labels
+constexpr double label_scale = 1.1;        // axis and colour bar labels relative to tick labels
 constexpr double title_scale = 1.25;
 
 // The tick-label character height in pixels for a picture `width_px` wide: small pictures keep legible text.
@@ -254,18 +232,17 @@ double px_to_mm(double px) { return px * 25.4 / dots_per_inch; }
 
 struct Layout {
     int width = 0, height = 0;
-    double char_px = 0;                                // tick label character height
-    double left = 0, right = 0, top = 0, bottom = 0;   // margins around the plot box
-    double bar_gap = 0, bar_width = 0;                 // colour bar: distance from the box, width
-    double y_label_disp = 0, bar_label_disp = 0;       // plmtex displacements, in label character heights
+    double char_px = 0;                              // tick label character height
+    double left = 0, right = 0, top = 0, bottom = 0; // margins around the plot box
+    double bar_gap = 0, bar_width = 0;               // colour bar: distance from the box, width
+    double y_label_disp = 0, bar_label_disp = 0;     // plmtex displacements, in label character heights
     Ticks x_ticks, y_ticks, bar_ticks;
     double box_width() const { return width - left - right; }
     double box_height() const { return height - top - bottom; }
 };
 
 Layout make_layout(int width_px, double x0, double x1, double y0, double y1, double v0, double v1,
-                   const FieldPlot &plot)
-{
+                   const FieldPlot &plot) {
     Layout layout;
     layout.width = width_px;
     const double ch = char_px_for(width_px);
@@ -301,28 +278,23 @@ Layout make_layout(int width_px, double x0, double x1, double y0, double y1, dou
     return layout;
 }
 
-void check_width(const char *where, int width_px)
-{
+void check_width(const char *where, int width_px) {
     if (width_px < 200 || width_px > 10000)
         throw Error(std::string(where) + ": width_px = " + std::to_string(width_px) + " is outside [200, 10000]");
 }
 
-void check_line_width(const char *where, double width)
-{
+void check_line_width(const char *where, double width) {
     if (!(width > 0.0 && width < 100.0))
         throw Error(std::string(where) + ": a line width " + std::to_string(width) + " is outside (0, 100)");
 }
 
-void check_marker(const char *where, double marker_px)
-{
+void check_marker(const char *where, double marker_px) {
     if (!(marker_px > 0.0 && marker_px <= 100.0))
-        throw Error(std::string(where) + ": a marker size " + std::to_string(marker_px) +
-                    " px is outside (0, 100]");
+        throw Error(std::string(where) + ": a marker size " + std::to_string(marker_px) + " px is outside (0, 100]");
 }
 
 void check_arguments(const Grid &grid, const std::vector<double> &values, const std::vector<std::uint8_t> &mask,
-                     const FieldPlot &plot)
-{
+                     const FieldPlot &plot) {
     const std::string where = "plot_field_png: ";
     if (grid.nx < 2 || grid.ny < 2)
         throw Error(where + "the grid needs at least 2 x 2 points, got " + std::to_string(grid.nx) + " x " +
@@ -338,8 +310,7 @@ void check_arguments(const Grid &grid, const std::vector<double> &values, const 
         if (curve.xy.size() % 2 != 0)
             throw Error(where + "a curve has an odd number of coordinates (" + std::to_string(curve.xy.size()) + ")");
         check_line_width("plot_field_png", curve.width);
-        if (curve.points_only)
-            check_marker("plot_field_png", curve.marker_px);
+        if (curve.points_only) check_marker("plot_field_png", curve.marker_px);
         parse_color(curve.color);
     }
 }
@@ -353,16 +324,13 @@ struct PlplotErrors {
 // One PLplot stream, ended (and the previous stream restored) however drawing leaves the scope.
 class PlplotStream {
   public:
-    PlplotStream()
-    {
+    PlplotStream() {
         plgstrm(&m_previous);
         PLINT stream = 0;
         plmkstrm(&stream);
-        if (stream < 0)
-            throw Error("plot: PLplot has no free stream");
+        if (stream < 0) throw Error("plot: PLplot has no free stream");
     }
-    ~PlplotStream()
-    {
+    ~PlplotStream() {
         plend1();
         plsstrm(m_previous);
     }
@@ -374,8 +342,7 @@ class PlplotStream {
 };
 
 // Opens a page of width x height pixels on the PNG driver with the shared palette and font.
-void begin_page(const std::filesystem::path &file, int width, int height, PLINT cmap0_slots, PlplotErrors &errors)
-{
+void begin_page(const std::filesystem::path &file, int width, int height, PLINT cmap0_slots, PlplotErrors &errors) {
     plsError(&errors.code, errors.message);
     plsdev("pngcairo");
     plsfnam(file.c_str());
@@ -390,13 +357,11 @@ void begin_page(const std::filesystem::path &file, int width, int height, PLINT 
     set_viridis_cmap1();
     plsfont(PL_FCI_SANS, PL_FCI_UPRIGHT, PL_FCI_MEDIUM);
     plinit();
-    if (errors.code != 0)
-        throw IoError("'" + file.string() + "': PLplot cannot start: " + errors.message);
+    if (errors.code != 0) throw IoError("'" + file.string() + "': PLplot cannot start: " + errors.message);
     pladv(0);
 }
 
-void set_color(PLINT slot, const Rgb &rgb, double alpha = 1.0)
-{
+void set_color(PLINT slot, const Rgb &rgb, double alpha = 1.0) {
     if (alpha >= 1.0)
         plscol0(slot, rgb.r, rgb.g, rgb.b);
     else
@@ -409,8 +374,7 @@ struct AxisFormats {
     Ticks x, y;
 };
 
-void label_both_axes(PLINT axis, PLFLT value, char *label, PLINT length, PLPointer data)
-{
+void label_both_axes(PLINT axis, PLFLT value, char *label, PLINT length, PLPointer data) {
     const auto *formats = static_cast<const AxisFormats *>(data);
     write_label(axis == PL_X_AXIS ? formats->x : formats->y, value, label, length);
 }
@@ -424,22 +388,18 @@ struct TitlePlacement {
     double scale = title_scale;
 };
 
-TitlePlacement place_title(const std::string &title, double ch, double left_px, double box_px, double page_px)
-{
+TitlePlacement place_title(const std::string &title, double ch, double left_px, double box_px, double page_px) {
     TitlePlacement place;
     const double width = visible_chars(title) * char_width * ch * title_scale;
-    if (width <= box_px)
-        return place;
+    if (width <= box_px) return place;
     place.position = (0.5 * page_px - left_px) / box_px;
-    if (width > page_px - 2.0 * ch)
-        place.scale = title_scale * (page_px - 2.0 * ch) / width;
+    if (width > page_px - 2.0 * ch) place.scale = title_scale * (page_px - 2.0 * ch) / width;
     return place;
 }
 
 void draw_box(const AxisFormats &formats, const std::string &x_opt, const std::string &y_opt, double char_mm,
               double y_label_disp, const std::string &x_label, const std::string &y_label, const std::string &title,
-              const TitlePlacement &title_place = {})
-{
+              const TitlePlacement &title_place = {}) {
     plwidth(1.0);
     plcol0(slot_ink);
     pllsty(1);
@@ -460,13 +420,11 @@ void draw_box(const AxisFormats &formats, const std::string &x_opt, const std::s
 
 // Splits a polyline (x, y arrays) at non-finite points and draws each piece; a closed curve is joined back to its
 // start only when it has no gaps (a gap means the loop is not whole).
-void draw_polyline(const std::vector<double> &x, const std::vector<double> &y, bool closed)
-{
+void draw_polyline(const std::vector<double> &x, const std::vector<double> &y, bool closed) {
     std::vector<PLFLT> xs, ys;
     bool all_finite = true;
     auto flush = [&] {
-        if (xs.size() >= 2)
-            plline(static_cast<PLINT>(xs.size()), xs.data(), ys.data());
+        if (xs.size() >= 2) plline(static_cast<PLINT>(xs.size()), xs.data(), ys.data());
         xs.clear();
         ys.clear();
     };
@@ -489,8 +447,7 @@ void draw_polyline(const std::vector<double> &x, const std::vector<double> &y, b
 // Filled discs of `diameter_px` at the finite points, in the current colour. `px_x`, `px_y`: world units per
 // pixel on each axis, so the discs are round on the page whatever the axes' scales.
 void draw_markers(const std::vector<double> &x, const std::vector<double> &y, double diameter_px, double px_x,
-                  double px_y)
-{
+                  double px_y) {
     constexpr int sides = 16;
     std::array<double, sides> cosines{}, sines{};
     for (int k = 0; k < sides; ++k) {
@@ -500,8 +457,7 @@ void draw_markers(const std::vector<double> &x, const std::vector<double> &y, do
     const double rx = 0.5 * diameter_px * px_x, ry = 0.5 * diameter_px * px_y;
     std::array<PLFLT, sides> xs{}, ys{};
     for (std::size_t p = 0; p < x.size(); ++p) {
-        if (!std::isfinite(x[p]) || !std::isfinite(y[p]))
-            continue;
+        if (!std::isfinite(x[p]) || !std::isfinite(y[p])) continue;
         for (int k = 0; k < sides; ++k) {
             xs[k] = x[p] + rx * cosines[k];
             ys[k] = y[p] + ry * sines[k];
@@ -511,8 +467,7 @@ void draw_markers(const std::vector<double> &x, const std::vector<double> &y, do
 }
 
 // Splits interleaved x, y into two arrays.
-void split_xy(const std::vector<double> &xy, std::vector<double> &x, std::vector<double> &y)
-{
+void split_xy(const std::vector<double> &xy, std::vector<double> &x, std::vector<double> &y) {
     const std::size_t n = xy.size() / 2;
     x.resize(n);
     y.resize(n);
@@ -525,8 +480,7 @@ void split_xy(const std::vector<double> &xy, std::vector<double> &x, std::vector
 // ------------------------------------------------------------------------------------------------ field pictures
 
 // Draws one curve over a field, split wherever a point is not finite (a curve may carry NaN as a gap).
-void draw_curve(const PlotCurve &curve, double px_x, double px_y)
-{
+void draw_curve(const PlotCurve &curve, double px_x, double px_y) {
     set_color(slot_curve, parse_color(curve.color));
     plwidth(curve.width);
     std::vector<double> x, y;
@@ -538,8 +492,7 @@ void draw_curve(const PlotCurve &curve, double px_x, double px_y)
 }
 
 void draw_field(const std::filesystem::path &file, const Grid &grid, const std::vector<double> &values,
-                const std::vector<std::uint8_t> &mask, const FieldPlot &plot, PlplotErrors &errors)
-{
+                const std::vector<std::uint8_t> &mask, const FieldPlot &plot, PlplotErrors &errors) {
     // The image's cells are centred on the grid points, so the box reaches half a cell beyond the outer points.
     const double half_dx = 0.5 * grid.dx(), half_dy = 0.5 * grid.dy();
     const double x0 = grid.x_min - half_dx, x1 = grid.x_max + half_dx;
@@ -573,8 +526,7 @@ void draw_field(const std::filesystem::path &file, const Grid &grid, const std::
               y1 - grid.dy(), range.low, range.high, range.low, range.high, nullptr, nullptr);
 
     const double px_x = (x1 - x0) / layout.box_width(), px_y = (y1 - y0) / layout.box_height();
-    for (const PlotCurve &curve : plot.curves)
-        draw_curve(curve, px_x, px_y);
+    for (const PlotCurve &curve : plot.curves) draw_curve(curve, px_x, px_y);
 
     // Axes: PLplot's x and y tick labels both go through one label function, pointed at each axis's format.
     const AxisFormats main_axes{layout.x_ticks, layout.y_ticks};
@@ -595,17 +547,16 @@ void draw_field(const std::filesystem::path &file, const Grid &grid, const std::
     const double box_w = layout.box_width();
     PLFLT bar_width = 0.0, bar_height = 0.0;
     plcolorbar(&bar_width, &bar_height, PL_COLORBAR_GRADIENT,
-               PL_POSITION_RIGHT | PL_POSITION_OUTSIDE | PL_POSITION_VIEWPORT,
-               layout.bar_gap / box_w, 0.0, layout.bar_width / box_w, 1.0, slot_background, slot_ink, 1, 0.0, 0.0,
-               slot_ink, 1.0, 0, nullptr, nullptr, 1, &axis_opts, &bar_step, &sub_ticks, &n_values, &bar_values_ptr);
+               PL_POSITION_RIGHT | PL_POSITION_OUTSIDE | PL_POSITION_VIEWPORT, layout.bar_gap / box_w, 0.0,
+               layout.bar_width / box_w, 1.0, slot_background, slot_ink, 1, 0.0, 0.0, slot_ink, 1.0, 0, nullptr,
+               nullptr, 1, &axis_opts, &bar_step, &sub_ticks, &n_values, &bar_values_ptr);
     plslabelfunc(nullptr, nullptr);
     if (!plot.colorbar_label.empty()) {
         plvpor(layout.left / w, 1.0 - layout.right / w, layout.bottom / h, 1.0 - layout.top / h);
         plschr(char_mm, label_scale);
         plmtex("r", layout.bar_label_disp, 0.5, 0.5, plain_text(plot.colorbar_label).c_str());
     }
-    if (errors.code != 0)
-        throw IoError("'" + file.string() + "': PLplot failed: " + errors.message);
+    if (errors.code != 0) throw IoError("'" + file.string() + "': PLplot failed: " + errors.message);
 }
 
 // ------------------------------------------------------------------------------------------------ x-y pictures
@@ -615,8 +566,7 @@ struct PreparedSeries {
     std::vector<double> x, y;
 };
 
-PreparedSeries prepare_series(const PlotSeries &series, bool log_x, bool log_y)
-{
+PreparedSeries prepare_series(const PlotSeries &series, bool log_x, bool log_y) {
     PreparedSeries out;
     split_xy(series.xy, out.x, out.y);
     const double nan = std::numeric_limits<double>::quiet_NaN();
@@ -629,8 +579,7 @@ PreparedSeries prepare_series(const PlotSeries &series, bool log_x, bool log_y)
     for (std::size_t p = 0; p < out.x.size(); ++p) {
         transform(out.x[p], log_x);
         transform(out.y[p], log_y);
-        if (std::isnan(out.x[p]) || std::isnan(out.y[p]))
-            out.x[p] = out.y[p] = nan;
+        if (std::isnan(out.x[p]) || std::isnan(out.y[p])) out.x[p] = out.y[p] = nan;
     }
     return out;
 }
@@ -638,8 +587,7 @@ PreparedSeries prepare_series(const PlotSeries &series, bool log_x, bool log_y)
 // The plotted range of one axis: the requested one (in plotting units), or the data's padded by 3% each side;
 // an empty or degenerate range is widened so the axis still has ticks.
 std::pair<double, double> axis_range(const std::optional<std::pair<double, double>> &requested, bool log,
-                                     const std::vector<PreparedSeries> &data, bool is_x)
-{
+                                     const std::vector<PreparedSeries> &data, bool is_x) {
     if (requested)
         return log ? std::make_pair(std::log10(requested->first), std::log10(requested->second)) : *requested;
     double low = std::numeric_limits<double>::infinity(), high = -low;
@@ -649,8 +597,7 @@ std::pair<double, double> axis_range(const std::optional<std::pair<double, doubl
                 low = std::min(low, v);
                 high = std::max(high, v);
             }
-    if (!(low <= high))
-        return {0.0, 1.0};
+    if (!(low <= high)) return {0.0, 1.0};
     if (high - low <= 1e-12 * std::max(std::abs(low), std::abs(high))) {
         const double half = std::abs(low) > 0.0 ? 0.05 * std::abs(low) : 0.5;
         return {low - half, high + half};
@@ -659,15 +606,13 @@ std::pair<double, double> axis_range(const std::optional<std::pair<double, doubl
     return {low - pad, high + pad};
 }
 
-void check_xy(const XYPlot &plot)
-{
+void check_xy(const XYPlot &plot) {
     const char *where = "plot_xy_png";
     check_width(where, plot.width_px);
     if (!(plot.aspect >= 0.1 && plot.aspect <= 10.0))
         throw Error(std::string(where) + ": aspect " + std::to_string(plot.aspect) + " is outside [0.1, 10]");
     for (const auto *range : {&plot.x_range, &plot.y_range}) {
-        if (!*range)
-            continue;
+        if (!*range) continue;
         const bool log = range == &plot.x_range ? plot.log_x : plot.log_y;
         if (!(std::isfinite((*range)->first) && std::isfinite((*range)->second) && (*range)->first < (*range)->second))
             throw Error(std::string(where) + ": an axis range must be finite with min < max");
@@ -684,8 +629,7 @@ void check_xy(const XYPlot &plot)
     }
 }
 
-PLINT dash_style(PlotSeries::Dash dash)
-{
+PLINT dash_style(PlotSeries::Dash dash) {
     switch (dash) {
     case PlotSeries::Dash::dashed:
         return 3; // PLplot's long dashes
@@ -698,8 +642,8 @@ PLINT dash_style(PlotSeries::Dash dash)
 
 // The legend of an x-y picture: the `listed` series (those with a label), where plot.legend says; `ch` is the
 // character height in pixels, the data box box_w pixels wide and box_w * aspect tall.
-void draw_xy_legend(const XYPlot &plot, const std::vector<std::size_t> &listed, double ch, double box_w, double aspect)
-{
+void draw_xy_legend(const XYPlot &plot, const std::vector<std::size_t> &listed, double ch, double box_w,
+                    double aspect) {
     const bool outside_legend = plot.legend == XYPlot::Legend::outside_right;
     const double char_mm = px_to_mm(ch);
     const PLINT n = static_cast<PLINT>(listed.size());
@@ -745,38 +689,33 @@ void draw_xy_legend(const XYPlot &plot, const std::vector<std::size_t> &listed, 
     PLFLT legend_width = 0.0, legend_height = 0.0;
     const double offset_x = (outside_legend ? 1.5 : 0.8) * ch / box_w;
     const double offset_y = (outside_legend ? 0.0 : 0.8) * ch / (box_w * aspect);
-    pllegend(&legend_width, &legend_height, PL_LEGEND_BACKGROUND | PL_LEGEND_BOUNDING_BOX, position, offset_x,
-             offset_y, 3.0 * ch / box_w, slot_background, slot_legend, 1, 0, 0, n, opts.data(), 1.0, 1.0, 2.0,
-             0.0, text_colors.data(), text_ptrs.data(), box_colors.data(), box_patterns.data(), box_scales.data(),
-             box_line_widths.data(), line_colors.data(), line_styles.data(), line_widths.data(),
-             symbol_colors.data(), symbol_scales.data(), symbol_numbers.data(), symbol_ptrs.data());
+    pllegend(&legend_width, &legend_height, PL_LEGEND_BACKGROUND | PL_LEGEND_BOUNDING_BOX, position, offset_x, offset_y,
+             3.0 * ch / box_w, slot_background, slot_legend, 1, 0, 0, n, opts.data(), 1.0, 1.0, 2.0, 0.0,
+             text_colors.data(), text_ptrs.data(), box_colors.data(), box_patterns.data(), box_scales.data(),
+             box_line_widths.data(), line_colors.data(), line_styles.data(), line_widths.data(), symbol_colors.data(),
+             symbol_scales.data(), symbol_numbers.data(), symbol_ptrs.data());
 }
 
-void draw_xy(const std::filesystem::path &file, const XYPlot &plot, PlplotErrors &errors)
-{
+void draw_xy(const std::filesystem::path &file, const XYPlot &plot, PlplotErrors &errors) {
     std::vector<PreparedSeries> data;
-    for (const PlotSeries &s : plot.series)
-        data.push_back(prepare_series(s, plot.log_x, plot.log_y));
+    for (const PlotSeries &s : plot.series) data.push_back(prepare_series(s, plot.log_x, plot.log_y));
     const auto [x0, x1] = axis_range(plot.x_range, plot.log_x, data, true);
     const auto [y0, y1] = axis_range(plot.y_range, plot.log_y, data, false);
 
     std::vector<std::size_t> listed; // series shown in the legend
     for (std::size_t k = 0; k < plot.series.size(); ++k)
-        if (!plot.series[k].label.empty())
-            listed.push_back(k);
+        if (!plot.series[k].label.empty()) listed.push_back(k);
     const bool outside_legend = !listed.empty() && plot.legend == XYPlot::Legend::outside_right;
 
     // Layout, as for fields: margins from the tick labels, the box's aspect from the data or `aspect`.
     const double ch = char_px_for(plot.width_px);
     double widest_label = 0.0;
-    for (std::size_t k : listed)
-        widest_label = std::max(widest_label, visible_chars(plot.series[k].label));
+    for (std::size_t k : listed) widest_label = std::max(widest_label, visible_chars(plot.series[k].label));
     const double legend_px = (3.0 + 1.0 + 2.0) * ch + legend_char_width * ch * widest_label;
     const double top = plot.title.empty() ? 1.5 * ch : 4.0 * ch;
     const double bottom = 5.4 * ch;
     const double right = outside_legend ? legend_px + 2.5 * ch : 2.5 * ch;
-    const double aspect =
-        plot.equal_aspect ? std::clamp((y1 - y0) / (x1 - x0), 0.25, 4.0) : plot.aspect;
+    const double aspect = plot.equal_aspect ? std::clamp((y1 - y0) / (x1 - x0), 0.25, 4.0) : plot.aspect;
     double left = 10.0 * ch, y_label_disp = 0.0;
     Ticks x_ticks, y_ticks;
     for (int round = 0; round < 2; ++round) {
@@ -786,8 +725,8 @@ void draw_xy(const std::filesystem::path &file, const XYPlot &plot, PlplotErrors
                              : make_ticks(x0, x1, std::clamp(box_w / (7.0 * ch), 3.0, 10.0));
         y_ticks = plot.log_y ? make_log_ticks(y0, y1, std::clamp(box_h / (5.0 * ch), 2.0, 10.0))
                              : make_ticks(y0, y1, std::clamp(box_h / (5.0 * ch), 2.0, 10.0));
-        const double y_label_px = 0.7 * ch + char_width * ch * label_chars(y0, y1, y_ticks) + 1.0 * ch +
-                                  label_scale * ch;
+        const double y_label_px =
+            0.7 * ch + char_width * ch * label_chars(y0, y1, y_ticks) + 1.0 * ch + label_scale * ch;
         left = y_label_px + 1.0 * ch;
         y_label_disp = y_label_px / (label_scale * ch);
     }
@@ -818,30 +757,25 @@ void draw_xy(const std::filesystem::path &file, const XYPlot &plot, PlplotErrors
             draw_polyline(data[k].x, data[k].y, s.closed);
             pllsty(1);
         }
-        if (s.style != PlotSeries::Style::line)
-            draw_markers(data[k].x, data[k].y, s.marker_px, px_x, px_y);
+        if (s.style != PlotSeries::Style::line) draw_markers(data[k].x, data[k].y, s.marker_px, px_x, px_y);
     }
 
     const std::string log_x = plot.log_x ? "l" : "", log_y = plot.log_y ? "l" : "";
-    draw_box(formats, "bcnst" + log_x, "bcnstv" + log_y, char_mm, y_label_disp, plot.x_label, plot.y_label,
-             plot.title, place_title(plot.title, ch, left, box_w, plot.width_px));
+    draw_box(formats, "bcnst" + log_x, "bcnstv" + log_y, char_mm, y_label_disp, plot.x_label, plot.y_label, plot.title,
+             place_title(plot.title, ch, left, box_w, plot.width_px));
 
-    if (!listed.empty())
-        draw_xy_legend(plot, listed, ch, box_w, aspect);
-    if (errors.code != 0)
-        throw IoError("'" + file.string() + "': PLplot failed: " + errors.message);
+    if (!listed.empty()) draw_xy_legend(plot, listed, ch, box_w, aspect);
+    if (errors.code != 0) throw IoError("'" + file.string() + "': PLplot failed: " + errors.message);
 }
 
 // ------------------------------------------------------------------------------------------------ 3-D pictures
 
-void check_xyz(const XYZPlot &plot)
-{
+void check_xyz(const XYZPlot &plot) {
     const char *where = "plot_xyz_png";
     check_width(where, plot.width_px);
     if (!(plot.altitude_deg >= 0.0 && plot.altitude_deg <= 90.0))
         throw Error(std::string(where) + ": altitude " + std::to_string(plot.altitude_deg) + " is outside [0, 90]");
-    if (!std::isfinite(plot.azimuth_deg))
-        throw Error(std::string(where) + ": the azimuth must be finite");
+    if (!std::isfinite(plot.azimuth_deg)) throw Error(std::string(where) + ": the azimuth must be finite");
     for (const PlotSeries3D &s : plot.series) {
         if (s.xyz.size() % 3 != 0)
             throw Error(std::string(where) + ": a series' coordinates are not triples (" +
@@ -877,8 +811,7 @@ struct Primitive {
 };
 
 // The data's box: each coordinate's range over every series and surface, widened where empty or degenerate.
-std::pair<std::array<double, 3>, std::array<double, 3>> data_box(const XYZPlot &plot)
-{
+std::pair<std::array<double, 3>, std::array<double, 3>> data_box(const XYZPlot &plot) {
     std::array<double, 3> low{}, high{};
     low.fill(std::numeric_limits<double>::infinity());
     high.fill(-std::numeric_limits<double>::infinity());
@@ -890,10 +823,8 @@ std::pair<std::array<double, 3>, std::array<double, 3>> data_box(const XYZPlot &
                     high[c] = std::max(high[c], xyz[p + c]);
                 }
     };
-    for (const auto &s : plot.series)
-        extend(s.xyz);
-    for (const auto &s : plot.surfaces)
-        extend(s.xyz);
+    for (const auto &s : plot.series) extend(s.xyz);
+    for (const auto &s : plot.surfaces) extend(s.xyz);
     for (int c = 0; c < 3; ++c) {
         if (!(low[c] <= high[c])) {
             low[c] = 0.0;
@@ -910,11 +841,9 @@ std::pair<std::array<double, 3>, std::array<double, 3>> data_box(const XYZPlot &
 // The quad faces of the surfaces, each shaded by how squarely it faces the viewer (normals in the box's normalised
 // coordinates, `scale` per world unit; `toward` the viewer), from 55% to 100% of its colour.
 void add_surface_faces(const XYZPlot &plot, const View3D &view, const std::array<double, 3> &scale,
-                       const std::array<double, 3> &toward, std::vector<Primitive> &primitives)
-{
+                       const std::array<double, 3> &toward, std::vector<Primitive> &primitives) {
     for (const PlotSurface3D &s : plot.surfaces) {
-        if (s.rows < 2 || s.cols < 2)
-            continue;
+        if (s.rows < 2 || s.cols < 2) continue;
         const Rgb base = parse_color(s.color, "plot_xyz_png");
         const std::size_t col_end = s.wrap_cols ? s.cols : s.cols - 1;
         for (std::size_t r = 0; r + 1 < s.rows; ++r)
@@ -931,10 +860,8 @@ void add_surface_faces(const XYZPlot &plot, const View3D &view, const std::array
                         p.xyz[3 * k + d] = s.xyz[3 * corners[k] + d];
                         finite = finite && std::isfinite(p.xyz[3 * k + d]);
                     }
-                if (!finite)
-                    continue;
-                for (int k = 0; k < 4; ++k)
-                    depth += view.depth(p.xyz[3 * k], p.xyz[3 * k + 1], p.xyz[3 * k + 2]);
+                if (!finite) continue;
+                for (int k = 0; k < 4; ++k) depth += view.depth(p.xyz[3 * k], p.xyz[3 * k + 1], p.xyz[3 * k + 2]);
                 p.depth = depth / 4.0;
                 // Normal from the diagonals, in normalised box units.
                 const double ax = (p.xyz[6] - p.xyz[0]) * scale[0], ay = (p.xyz[7] - p.xyz[1]) * scale[1],
@@ -955,8 +882,7 @@ void add_surface_faces(const XYZPlot &plot, const View3D &view, const std::array
 }
 
 // The line segments of the series.
-void add_series_segments(const XYZPlot &plot, const View3D &view, std::vector<Primitive> &primitives)
-{
+void add_series_segments(const XYZPlot &plot, const View3D &view, std::vector<Primitive> &primitives) {
     for (const PlotSeries3D &s : plot.series) {
         const Rgb rgb = parse_color(s.color, "plot_xyz_png");
         const std::size_t n = s.xyz.size() / 3;
@@ -970,12 +896,11 @@ void add_series_segments(const XYZPlot &plot, const View3D &view, std::vector<Pr
                 p.xyz[3 + d] = s.xyz[3 * b + d];
                 finite = finite && std::isfinite(p.xyz[d]) && std::isfinite(p.xyz[3 + d]);
             }
-            if (!finite)
-                continue;
+            if (!finite) continue;
             // Lines lying on a surface (a barrier drawn on its own tube) must not vanish under the faces they
             // share a depth with: they count as nearer by 2% of the box.
-            p.depth = 0.5 * (view.depth(p.xyz[0], p.xyz[1], p.xyz[2]) + view.depth(p.xyz[3], p.xyz[4], p.xyz[5])) +
-                      0.02;
+            p.depth =
+                0.5 * (view.depth(p.xyz[0], p.xyz[1], p.xyz[2]) + view.depth(p.xyz[3], p.xyz[4], p.xyz[5])) + 0.02;
             p.rgb = rgb;
             p.width = s.width;
             primitives.push_back(p);
@@ -984,8 +909,7 @@ void add_series_segments(const XYZPlot &plot, const View3D &view, std::vector<Pr
 }
 
 // The painter's algorithm: faces and segments drawn far to near.
-void paint_far_to_near(std::vector<Primitive> &primitives)
-{
+void paint_far_to_near(std::vector<Primitive> &primitives) {
     std::stable_sort(primitives.begin(), primitives.end(),
                      [](const Primitive &a, const Primitive &b) { return a.depth < b.depth; });
     for (const Primitive &p : primitives) {
@@ -1004,8 +928,7 @@ void paint_far_to_near(std::vector<Primitive> &primitives)
 
 // Title and legend of a 3-D picture, in page coordinates (w x h pixels; `top` the title's margin).
 void draw_xyz_title_and_legend(const XYZPlot &plot, const std::vector<std::size_t> &listed, double ch, double w,
-                               double h, double top)
-{
+                               double h, double top) {
     const double char_mm = px_to_mm(ch);
     plvpor(0.0, 1.0, 0.0, 1.0);
     plwind(0.0, 1.0, 0.0, 1.0);
@@ -1014,8 +937,7 @@ void draw_xyz_title_and_legend(const XYZPlot &plot, const std::vector<std::size_
         plschr(char_mm, title_scale);
         plptex(0.5, 1.0 - 2.2 * ch / h, 1.0, 0.0, 0.5, plain_text(plot.title).c_str());
     }
-    if (listed.empty())
-        return;
+    if (listed.empty()) return;
     const PLINT n = static_cast<PLINT>(listed.size());
     std::vector<PLINT> opts(n, PL_LEGEND_LINE), text_colors(n, slot_ink), line_colors(n), line_styles(n, 1),
         zeros(n, 0);
@@ -1039,26 +961,23 @@ void draw_xyz_title_and_legend(const XYZPlot &plot, const std::vector<std::size_
              PL_POSITION_INSIDE | PL_POSITION_VIEWPORT | PL_POSITION_TOP | PL_POSITION_RIGHT, 1.0 * ch / w, top / h,
              3.0 * ch / w, slot_background, slot_legend, 1, 0, 0, n, opts.data(), 1.0, 1.0, 2.0, 0.0,
              text_colors.data(), text_ptrs.data(), zeros.data(), zeros.data(), zero_scales.data(), zero_scales.data(),
-             line_colors.data(), line_styles.data(), line_widths.data(), zeros.data(), zero_scales.data(),
-             zeros.data(), no_symbols.data());
+             line_colors.data(), line_styles.data(), line_widths.data(), zeros.data(), zero_scales.data(), zeros.data(),
+             no_symbols.data());
 }
 
-void draw_xyz(const std::filesystem::path &file, const XYZPlot &plot, PlplotErrors &errors)
-{
+void draw_xyz(const std::filesystem::path &file, const XYZPlot &plot, PlplotErrors &errors) {
     const auto [low, high] = data_box(plot);
     const double ch = char_px_for(plot.width_px);
     const double char_mm = px_to_mm(ch);
     std::vector<std::size_t> listed;
     for (std::size_t k = 0; k < plot.series.size(); ++k)
-        if (!plot.series[k].label.empty())
-            listed.push_back(k);
+        if (!plot.series[k].label.empty()) listed.push_back(k);
     // plw3d maps the data into a 1.15 x 1.15 x 1.1 box, whose projection (with its labels) fills a window of
     // [-1, 1] x [-0.45, 1.3] for the usual viewing angles, drawn with 1.32 times as many pixels per unit across as
     // up. A legend gets its own column on the right and the page is made less tall to match, so the box keeps its
     // proportions.
     double widest_label = 0.0;
-    for (std::size_t k : listed)
-        widest_label = std::max(widest_label, visible_chars(plot.series[k].label));
+    for (std::size_t k : listed) widest_label = std::max(widest_label, visible_chars(plot.series[k].label));
     const double legend_px =
         listed.empty() ? 0.0 : (3.0 + 1.0 + 2.0) * ch + legend_char_width * ch * widest_label + 2.0 * ch;
     const double top = plot.title.empty() ? 1.5 * ch : 4.0 * ch;
@@ -1101,45 +1020,39 @@ void draw_xyz(const std::filesystem::path &file, const XYZPlot &plot, PlplotErro
            "bnstu", plain_text(plot.z_label).c_str(), z_step, 0);
 
     std::vector<Primitive> primitives;
-    const std::array<double, 3> toward{-std::cos(alt * rad) * std::sin(az * rad), -std::cos(alt * rad) * std::cos(az * rad),
-                                       std::sin(alt * rad)};
+    const std::array<double, 3> toward{-std::cos(alt * rad) * std::sin(az * rad),
+                                       -std::cos(alt * rad) * std::cos(az * rad), std::sin(alt * rad)};
     add_surface_faces(plot, view, {cx, cy, cz}, toward, primitives);
     add_series_segments(plot, view, primitives);
     paint_far_to_near(primitives);
     draw_xyz_title_and_legend(plot, listed, ch, w, h, top);
-    if (errors.code != 0)
-        throw IoError("'" + file.string() + "': PLplot failed: " + errors.message);
+    if (errors.code != 0) throw IoError("'" + file.string() + "': PLplot failed: " + errors.message);
 }
 
 // Asked for a device it does not have, PLplot prompts on stdin; check for the driver first instead.
-void require_pngcairo()
-{
+void require_pngcairo() {
     std::array<const char *, 128> menus{}, names{};
     const char **menu_ptr = menus.data(), **name_ptr = names.data();
     int count = static_cast<int>(names.size());
     plgDevs(&menu_ptr, &name_ptr, &count);
     for (int i = 0; i < count && i < static_cast<int>(names.size()); ++i)
-        if (names[i] != nullptr && std::string(names[i]) == "pngcairo")
-            return;
+        if (names[i] != nullptr && std::string(names[i]) == "pngcairo") return;
     throw IoError("plot: PLplot's pngcairo driver is not installed (Debian: plplot-driver-cairo)");
 }
 
-std::mutex &plplot_mutex()
-{
+std::mutex &plplot_mutex() {
     static std::mutex mutex;
     return mutex;
 }
 
 // Draws into a temporary file beside `file` with `draw(temp, errors)` and renames it into place.
-template <class Draw> void write_picture(const std::filesystem::path &file, const Draw &draw)
-{
+template <class Draw> void write_picture(const std::filesystem::path &file, const Draw &draw) {
     write_file_atomically(file, [&](const std::filesystem::path &temp) {
         // PLplot exits the process when it cannot open its output file; open it here first so that failure is
         // an IoError instead.
         {
             std::ofstream probe(temp, std::ios::binary);
-            if (!probe)
-                throw IoError("'" + file.string() + "': cannot create '" + temp.string() + "'");
+            if (!probe) throw IoError("'" + file.string() + "': cannot create '" + temp.string() + "'");
         }
         std::lock_guard<std::mutex> lock(plplot_mutex());
         require_pngcairo();
@@ -1147,43 +1060,36 @@ template <class Draw> void write_picture(const std::filesystem::path &file, cons
         {
             PlplotStream stream;
             draw(temp, errors);
-        }  // plend1 writes the PNG
-        if (errors.code != 0)
-            throw IoError("'" + file.string() + "': PLplot failed: " + errors.message);
+        } // plend1 writes the PNG
+        if (errors.code != 0) throw IoError("'" + file.string() + "': PLplot failed: " + errors.message);
     });
 }
 
-}  // namespace
+} // namespace
 
 // The curve colours the pictures accept by name (besides "#rrggbb").
-std::vector<std::string> plot_colors()
-{
+std::vector<std::string> plot_colors() {
     std::vector<std::string> names;
-    for (const auto &entry : named_colors())
-        names.push_back(entry.first);
+    for (const auto &entry : named_colors()) names.push_back(entry.first);
     return names;
 }
 
 void plot_field_png(const std::filesystem::path &file, const Grid &grid, const std::vector<double> &values,
-                    const std::vector<std::uint8_t> &mask, const FieldPlot &plot)
-{
+                    const std::vector<std::uint8_t> &mask, const FieldPlot &plot) {
     check_arguments(grid, values, mask, plot);
     write_picture(file, [&](const std::filesystem::path &temp, PlplotErrors &errors) {
         draw_field(temp, grid, values, mask, plot, errors);
     });
 }
 
-void plot_xy_png(const std::filesystem::path &file, const XYPlot &plot)
-{
+void plot_xy_png(const std::filesystem::path &file, const XYPlot &plot) {
     check_xy(plot);
     write_picture(file, [&](const std::filesystem::path &temp, PlplotErrors &errors) { draw_xy(temp, plot, errors); });
 }
 
-void plot_xyz_png(const std::filesystem::path &file, const XYZPlot &plot)
-{
+void plot_xyz_png(const std::filesystem::path &file, const XYZPlot &plot) {
     check_xyz(plot);
-    write_picture(file,
-                  [&](const std::filesystem::path &temp, PlplotErrors &errors) { draw_xyz(temp, plot, errors); });
+    write_picture(file, [&](const std::filesystem::path &temp, PlplotErrors &errors) { draw_xyz(temp, plot, errors); });
 }
 
-}  // namespace geobarrier
+} // namespace geobarrier

@@ -36,19 +36,26 @@ class PluginLibrary {
 
 const char *to_string(PluginKind kind) {
     switch (kind) {
-    case PluginKind::system: return "system";
-    case PluginKind::forcing: return "forcing";
-    case PluginKind::extractor: return "extractor";
+    case PluginKind::system:
+        return "system";
+    case PluginKind::forcing:
+        return "forcing";
+    case PluginKind::extractor:
+        return "extractor";
     }
     return "?";
 }
 
 const char *to_string(ParamType type) {
     switch (type) {
-    case ParamType::real: return "real";
-    case ParamType::integer: return "integer";
-    case ParamType::boolean: return "bool";
-    case ParamType::string: return "string";
+    case ParamType::real:
+        return "real";
+    case ParamType::integer:
+        return "integer";
+    case ParamType::boolean:
+        return "bool";
+    case ParamType::string:
+        return "string";
     }
     return "?";
 }
@@ -88,8 +95,8 @@ const void *core_extension(const char *id) {
 }
 
 // What the core tells each plugin at load time (ABI 1.3): lives as long as the process.
-const gb_host_info host_info{sizeof(gb_host_info), GB_ABI_VERSION_MAJOR, GB_ABI_VERSION_MINOR,
-                             GB_ADVANCE_TABLEAU_REVISION, GEOBARRIER_VERSION, &core_extension};
+const gb_host_info host_info{sizeof(gb_host_info),        GB_ABI_VERSION_MAJOR, GB_ABI_VERSION_MINOR,
+                             GB_ADVANCE_TABLEAU_REVISION, GEOBARRIER_VERSION,   &core_extension};
 
 std::vector<std::string> split(const std::string &s, char sep) {
     std::vector<std::string> out;
@@ -115,8 +122,7 @@ PluginInfo read_descriptor(const gb_plugin_descriptor &d, const fs::path &file, 
     if (!d.name || !*d.name) throw std::string("a descriptor has no name");
     info.name = d.name;
     static const std::regex name_rule("[a-z0-9][a-z0-9-]*");
-    if (!std::regex_match(info.name, name_rule))
-        throw "plugin name '" + info.name + "' must match [a-z0-9][a-z0-9-]*";
+    if (!std::regex_match(info.name, name_rule)) throw "plugin name '" + info.name + "' must match [a-z0-9][a-z0-9-]*";
     info.version = text_or_empty(d.version);
     info.doc = text_or_empty(d.doc);
     info.thread_safety = d.thread_safety;
@@ -183,7 +189,8 @@ PluginInfo read_descriptor(const gb_plugin_descriptor &d, const fs::path &file, 
         if (d.extractor->required_fields)
             for (const char *const *f = d.extractor->required_fields; *f; ++f) info.required_fields.emplace_back(*f);
         break;
-    default: throw "plugin '" + info.name + "' has unknown kind " + std::to_string(d.kind);
+    default:
+        throw "plugin '" + info.name + "' has unknown kind " + std::to_string(d.kind);
     }
     if (d.param_count > 0 && !d.params) throw "plugin '" + info.name + "' declares parameters but gives none";
     for (std::uint32_t i = 0; i < d.param_count; ++i) {
@@ -192,11 +199,20 @@ PluginInfo read_descriptor(const gb_plugin_descriptor &d, const fs::path &file, 
         if (!s.name || !*s.name) throw "plugin '" + info.name + "' has a parameter without a name";
         p.name = s.name;
         switch (s.type) {
-        case GB_PARAM_REAL: p.type = ParamType::real; break;
-        case GB_PARAM_INTEGER: p.type = ParamType::integer; break;
-        case GB_PARAM_BOOL: p.type = ParamType::boolean; break;
-        case GB_PARAM_STRING: p.type = ParamType::string; break;
-        default: throw "parameter '" + p.name + "' of '" + info.name + "' has unknown type " + std::to_string(s.type);
+        case GB_PARAM_REAL:
+            p.type = ParamType::real;
+            break;
+        case GB_PARAM_INTEGER:
+            p.type = ParamType::integer;
+            break;
+        case GB_PARAM_BOOL:
+            p.type = ParamType::boolean;
+            break;
+        case GB_PARAM_STRING:
+            p.type = ParamType::string;
+            break;
+        default:
+            throw "parameter '" + p.name + "' of '" + info.name + "' has unknown type " + std::to_string(s.type);
         }
         p.default_value = s.default_value;
         p.min_value = s.min_value;
@@ -212,7 +228,7 @@ PluginInfo read_descriptor(const gb_plugin_descriptor &d, const fs::path &file, 
     return info;
 }
 
-}  // namespace
+} // namespace
 
 std::vector<PluginHandle> load_plugin_library(const fs::path &file) {
     const std::string where = file.string() + ": ";
@@ -246,7 +262,8 @@ std::vector<PluginHandle> load_plugin_library(const fs::path &file) {
     const gb_plugin_entry *entry = nullptr;
     try {
         if (with_host)
-            entry = lib.get<const gb_plugin_entry *(const gb_host_info *)>(GB_PLUGIN_ENTRY_WITH_HOST_SYMBOL)(&host_info);
+            entry =
+                lib.get<const gb_plugin_entry *(const gb_host_info *)>(GB_PLUGIN_ENTRY_WITH_HOST_SYMBOL)(&host_info);
         else
             entry = lib.get<const gb_plugin_entry *()>(GB_PLUGIN_ENTRY_SYMBOL)();
     } catch (const std::exception &e) {
@@ -264,14 +281,16 @@ std::vector<PluginHandle> load_plugin_library(const fs::path &file) {
     // ABI 1.3 appended the library's extensions by id; an older entry ends before them.
     gb_build_info build{};
     if (entry->abi_minor >= 3 && entry->get_extension)
-        if (const auto *b = static_cast<const gb_build_info *>(entry->get_extension(UINT32_MAX, GB_EXTENSION_BUILD_INFO)))
+        if (const auto *b =
+                static_cast<const gb_build_info *>(entry->get_extension(UINT32_MAX, GB_EXTENSION_BUILD_INFO)))
             if (b->struct_size >= sizeof(gb_build_info)) build = *b;
 
     auto shared = std::make_shared<const PluginLibrary>(std::move(lib), file);
     std::vector<PluginHandle> out;
     for (std::uint32_t i = 0; i < entry->count; ++i) {
         try {
-            out.push_back(PluginHandle{shared, &entry->descriptors[i], read_descriptor(entry->descriptors[i], file, *entry)});
+            out.push_back(
+                PluginHandle{shared, &entry->descriptors[i], read_descriptor(entry->descriptors[i], file, *entry)});
             out.back().info.build = build;
         } catch (const std::string &reason) {
             throw PluginError(where + reason);
@@ -315,7 +334,8 @@ std::string did_you_mean(const std::string &word, const std::vector<std::string>
         for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
         for (std::size_t i = 1; i <= a.size(); ++i)
             for (std::size_t j = 1; j <= b.size(); ++j) {
-                d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (same(a[i - 1], b[j - 1]) ? 0 : 1)});
+                d[i][j] =
+                    std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + (same(a[i - 1], b[j - 1]) ? 0 : 1)});
                 if (i > 1 && j > 1 && same(a[i - 1], b[j - 2]) && same(a[i - 2], b[j - 1]))
                     d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
             }
@@ -345,7 +365,7 @@ std::string format_number(double v) {
 std::string range_text(const ParamSpec &p) {
     return "[" + format_number(p.min_value) + ", " + format_number(p.max_value) + "]";
 }
-}  // namespace
+} // namespace
 
 ParamValues validate_params(const PluginInfo &info, const nlohmann::json &params, const std::string &json_path) {
     if (!params.is_null() && !params.is_object())
@@ -358,8 +378,10 @@ ParamValues validate_params(const PluginInfo &info, const nlohmann::json &params
             if (std::find(names.begin(), names.end(), item.key()) != names.end()) continue;
             std::string msg = "unknown parameter of " + std::string(to_string(info.kind)) + " '" + info.name + "'";
             const std::string hint = did_you_mean(item.key(), names);
-            if (!hint.empty()) msg += "; did you mean \"" + hint + "\"?";
-            else if (names.empty()) msg += "; it takes no parameters";
+            if (!hint.empty())
+                msg += "; did you mean \"" + hint + "\"?";
+            else if (names.empty())
+                msg += "; it takes no parameters";
             else {
                 msg += "; it takes:";
                 for (const auto &n : names) msg += " " + n;
@@ -423,10 +445,18 @@ nlohmann::json params_to_json(const PluginInfo &info, const ParamValues &values)
     for (std::size_t i = 0; i < info.params.size(); ++i) {
         const ParamSpec &p = info.params[i];
         switch (p.type) {
-        case ParamType::real: out[p.name] = values.value(i); break;
-        case ParamType::integer: out[p.name] = static_cast<long long>(values.value(i)); break;
-        case ParamType::boolean: out[p.name] = values.value(i) != 0.0; break;
-        case ParamType::string: out[p.name] = values.string(i); break;
+        case ParamType::real:
+            out[p.name] = values.value(i);
+            break;
+        case ParamType::integer:
+            out[p.name] = static_cast<long long>(values.value(i));
+            break;
+        case ParamType::boolean:
+            out[p.name] = values.value(i) != 0.0;
+            break;
+        case ParamType::string:
+            out[p.name] = values.string(i);
+            break;
         }
     }
     return out;
@@ -524,7 +554,7 @@ struct CallMessage {
     gb_message msg{text, sizeof text};
     CallMessage() { text[0] = '\0'; }
 };
-}  // namespace
+} // namespace
 
 System::System(const PluginHandle &handle, const ParamValues &values) : m_instance(handle, values) {
     if (handle.info.kind != PluginKind::system)
@@ -536,8 +566,8 @@ System::System(const PluginHandle &handle, const ParamValues &values) : m_instan
 void System::rhs(std::size_t n, std::size_t ld, const double *t, const double *x, const double *f, double *dxdt,
                  std::int32_t *lane_status) const {
     CallMessage m;
-    check_plugin_status(m_table->rhs(m_instance.self(), n, ld, t, x, f, dxdt, lane_status, &m.msg), info(),
-                        "rhs", m.text);
+    check_plugin_status(m_table->rhs(m_instance.self(), n, ld, t, x, f, dxdt, lane_status, &m.msg), info(), "rhs",
+                        m.text);
 }
 
 void System::jacobian(std::size_t n, std::size_t ld, const double *t, const double *x, const double *f, double *jac,
@@ -632,9 +662,9 @@ void Forcing::combine(std::size_t n, const double *t, std::size_t term_count, st
     if (!info().composite())
         throw PluginError(info().file.string() + ": forcing '" + info().name + "' is not a composite forcing");
     CallMessage m;
-    check_plugin_status(m_table->combine(m_instance.self(), n, t, static_cast<std::uint32_t>(term_count), ld, terms,
-                                         f, &m.msg),
-                        info(), "combine", m.text);
+    check_plugin_status(
+        m_table->combine(m_instance.self(), n, t, static_cast<std::uint32_t>(term_count), ld, terms, f, &m.msg), info(),
+        "combine", m.text);
 }
 
 Extractor::Extractor(const PluginHandle &handle, const ParamValues &values) : m_instance(handle, values) {
@@ -651,15 +681,17 @@ struct ExtractContext {
 };
 void host_log(void *context, std::int32_t level, const char *line) {
     auto *c = static_cast<ExtractContext *>(context);
-    if (level >= 2) spdlog::warn("{}: {}", c->plugin, line ? line : "");
-    else if (level == 1) spdlog::info("{}: {}", c->plugin, line ? line : "");
-    else spdlog::debug("{}: {}", c->plugin, line ? line : "");
+    if (level >= 2)
+        spdlog::warn("{}: {}", c->plugin, line ? line : "");
+    else if (level == 1)
+        spdlog::info("{}: {}", c->plugin, line ? line : "");
+    else
+        spdlog::debug("{}: {}", c->plugin, line ? line : "");
 }
 // Nonzero asks the extractor to stop: the user interrupted the run (SIGINT/SIGTERM, cancel.hpp).
 std::int32_t host_progress(void *, double) { return cancel_requested() != 0; }
-gb_status host_add_barrier(void *context, const char *kind, std::int32_t closed, std::uint64_t count,
-                           const double *xy, std::uint32_t metric_count, const char *const *names,
-                           const double *values) {
+gb_status host_add_barrier(void *context, const char *kind, std::int32_t closed, std::uint64_t count, const double *xy,
+                           std::uint32_t metric_count, const char *const *names, const double *values) {
     auto *c = static_cast<ExtractContext *>(context);
     if (!kind || (count > 0 && !xy) || (metric_count > 0 && (!names || !values))) return GB_ERROR;
     Barrier b;
@@ -700,12 +732,12 @@ gb_status host_set_barrier_attributes(void *context, std::uint32_t count, const 
     attributes.insert(attributes.end(), parsed.begin(), parsed.end());
     return GB_OK;
 }
-}  // namespace
+} // namespace
 
 std::vector<Barrier> Extractor::extract(const gb_extract_input &input, const ExtractServices &services) const {
     ExtractContext context{info().name, &services, {}};
-    const gb_host host{&context, &host_log, &host_progress, &host_add_barrier, &host_advect,
-                       &host_set_barrier_attributes};
+    const gb_host host{&context,          &host_log,    &host_progress,
+                       &host_add_barrier, &host_advect, &host_set_barrier_attributes};
     CallMessage m;
     check_plugin_status(m_table->extract(m_instance.self(), &host, &input, &m.msg), info(), "extract", m.text);
     return std::move(context.barriers);
@@ -806,4 +838,4 @@ const PluginHandle &PluginRegistry::find(PluginKind kind, const std::string &nam
     throw ConfigError(json_path, msg);
 }
 
-}  // namespace geobarrier
+} // namespace geobarrier

@@ -50,4 +50,4 @@ void ProgressBar::finish() {
     m_enabled = false;
 }
 
-}  // namespace geobarrier::detail
+} // namespace geobarrier::detail

@@ -30,6 +30,6 @@ class ProgressBar {
     std::chrono::steady_clock::time_point m_start, m_last;
 };
 
-}  // namespace geobarrier::detail
+} // namespace geobarrier::detail
 
-#endif  // GEOBARRIER_SRC_PROGRESS_HPP
+#endif // GEOBARRIER_SRC_PROGRESS_HPP

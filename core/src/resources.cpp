@@ -1,7 +1,7 @@
 // Memory checks before a run (see resources.hpp): /proc/meminfo and cgroup limits, and a per-point estimate of what
 // the stages hold at their peak.
-#include <geobarrier/errors.hpp>
 #include "resources.hpp"
+#include <geobarrier/errors.hpp>
 
 #include <algorithm>
 #include <cstdio>

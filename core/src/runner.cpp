@@ -4,16 +4,16 @@
 #include "progress.hpp"
 #include "provenance.hpp"
 
+#include "mpi.hpp"
+#include "resources.hpp"
+#include "tiles.hpp"
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/line_field.hpp>
-#include "mpi.hpp"
 #include <geobarrier/output.hpp>
-#include "resources.hpp"
 #include <geobarrier/shear.hpp>
-#include "tiles.hpp"
 
 #include <omp.h>
 #include <spdlog/spdlog.h>
@@ -54,8 +54,11 @@ class StageTimer {
 };
 
 json plugin_summary(const PluginInfo &info) {
-    return {{"kind", to_string(info.kind)}, {"name", info.name}, {"version", info.version},
-            {"file", info.file.string()}, {"abi", std::to_string(info.abi_major) + "." + std::to_string(info.abi_minor)}};
+    return {{"kind", to_string(info.kind)},
+            {"name", info.name},
+            {"version", info.version},
+            {"file", info.file.string()},
+            {"abi", std::to_string(info.abi_major) + "." + std::to_string(info.abi_minor)}};
 }
 
 struct FieldDoc {
@@ -106,7 +109,7 @@ fs::path private_scratch_folder() {
            ("geobarrier-in-memory-" + std::to_string(static_cast<long>(::getpid())) + "-" + std::to_string(counter++));
 }
 
-}  // namespace
+} // namespace
 
 // The output folder of a run. Everything is written into a hidden staging folder inside it and moved into place
 // only when the whole run has succeeded, manifest.json last (each file was already written atomically, so a file
@@ -202,9 +205,10 @@ void report(const RunOptions &options, const std::string &stage, std::size_t don
 json start_manifest(const ResolvedExperiment &r, const RunOptions &options) {
     const Experiment &e = r.experiment;
     json manifest;
-    manifest["tool"] = {{"name", "geobarrier"},
-                        {"version", GEOBARRIER_VERSION},
-                        {"plugin_abi", std::to_string(GB_ABI_VERSION_MAJOR) + "." + std::to_string(GB_ABI_VERSION_MINOR)}};
+    manifest["tool"] = {
+        {"name", "geobarrier"},
+        {"version", GEOBARRIER_VERSION},
+        {"plugin_abi", std::to_string(GB_ABI_VERSION_MAJOR) + "." + std::to_string(GB_ABI_VERSION_MINOR)}};
     manifest["experiment_file"] = e.file.empty() ? "" : fs::absolute(e.file).string();
     manifest["experiment"] = e.source;
     manifest["resolved"] = r.resolved;
@@ -250,7 +254,7 @@ template <class Matches> bool field_wanted(const ResolvedExperiment &r, const st
 void compute_flow_and_cauchy_green(const ResolvedExperiment &r, const RunOptions &options, const FieldPlan &plan,
                                    RunRecord &record, GridStages &grid) {
     const Experiment &e = r.experiment;
-    if (r.need_cauchy_green || r.need_positions) { // validation products alone need no grid
+    if (r.need_cauchy_green || r.need_positions) {   // validation products alone need no grid
         StageTimer timer(record.stages, "flow map"); // with the Cauchy–Green fields, tile by tile
         detail::ProgressBar bar("flow map", !options.quiet);
         const Dynamics dynamics = r.dynamics();
@@ -311,8 +315,8 @@ void compute_deviation_fields(const ResolvedExperiment &r, RunRecord &record, Gr
 // same difference-aware error control; the offset is relative to the grid spacing.
 ExtractServices advection_services(const ResolvedExperiment &r) {
     ExtractServices services;
-    services.advect = [&r](std::size_t n, const double *xy, double t_from, double t_to, double *xy_out,
-                           double *dF_out, std::uint8_t *mask_out) {
+    services.advect = [&r](std::size_t n, const double *xy, double t_from, double t_to, double *xy_out, double *dF_out,
+                           std::uint8_t *mask_out) {
         const Experiment &e = r.experiment;
         const Dynamics dynamics = r.dynamics();
         const GradientMethod method = !dF_out ? GradientMethod::none
@@ -367,10 +371,21 @@ FoundBarriers run_extractors(const ResolvedExperiment &r, const RunOptions &opti
         StageTimer timer(record.stages, "extractor " + x.info().name);
         std::vector<gb_field> inputs;
         for (const auto &name : x.required_fields()) inputs.push_back({name.c_str(), grid.fields.at(name)->data()});
-        const gb_extract_input input{e.grid.x_min, e.grid.x_max, e.grid.y_min, e.grid.y_max,
-                                     e.grid.nx,    e.grid.ny,    e.t0,         e.t1,
-                                     grid.mask->data(),  static_cast<std::uint32_t>(inputs.size()),
-                                     inputs.data(), out_text.c_str(), plots ? 1 : 0, name_ptrs, unit_ptrs};
+        const gb_extract_input input{e.grid.x_min,
+                                     e.grid.x_max,
+                                     e.grid.y_min,
+                                     e.grid.y_max,
+                                     e.grid.nx,
+                                     e.grid.ny,
+                                     e.t0,
+                                     e.t1,
+                                     grid.mask->data(),
+                                     static_cast<std::uint32_t>(inputs.size()),
+                                     inputs.data(),
+                                     out_text.c_str(),
+                                     plots ? 1 : 0,
+                                     name_ptrs,
+                                     unit_ptrs};
         for (const Barrier &b : x.extract(input, services)) {
             json points = json::array();
             for (std::size_t k = 0; k + 1 < b.xy.size(); k += 2) points.push_back({b.xy[k], b.xy[k + 1]});
@@ -468,8 +483,8 @@ void write_result_files(const ResolvedExperiment &r, const RunOptions &options, 
     }
     if (plots && r.need_cauchy_green) {
         FieldPlot plot;
-        plot.title = "FTLE, " + r.system.info().name + " + " + r.forcing.info().name + ", t = " +
-                     fmt::format("{:g}", e.t0) + " to " + fmt::format("{:g}", e.t1);
+        plot.title = "FTLE, " + r.system.info().name + " + " + r.forcing.info().name +
+                     ", t = " + fmt::format("{:g}", e.t0) + " to " + fmt::format("{:g}", e.t1);
         plot.colorbar_label = "FTLE";
         plot.x_label = state_axis_label(r.system.info(), r.plane_component(0));
         plot.y_label = state_axis_label(r.system.info(), r.plane_component(1));
@@ -570,7 +585,7 @@ RunSummary run_stages(const ResolvedExperiment &r, const RunOptions &options) {
     return finish_run(record, options, staging, run_start, std::move(summary));
 }
 
-}  // namespace
+} // namespace
 
 RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options) {
     // The engine names a bad setting by its own name; the experiment's JSON path goes with it here.
@@ -581,4 +596,4 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
     });
 }
 
-}  // namespace geobarrier
+} // namespace geobarrier

@@ -193,9 +193,9 @@ template <class Tab> class LaneGroup {
                 const double h = m_h[l];
                 const double ex = h * detail::row_sum(Tab::e, [&](int j) { return m_kx[j][l]; });
                 const double ey = h * detail::row_sum(Tab::e, [&](int j) { return m_ky[j][l]; });
-                m_err[l] = std::max(
-                    std::abs(ex) / (m_r.s.atol + m_r.s.rtol * (std::abs(m_rx[l]) + h * std::abs(m_kx[0][l]))),
-                    std::abs(ey) / (m_r.s.atol + m_r.s.rtol * (std::abs(m_ry[l]) + h * std::abs(m_ky[0][l]))));
+                m_err[l] =
+                    std::max(std::abs(ex) / (m_r.s.atol + m_r.s.rtol * (std::abs(m_rx[l]) + h * std::abs(m_kx[0][l]))),
+                             std::abs(ey) / (m_r.s.atol + m_r.s.rtol * (std::abs(m_ry[l]) + h * std::abs(m_ky[0][l]))));
             }
         }
         if constexpr (Tab::fsal) {

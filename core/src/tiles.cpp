@@ -1,8 +1,8 @@
 // The flow map and Cauchy–Green fields tile by tile (see tiles.hpp).
+#include "tiles.hpp"
+#include "mpi.hpp"
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
-#include "mpi.hpp"
-#include "tiles.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -128,10 +128,10 @@ void compute_tile(const TileJob &job, std::size_t row, std::size_t rows, std::si
     }
     if (!job.plan.cauchy_green) return;
     // Straight into the fields, only those kept (the others are empty in cg).
-    cg.degenerate_count += cauchy_green_into(
-        cg, at, points, buffers.dF.data(), buffers.mask.data(),
-        buffers.dF_exponent.empty() ? nullptr : buffers.dF_exponent.data(),
-        buffers.log_det.empty() ? nullptr : buffers.log_det.data(), job.abs_duration);
+    cg.degenerate_count +=
+        cauchy_green_into(cg, at, points, buffers.dF.data(), buffers.mask.data(),
+                          buffers.dF_exponent.empty() ? nullptr : buffers.dF_exponent.data(),
+                          buffers.log_det.empty() ? nullptr : buffers.log_det.data(), job.abs_duration);
 }
 
 // `flow` and `cg` sized for `count` points with the plan's fields (NaN until computed).
@@ -149,8 +149,8 @@ void allocate_fields(const FieldPlan &plan, std::size_t count, GridFlowMap &flow
 }
 
 // The whole-grid arrays a rank sends rank 0 for its tiles, in this order (tiles in the order computed).
-template <class Visit> void for_each_shared_array(const FieldPlan &plan, GridFlowMap &flow, CauchyGreenField &cg,
-                                                  Visit visit) {
+template <class Visit>
+void for_each_shared_array(const FieldPlan &plan, GridFlowMap &flow, CauchyGreenField &cg, Visit visit) {
     visit(flow.mask);
     if (plan.positions) {
         visit(flow.flow_x);
@@ -239,8 +239,17 @@ GridFields compute_grid_fields(const Dynamics &dynamics, const Grid &grid, doubl
     if (gradient == GradientMethod::auxiliary_grid && !(plan.aux_offset > 0.0 && std::isfinite(plan.aux_offset)))
         throw EngineSettingError(EngineSetting::offset, std::to_string(plan.aux_offset) + " is not a positive offset");
     const std::size_t count = grid.size();
-    const TileJob job{dynamics, grid, t0, t1, settings, bounds, plan, gradient,
-                      plan.aux_offset * grid.dx(), plan.aux_offset * grid.dy(), std::abs(t1 - t0)};
+    const TileJob job{dynamics,
+                      grid,
+                      t0,
+                      t1,
+                      settings,
+                      bounds,
+                      plan,
+                      gradient,
+                      plan.aux_offset * grid.dx(),
+                      plan.aux_offset * grid.dy(),
+                      std::abs(t1 - t0)};
 
     GridFields out;
     out.flow.grid = grid;
@@ -260,8 +269,8 @@ GridFields compute_grid_fields(const Dynamics &dynamics, const Grid &grid, doubl
         // One tile's buffers, reused by the next tile: fresh ones would cost page faults, serially, at every tile.
         GridFlowMap buffers;
         for (std::size_t row = 0; row < grid.ny; row += out.rows_per_tile, ++out.tiles)
-            compute_tile(job, row, std::min(out.rows_per_tile, grid.ny - row), row * grid.nx, buffers, out.flow,
-                         out.cg, progress);
+            compute_tile(job, row, std::min(out.rows_per_tile, grid.ny - row), row * grid.nx, buffers, out.flow, out.cg,
+                         progress);
     }
     if (std::none_of(out.flow.mask.begin(), out.flow.mask.end(), [](std::uint8_t m) { return m == 0; }))
         throw NumericalError("every one of the " + std::to_string(count) + " grid points was masked: " +

@@ -50,8 +50,7 @@ std::vector<std::size_t> Stage::choose_barriers(const std::string &which, const 
     }
     const std::vector<const Barrier *> outer = outermost_elliptic(barriers);
     for (std::size_t i = 0; i < barriers.size(); ++i)
-        if (which == "all" || std::find(outer.begin(), outer.end(), &barriers[i]) != outer.end())
-            chosen.push_back(i);
+        if (which == "all" || std::find(outer.begin(), outer.end(), &barriers[i]) != outer.end()) chosen.push_back(i);
     return chosen;
 }
 
@@ -109,13 +108,19 @@ void Stage::poincare(const PoincareSpec &spec, json &summary) {
         return;
     }
     spdlog::info("validation: {} iterates of the period map from {} seeds", spec.iterations, n_seeds);
-    const Snapshots it = poincare_iterates(in.dynamics, in.integrator, in.bounds, seeds.xy, t_start, spec.period,
-                                           spec.iterations);
+    const Snapshots it =
+        poincare_iterates(in.dynamics, in.integrator, in.bounds, seeds.xy, t_start, spec.period, spec.iterations);
     std::size_t rows = 0;
     write_table("poincare.csv", poincare_csv(it, seeds.origin, t_start, spec.period, spec.iterations, rows));
-    summary = {{"file", "poincare.csv"}, {"seeds", n_seeds}, {"seeds_from_barriers", seeds.from_barriers},
-               {"iterations", spec.iterations}, {"rows", rows}, {"masked", it.masked},
-               {"t_start", t_start}, {"period", spec.period}, {"integrator_stats", it.stats.to_json()}};
+    summary = {{"file", "poincare.csv"},
+               {"seeds", n_seeds},
+               {"seeds_from_barriers", seeds.from_barriers},
+               {"iterations", spec.iterations},
+               {"rows", rows},
+               {"masked", it.masked},
+               {"t_start", t_start},
+               {"period", spec.period},
+               {"integrator_stats", it.stats.to_json()}};
     if (it.masked > 0)
         warn(fmt::format("validation poincare: {} of {} seeds masked (left the bounds or blew up); their iterates "
                          "stop there",
@@ -142,8 +147,12 @@ void Stage::section(const SectionSpec &spec, json &summary) {
         csv += "\n";
     }
     write_table("section.csv", csv);
-    summary = {{"file", "section.csv"}, {"seeds", spec.seeds.size()}, {"crossings", c.times.size()},
-               {"masked", c.masked}, {"t_start", t_start}, {"t_end", t_end},
+    summary = {{"file", "section.csv"},
+               {"seeds", spec.seeds.size()},
+               {"crossings", c.times.size()},
+               {"masked", c.masked},
+               {"t_start", t_start},
+               {"t_end", t_end},
                {"integrator_stats", c.stats.to_json()}};
     if (c.masked > 0)
         warn(fmt::format("validation section: {} of {} seeds masked before t_end", c.masked, spec.seeds.size()));
@@ -165,8 +174,11 @@ void Stage::tracers(const std::vector<TracerCloudSpec> &clouds, json &summary) {
         const Snapshots snaps = advect_snapshots(in.dynamics, in.integrator, in.bounds, xy, release, all_times);
         csv += tracer_csv_rows(c, snaps, all_times, release);
         const json pictures = in.plots ? draw_tracers(c, snaps, all_times) : json::array();
-        summary["clouds"].push_back({{"tracers", n}, {"release", release}, {"times", times},
-                                     {"masked", snaps.masked}, {"pictures", pictures},
+        summary["clouds"].push_back({{"tracers", n},
+                                     {"release", release},
+                                     {"times", times},
+                                     {"masked", snaps.masked},
+                                     {"pictures", pictures},
                                      {"integrator_stats", snaps.stats.to_json()}});
         if (snaps.masked > 0)
             warn(fmt::format("validation tracers: {} of {} tracers of cloud {} masked (left the bounds or blew up)",
@@ -196,8 +208,8 @@ json trajectory_list(const std::vector<double> &xy, const Snapshots &snaps, cons
         double max_excursion = 0.0;
         for (const std::vector<double> &positions : snaps.positions)
             if (std::isfinite(positions[2 * s]))
-                max_excursion = std::max(max_excursion, std::hypot(positions[2 * s] - xy[2 * s],
-                                                                   positions[2 * s + 1] - xy[2 * s + 1]));
+                max_excursion = std::max(
+                    max_excursion, std::hypot(positions[2 * s] - xy[2 * s], positions[2 * s + 1] - xy[2 * s + 1]));
         list.push_back({{"state", {xy[2 * s], xy[2 * s + 1]}},
                         {"inside", inside[s] < 0 ? json(nullptr) : json(inside[s] == 1)},
                         {"max_distance_from_start", max_excursion}});
@@ -218,9 +230,14 @@ void Stage::trajectories(const TrajectoriesSpec &spec, json &summary) {
     const bool can_classify = !outer.empty() && same_time(t_start, in.t0);
     const std::vector<int> inside = inside_outermost(spec.states, outer, can_classify);
     write_table("trajectories.csv", trajectories_csv(snaps, times, inside));
-    summary = {{"file", "trajectories.csv"}, {"t_start", t_start}, {"t_end", t_end}, {"samples", spec.samples},
-               {"trajectories", trajectory_list(xy, snaps, inside)}, {"masked", snaps.masked},
-               {"elliptic_barriers_used", outer.size()}, {"integrator_stats", snaps.stats.to_json()}};
+    summary = {{"file", "trajectories.csv"},
+               {"t_start", t_start},
+               {"t_end", t_end},
+               {"samples", spec.samples},
+               {"trajectories", trajectory_list(xy, snaps, inside)},
+               {"masked", snaps.masked},
+               {"elliptic_barriers_used", outer.size()},
+               {"integrator_stats", snaps.stats.to_json()}};
     if (!outer.empty() && !can_classify)
         warn("validation trajectories: t_start differs from t0, where the elliptic barriers are; the inside "
              "column is left empty");
@@ -238,8 +255,8 @@ void Stage::forcing(const ForcingSpec &spec, json &summary) {
         high = std::max(high, value);
     }
     write_table("forcing.csv", forcing_csv(times, f));
-    summary = {{"file", "forcing.csv"}, {"t_start", t_start}, {"t_end", t_end}, {"samples", spec.samples},
-               {"min", low}, {"max", high}};
+    summary = {{"file", "forcing.csv"},   {"t_start", t_start}, {"t_end", t_end},
+               {"samples", spec.samples}, {"min", low},         {"max", high}};
     if (in.plots) draw_forcing(times, f);
 }
 
@@ -326,8 +343,7 @@ class ProductTimer {
   public:
     explicit ProductTimer(json &summary) : m_summary(summary) {}
     ~ProductTimer() {
-        m_summary["wall_seconds"] =
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
+        m_summary["wall_seconds"] = std::chrono::duration<double>(std::chrono::steady_clock::now() - m_start).count();
     }
 
   private:
@@ -374,4 +390,4 @@ ValidationOutput run_validation(const ValidationSpec &spec, const ValidationInpu
     return result;
 }
 
-}  // namespace geobarrier
+} // namespace geobarrier

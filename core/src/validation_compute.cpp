@@ -34,7 +34,7 @@ std::string barrier_attribute(const Barrier &b, const std::string &name) {
     return "";
 }
 
-}  // namespace
+} // namespace
 
 // The closed elliptic barriers that bound the regular regions: those marked outermost, or all closed elliptic
 // ones when the extractor marked none.
@@ -62,7 +62,7 @@ std::vector<double> even_times(double a, double b, std::size_t n) {
     return times;
 }
 
-}  // namespace validation_detail
+} // namespace validation_detail
 
 using validation_detail::nan_value;
 
@@ -146,9 +146,7 @@ Snapshots advect_snapshots(const Dynamics &dynamics, const IntegratorSettings &s
                     if (slice) {
                         const StateFlowMap a = flow_map_of_states( // the slice only places the bounds box
                             dynamics, alive.size(),
-                            [&](std::size_t q, double *x) {
-                                std::copy_n(current.begin() + dim * alive[q], dim, x);
-                            },
+                            [&](std::size_t q, double *x) { std::copy_n(current.begin() + dim * alive[q], dim, x); },
                             t_current, t, settings, false, bounds);
                         out.stats.add(a.stats);
                         mask = a.mask;
@@ -199,8 +197,10 @@ SectionCrossings section_crossings(const Dynamics &dynamics, const IntegratorSet
     const Dynamics &whole = dynamics; // whole states; a slice only places the bounds box
     const std::size_t dim = dynamics.system->dimension();
     if (normal.size() != dim)
-        throw Error("section_crossings: a normal of " + std::to_string(normal.size()) + " components for a system of "
-                    "dimension " + std::to_string(dim));
+        throw Error("section_crossings: a normal of " + std::to_string(normal.size()) +
+                    " components for a system of "
+                    "dimension " +
+                    std::to_string(dim));
     if (!(sample > 0.0) || !(t_end > t_start)) throw Error("section_crossings: needs sample > 0 and t_end > t_start");
     const std::size_t n = seeds.size() / dim;
     SectionCrossings out;
@@ -245,8 +245,9 @@ SectionCrossings section_crossings(const Dynamics &dynamics, const IntegratorSet
     for (double t = t_start; t < t_end && !alive.empty() && out.times.size() < max_crossings;) {
         const double t_next = std::min(t_end, t + sample);
         const StateFlowMap r = flow_map_of_states(
-            whole, alive.size(), [&](std::size_t q, double *s) { std::copy_n(current.begin() + dim * alive[q], dim, s); },
-            t, t_next, settings, false, bounds);
+            whole, alive.size(),
+            [&](std::size_t q, double *s) { std::copy_n(current.begin() + dim * alive[q], dim, s); }, t, t_next,
+            settings, false, bounds);
         out.stats.add(r.stats);
         std::vector<std::size_t> still;
         for (std::size_t q = 0; q < alive.size(); ++q) {
@@ -267,8 +268,10 @@ SectionCrossings section_crossings(const Dynamics &dynamics, const IntegratorSet
                     if (!(ok = advance(a.data(), t, tc, x.data()))) break;
                     const double gc = g(x.data());
                     if (gc == 0.0) break;
-                    if ((gc < 0.0) == (glo < 0.0)) lo = tc, glo = gc;
-                    else hi = tc;
+                    if ((gc < 0.0) == (glo < 0.0))
+                        lo = tc, glo = gc;
+                    else
+                        hi = tc;
                     const double slope = rate(x.data(), tc);
                     double t_new = slope != 0.0 ? tc - gc / slope : 0.5 * (lo + hi);
                     if (!(t_new > lo && t_new < hi)) t_new = 0.5 * (lo + hi);
@@ -320,8 +323,8 @@ StretchingHistory stretching_history(const Dynamics &dynamics, const IntegratorS
             s.points = xy.size() / 2;
             s.converged = true;
         } else {
-            const AdvectedCurve c = advect_curve(xy, closed, make_advect_points_fn(dynamics, t0, t, settings, bounds),
-                                                 curve_settings);
+            const AdvectedCurve c =
+                advect_curve(xy, closed, make_advect_points_fn(dynamics, t0, t, settings, bounds), curve_settings);
             s.xy = c.xy1;
             s.xy0 = c.xy0;
             s.length = c.length1;
@@ -367,4 +370,4 @@ BarrierTube barrier_tube(const Dynamics &dynamics, const IntegratorSettings &set
     return tube;
 }
 
-}  // namespace geobarrier
+} // namespace geobarrier

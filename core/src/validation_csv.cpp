@@ -69,10 +69,10 @@ double area_change(const Barrier &barrier, const StretchingHistory &h, const Str
 std::string stretching_csv_rows(std::size_t b, const Barrier &barrier, const StretchingHistory &h) {
     std::string csv;
     for (const StretchingSample &s : h.samples)
-        csv += fmt::format("{},{},{},{},{},{},{},{},{},{}\n", b, barrier.kind, barrier.closed ? 1 : 0,
-                           csv_number(s.t), csv_number(s.length), csv_number(s.delta_l), csv_number(s.area),
+        csv += fmt::format("{},{},{},{},{},{},{},{},{},{}\n", b, barrier.kind, barrier.closed ? 1 : 0, csv_number(s.t),
+                           csv_number(s.length), csv_number(s.delta_l), csv_number(s.area),
                            csv_number(area_change(barrier, h, s)), s.points, s.converged ? 1 : 0);
     return csv;
 }
 
-}  // namespace geobarrier::validation_detail
+} // namespace geobarrier::validation_detail

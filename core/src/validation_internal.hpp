@@ -89,9 +89,9 @@ struct Stage {
         const std::vector<double> &starts; // x, y interleaved
         const std::vector<double> &times;
         const Snapshots &snaps;
-        const std::vector<int> &inside;                  // 1 inside, 0 outside, -1 unknown
-        const std::vector<const Barrier *> &outermost;   // the outermost elliptic barriers at t0
-        bool classified;                                 // the barriers were at the trajectories' start time
+        const std::vector<int> &inside;                // 1 inside, 0 outside, -1 unknown
+        const std::vector<const Barrier *> &outermost; // the outermost elliptic barriers at t0
+        bool classified;                               // the barriers were at the trajectories' start time
     };
     void draw_trajectories(const TrajectoryPictures &t);
     void draw_forcing(const std::vector<double> &times, const std::vector<double> &f);
@@ -121,6 +121,6 @@ struct Stage {
     void draw_tubes(const AdvectedPictures &a);
 };
 
-}  // namespace geobarrier::validation_detail
+} // namespace geobarrier::validation_detail
 
-#endif  // GEOBARRIER_SRC_VALIDATION_INTERNAL_HPP
+#endif // GEOBARRIER_SRC_VALIDATION_INTERNAL_HPP

@@ -159,8 +159,9 @@ SectionSpec read_section(const json &v, const std::string &path) {
     s.offset = r.number("offset", 0.0);
     const double direction = r.number("direction", 1.0);
     if (direction != 1.0 && direction != -1.0 && direction != 0.0)
-        throw ConfigError(r.child("direction"), short_dump(r.get("direction")) + " must be 1 (normal . x "
-                                                "increasing), -1 (decreasing) or 0 (both)");
+        throw ConfigError(r.child("direction"), short_dump(r.get("direction")) +
+                                                    " must be 1 (normal . x "
+                                                    "increasing), -1 (decreasing) or 0 (both)");
     s.direction = static_cast<int>(direction);
     const json &seeds = r.get("seeds");
     if (!seeds.is_array() || seeds.empty())
@@ -169,8 +170,10 @@ SectionSpec read_section(const json &v, const std::string &path) {
         const std::string where = r.child("seeds") + "/" + std::to_string(i);
         s.seeds.push_back(numbers(seeds[i], where, "a whole state"));
         if (s.seeds.back().size() != s.normal.size())
-            throw ConfigError(where, "has " + std::to_string(s.seeds.back().size()) + " components and the "
-                                     "normal " + std::to_string(s.normal.size()));
+            throw ConfigError(where, "has " + std::to_string(s.seeds.back().size()) +
+                                         " components and the "
+                                         "normal " +
+                                         std::to_string(s.normal.size()));
     }
     s.t_start = r.optional_number("t_start");
     s.t_end = r.optional_number("t_end");
@@ -180,7 +183,7 @@ SectionSpec read_section(const json &v, const std::string &path) {
     return s;
 }
 
-}  // namespace
+} // namespace
 
 ValidationSpec parse_validation(const json &j, const std::string &path) {
     Reader root(j, path);
@@ -279,7 +282,7 @@ json points_json(const std::vector<std::array<double, 2>> &points) {
     return out;
 }
 
-}  // namespace
+} // namespace
 
 json validation_to_json(const ValidationSpec &spec, double t0, double t1) {
     using validation_detail::default_times;
@@ -297,10 +300,14 @@ json validation_to_json(const ValidationSpec &spec, double t0, double t1) {
     }
     if (spec.section) {
         const SectionSpec &s = *spec.section;
-        out["section"] = {{"normal", s.normal},       {"offset", s.offset},
-                          {"direction", s.direction}, {"seeds", s.seeds},
-                          {"t_start", s.t_start.value_or(t0)}, {"t_end", s.t_end.value_or(t1)},
-                          {"crossings", s.crossings}, {"sample", s.sample}};
+        out["section"] = {{"normal", s.normal},
+                          {"offset", s.offset},
+                          {"direction", s.direction},
+                          {"seeds", s.seeds},
+                          {"t_start", s.t_start.value_or(t0)},
+                          {"t_end", s.t_end.value_or(t1)},
+                          {"crossings", s.crossings},
+                          {"sample", s.sample}};
     }
     if (!spec.tracers.empty()) {
         json clouds = json::array();
@@ -309,9 +316,8 @@ json validation_to_json(const ValidationSpec &spec, double t0, double t1) {
                       {"times", c.times.empty() ? std::vector<double>{t1} : c.times}};
             if (c.box) j["box"] = lattice_json(*c.box);
             if (c.disc)
-                j["disc"] = {{"center", {c.disc->center_x, c.disc->center_y}},
-                             {"radius", c.disc->radius},
-                             {"n", c.disc->n}};
+                j["disc"] = {
+                    {"center", {c.disc->center_x, c.disc->center_y}}, {"radius", c.disc->radius}, {"n", c.disc->n}};
             clouds.push_back(j);
         }
         out["tracers"] = clouds;
@@ -330,10 +336,10 @@ json validation_to_json(const ValidationSpec &spec, double t0, double t1) {
     if (spec.advect_barriers) {
         const AdvectBarriersSpec &s = *spec.advect_barriers;
         json which = s.which == "indices" ? json(s.indices) : json(s.which);
-        out["advect_barriers"] = {{"times", default_times(s, t0, t1)}, {"max_gap", s.max_gap}, {"tube", s.tube},
-                                  {"tube_columns", s.tube_columns}, {"tube_rows", s.tube_rows}, {"barriers", which}};
+        out["advect_barriers"] = {{"times", default_times(s, t0, t1)}, {"max_gap", s.max_gap},     {"tube", s.tube},
+                                  {"tube_columns", s.tube_columns},    {"tube_rows", s.tube_rows}, {"barriers", which}};
     }
     return out;
 }
 
-}  // namespace geobarrier
+} // namespace geobarrier

@@ -22,8 +22,8 @@ namespace {
 const char *barrier_color = "red";
 const char *data_color = "blue";
 const std::vector<std::string> &series_palette() {
-    static const std::vector<std::string> palette{"blue",  "green", "orange", "purple", "cyan",
-                                                  "brown", "magenta", "pink", "grey",  "black"};
+    static const std::vector<std::string> palette{"blue",  "green",   "orange", "purple", "cyan",
+                                                  "brown", "magenta", "pink",   "grey",   "black"};
     return palette;
 }
 // Discrete viridis-like colours for a sequence in time (early dark blue to late yellow).
@@ -40,8 +40,7 @@ std::string time_color(std::size_t k, std::size_t n) {
     const std::size_t i = std::min<std::size_t>(6, static_cast<std::size_t>(u));
     const double f = u - static_cast<double>(i);
     int rgb[3];
-    for (int c = 0; c < 3; ++c)
-        rgb[c] = static_cast<int>(std::lround(stops[i][c] * (1 - f) + stops[i + 1][c] * f));
+    for (int c = 0; c < 3; ++c) rgb[c] = static_cast<int>(std::lround(stops[i][c] * (1 - f) + stops[i + 1][c] * f));
     return fmt::format("#{:02x}{:02x}{:02x}", rgb[0], rgb[1], rgb[2]);
 }
 
@@ -66,7 +65,7 @@ std::vector<PlotSeries> barrier_series(const std::vector<Barrier> &barriers, con
     return out;
 }
 
-}  // namespace
+} // namespace
 
 std::string Stage::base_title() const { return in.title.empty() ? std::string() : in.title + ": "; }
 
@@ -113,7 +112,7 @@ PlotSeries data_cloud(const char *label) {
     return cloud;
 }
 
-}  // namespace
+} // namespace
 
 void Stage::save(const XYPlot &plot, const std::string &name) {
     plot_xy_png(out / name, plot);
@@ -328,9 +327,10 @@ void Stage::draw_barriers_advected(const AdvectedPictures &a) {
     XYPlot plot = phase_plot("barriers advected from t₀ = " + fmt_g(in.t0));
     const std::size_t shown = std::min<std::size_t>(a.times.size(), 9);
     for (std::size_t m = 0; m < shown; ++m) {
-        const std::size_t r =
-            shown == 1 ? 0 : static_cast<std::size_t>(std::lround(static_cast<double>(m * (a.times.size() - 1)) /
-                                                                  static_cast<double>(shown - 1)));
+        const std::size_t r = shown == 1
+                                  ? 0
+                                  : static_cast<std::size_t>(std::lround(static_cast<double>(m * (a.times.size() - 1)) /
+                                                                         static_cast<double>(shown - 1)));
         for (std::size_t k = 0; k < a.chosen.size(); ++k) {
             PlotSeries line;
             line.xy = a.histories[k].samples[r].xy;
@@ -384,4 +384,4 @@ void Stage::draw_tubes(const AdvectedPictures &a) {
     save(plot, "tube.png");
 }
 
-}  // namespace geobarrier::validation_detail
+} // namespace geobarrier::validation_detail

@@ -99,4 +99,4 @@ void write_tubes_vtp(const fs::path &file, const std::vector<BarrierTube> &tubes
     write_text_file(file, doc.str());
 }
 
-}  // namespace geobarrier
+} // namespace geobarrier

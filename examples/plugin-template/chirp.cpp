@@ -29,6 +29,6 @@ struct Chirp {
     double m_a, m_w, m_r;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::forcing<Chirp>())

@@ -58,6 +58,6 @@ struct FtleRidge {
     double m_min_ftle;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::extractor<FtleRidge>())

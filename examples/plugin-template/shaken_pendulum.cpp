@@ -35,6 +35,6 @@ struct ShakenPendulum {
     double m_w2, m_c;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::system<ShakenPendulum>())

@@ -32,7 +32,7 @@ using geobarrier::sdk::Params;
 using geobarrier::sdk::real_param;
 
 constexpr double golden_phi = 0.6180339887498949;
-constexpr int cycle_window = 64;      // cycles up to this period are caught the moment they close
+constexpr int cycle_window = 64; // cycles up to this period are caught the moment they close
 // At r = 4, about 1 seed in 1000 needs one re-injection in 2 x 200000 samples (its orbit hits 1/2 -> 1 -> 0); in a
 // periodic window (r = 3.63, 3.74, 3.83, ...) the orbit lands on the cycle again within a few hundred steps.
 constexpr int max_reinjections = 16;
@@ -154,6 +154,6 @@ struct ChaoticMap {
     std::vector<double> m_samples; // g_n for n = -span .. span
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::forcing<ChaoticMap>())

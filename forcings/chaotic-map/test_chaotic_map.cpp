@@ -97,7 +97,7 @@ std::array<double, 4> cubic_weights(const std::array<double, 4> &s, double z, in
     return w;
 }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("chaotic-map: schema") {
     const PluginInfo &info = chaotic_map().info;
@@ -110,12 +110,9 @@ TEST_CASE("chaotic-map: schema") {
         double default_value, min_value, max_value;
     };
     const Expected expected[] = {
-        {"amplitude", ParamType::real, 0.1, 0.0, HUGE_VAL},
-        {"interval", ParamType::real, 1.0, 1e-9, HUGE_VAL},
-        {"seed", ParamType::real, default_seed, 0.0, 1.0},
-        {"r", ParamType::real, 4.0, 3.57, 4.0},
-        {"start", ParamType::real, 0.0, -HUGE_VAL, HUGE_VAL},
-        {"span", ParamType::integer, 200000, 2, 10000000},
+        {"amplitude", ParamType::real, 0.1, 0.0, HUGE_VAL},   {"interval", ParamType::real, 1.0, 1e-9, HUGE_VAL},
+        {"seed", ParamType::real, default_seed, 0.0, 1.0},    {"r", ParamType::real, 4.0, 3.57, 4.0},
+        {"start", ParamType::real, 0.0, -HUGE_VAL, HUGE_VAL}, {"span", ParamType::integer, 200000, 2, 10000000},
     };
     for (std::size_t i = 0; i < 6; ++i) {
         CAPTURE(i);
@@ -161,9 +158,9 @@ TEST_CASE("chaotic-map: knot values are (g_{n-1} + 4 g_n + g_{n+1}) / 6 of an in
 TEST_CASE("chaotic-map: knots at start + n interval for another interval and start") {
     // interval 0.5 and start 3 are exact in binary, so t = start + n interval gives u = n exactly.
     const double interval = 0.5, start = 3.0, amplitude = 0.25;
-    const Forcing f =
-        test::make_forcing("chaotic-map", {{"interval", interval}, {"start", start}, {"amplitude", amplitude},
-                                           {"span", 5000}, {"seed", 0.123}});
+    const Forcing f = test::make_forcing(
+        "chaotic-map",
+        {{"interval", interval}, {"start", start}, {"amplitude", amplitude}, {"span", 5000}, {"seed", 0.123}});
     const std::vector<double> g = plain_samples(0.123, 4.0, amplitude, 5000);
     for (long long n : {-4999LL, -1000LL, -1LL, 0LL, 1LL, 77LL, 4999LL}) {
         CAPTURE(n);
@@ -370,8 +367,7 @@ TEST_CASE("chaotic-map: times outside the window are errors naming the window") 
     // Window: [start + (1 - span) interval, start + (span - 1) interval] = [-199999, 199999].
     CHECK_NOTHROW(f(-199999.0));
     CHECK_NOTHROW(f(199999.0));
-    for (double t : {std::nextafter(199999.0, HUGE_VAL), std::nextafter(-199999.0, -HUGE_VAL), 1e9,
-                     std::nan("")}) {
+    for (double t : {std::nextafter(199999.0, HUGE_VAL), std::nextafter(-199999.0, -HUGE_VAL), 1e9, std::nan("")}) {
         CAPTURE(t);
         try {
             f(t);

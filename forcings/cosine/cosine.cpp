@@ -33,6 +33,6 @@ struct Cosine {
     double m_amplitude, m_omega, m_phase;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::forcing<Cosine>())

@@ -14,7 +14,7 @@ using namespace geobarrier;
 namespace {
 constexpr double pi = 3.141592653589793;
 const PluginHandle &cosine() { return test::registry().find(PluginKind::forcing, "cosine", "/forcing/plugin"); }
-}  // namespace
+} // namespace
 
 TEST_CASE("cosine: schema") {
     const PluginInfo &info = cosine().info;
@@ -37,15 +37,14 @@ TEST_CASE("cosine: schema") {
 TEST_CASE("cosine: values") {
     SUBCASE("defaults: 0.08 cos t") {
         const Forcing f = test::make_forcing("cosine");
-        CHECK(f(0.0) == 0.08);   // cos 0 = 1 exactly
+        CHECK(f(0.0) == 0.08); // cos 0 = 1 exactly
         CHECK(f(pi) == -0.08); // cos(pi rounded) = -1 + 1e-33: rounds to -1
         // cos(pi/2 rounded) = 6.1e-17: f is 0.08 times that.
         CHECK(std::fabs(f(pi / 2)) < 1e-17);
     }
     SUBCASE("amplitude cos(omega t + phase) at a batch of times") {
         const double amplitude = 0.3, omega = 2.5, phase = -0.7;
-        const Forcing f =
-            test::make_forcing("cosine", {{"amplitude", amplitude}, {"omega", omega}, {"phase", phase}});
+        const Forcing f = test::make_forcing("cosine", {{"amplitude", amplitude}, {"omega", omega}, {"phase", phase}});
         const std::vector<double> t = {-12.0, -1.25, 0.0, 0.4, 3.0, 25.132741228718345};
         std::vector<double> out(t.size());
         f.evaluate(t.size(), t.data(), out.data());

@@ -76,10 +76,11 @@ std::vector<Sample> read_series(const std::string &file, std::size_t time_column
         const std::string line = trim(raw);
         if (line.empty() || line[0] == '#') continue;
         const std::string where = file + ":" + std::to_string(line_no) + ": ";
-        if (!delimiter) delimiter = line.find(',') != std::string::npos   ? ','
-                                    : line.find(';') != std::string::npos ? ';'
-                                    : line.find('\t') != std::string::npos ? '\t'
-                                                                           : ' ';
+        if (!delimiter)
+            delimiter = line.find(',') != std::string::npos    ? ','
+                        : line.find(';') != std::string::npos  ? ';'
+                        : line.find('\t') != std::string::npos ? '\t'
+                                                               : ' ';
         const std::vector<std::string> fields = split_fields(line, delimiter);
         const std::size_t needed = std::max(time_column, value_column) + 1;
         double t = 0.0, value = 0.0;
@@ -92,8 +93,8 @@ std::vector<Sample> read_series(const std::string &file, std::size_t time_column
         header_allowed = false;
         if (fields.size() < needed)
             throw std::runtime_error(where + "has " + std::to_string(fields.size()) + " field(s); time_column " +
-                                     std::to_string(time_column) + " and value_column " +
-                                     std::to_string(value_column) + " need " + std::to_string(needed));
+                                     std::to_string(time_column) + " and value_column " + std::to_string(value_column) +
+                                     " need " + std::to_string(needed));
         if (!time_ok) throw std::runtime_error(where + "time \"" + fields[time_column] + "\" is not a finite number");
         if (!parse_number(fields[value_column], value))
             throw std::runtime_error(where + "missing or non-numeric value \"" + fields[value_column] +
@@ -143,9 +144,9 @@ struct Data {
     };
 
     explicit Data(const Params &p) : m_file(p.string("file")) {
-        const std::vector<Sample> samples = read_series(m_file, static_cast<std::size_t>(p.integer("time_column")),
-                                                        static_cast<std::size_t>(p.integer("value_column")),
-                                                        p.real("gap_factor"));
+        const std::vector<Sample> samples =
+            read_series(m_file, static_cast<std::size_t>(p.integer("time_column")),
+                        static_cast<std::size_t>(p.integer("value_column")), p.real("gap_factor"));
         const double scale = p.real("scale");
         for (const Sample &s : samples) {
             m_t.push_back(s.t);
@@ -191,8 +192,8 @@ struct Data {
             i = std::min(i, m_t.size() - 1) - 1;
             const double h = m_t[i + 1] - m_t[i];
             const double a = (m_t[i + 1] - tk) / h, b = (tk - m_t[i]) / h;
-            f[k] = a * m_f[i] + b * m_f[i + 1] +
-                   ((a * a * a - a) * m_m[i] + (b * b * b - b) * m_m[i + 1]) * (h * h / 6.0);
+            f[k] =
+                a * m_f[i] + b * m_f[i + 1] + ((a * a * a - a) * m_m[i] + (b * b * b - b) * m_m[i + 1]) * (h * h / 6.0);
         }
     }
 
@@ -200,6 +201,6 @@ struct Data {
     std::vector<double> m_t, m_f, m_m;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::forcing<Data>())

@@ -50,7 +50,7 @@ std::string creation_error(const std::string &name, const std::string &text,
     }
     return "(no error)";
 }
-}  // namespace
+} // namespace
 
 TEST_CASE("data: schema") {
     const PluginInfo &info = data().info;

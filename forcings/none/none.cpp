@@ -17,6 +17,6 @@ struct NoForcing {
     }
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::forcing<NoForcing>())

@@ -39,6 +39,6 @@ struct QuasiPeriodic {
     double m_a1, m_w1, m_p1, m_a2, m_w2, m_p2;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::forcing<QuasiPeriodic>())

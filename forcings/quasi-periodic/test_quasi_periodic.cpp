@@ -14,7 +14,7 @@ using namespace geobarrier;
 namespace {
 constexpr double pi = 3.141592653589793;
 const PluginHandle &qp() { return test::registry().find(PluginKind::forcing, "quasi-periodic", "/forcing/plugin"); }
-}  // namespace
+} // namespace
 
 TEST_CASE("quasi-periodic: schema") {
     const PluginInfo &info = qp().info;
@@ -29,8 +29,9 @@ TEST_CASE("quasi-periodic: schema") {
 
 TEST_CASE("quasi-periodic: a1 cos(w1 t + p1) + a2 cos(w2 t + p2)") {
     const double a1 = 0.3, w1 = 1.1, p1 = 0.2, a2 = -0.15, w2 = 2.9, p2 = -1.0;
-    const Forcing f = test::make_forcing("quasi-periodic", {{"amplitude1", a1}, {"omega1", w1}, {"phase1", p1},
-                                                            {"amplitude2", a2}, {"omega2", w2}, {"phase2", p2}});
+    const Forcing f = test::make_forcing(
+        "quasi-periodic",
+        {{"amplitude1", a1}, {"omega1", w1}, {"phase1", p1}, {"amplitude2", a2}, {"omega2", w2}, {"phase2", p2}});
     const std::vector<double> t = {-20.0, -0.5, 0.0, 1.0, 7.25, 100.0};
     std::vector<double> out(t.size());
     f.evaluate(t.size(), t.data(), out.data());

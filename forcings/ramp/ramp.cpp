@@ -29,9 +29,12 @@ double ramp(Shape shape, double s) {
     if (!(s > 0.0)) return 0.0; // NaN stays NaN through the product with the base below
     if (s >= 1.0) return 1.0;
     switch (shape) {
-    case Shape::quintic: return s * s * s * (10.0 + s * (-15.0 + 6.0 * s));
-    case Shape::cubic: return s * s * (3.0 - 2.0 * s);
-    case Shape::smooth: break;
+    case Shape::quintic:
+        return s * s * s * (10.0 + s * (-15.0 + 6.0 * s));
+    case Shape::cubic:
+        return s * s * (3.0 - 2.0 * s);
+    case Shape::smooth:
+        break;
     }
     return 1.0 / (1.0 + std::exp(1.0 / s - 1.0 / (1.0 - s)));
 }
@@ -63,6 +66,6 @@ struct Ramp {
     Shape m_shape;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::forcing<Ramp>())

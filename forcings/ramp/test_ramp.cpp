@@ -18,7 +18,7 @@ const PluginHandle &ramp_handle() { return test::registry().find(PluginKind::for
 Forcing make_ramp(const nlohmann::json &params, const Forcing &base) {
     return Forcing(ramp_handle(), validate_params(ramp_handle().info, params, "/forcing/params"), {base});
 }
-}  // namespace
+} // namespace
 
 TEST_CASE("ramp: schema: a composite of exactly one term") {
     const PluginInfo &info = ramp_handle().info;

@@ -26,6 +26,6 @@ struct Sum {
     }
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::forcing<Sum>())

@@ -16,7 +16,7 @@ const PluginHandle &sum() { return test::registry().find(PluginKind::forcing, "s
 Forcing make_sum(std::vector<Forcing> terms) {
     return Forcing(sum(), validate_params(sum().info, nlohmann::json::object(), "/forcing/params"), std::move(terms));
 }
-}  // namespace
+} // namespace
 
 TEST_CASE("sum: schema: a composite of 1 to 16 terms, no parameters") {
     const PluginInfo &info = sum().info;

@@ -228,8 +228,8 @@ std::vector<Shot> shoot_all(const LineField &eta, const Section &section, const 
     const double chunk = std::max(pi * len, 20.0 * h);
     const double step = settings.line.max_step > 0.0 ? settings.line.max_step : 0.5 * h;
     const double chunks = std::ceil(budget / chunk);
-    ls.max_steps = std::min<std::size_t>(
-        settings.line.max_steps, static_cast<std::size_t>(chunks * (10.0 * std::ceil(chunk / step) + 100.0)));
+    ls.max_steps = std::min<std::size_t>(settings.line.max_steps,
+                                         static_cast<std::size_t>(chunks * (10.0 * std::ceil(chunk / step) + 100.0)));
     SectionCrossing crossing(section, 2.0 * h, launched.size());
     std::vector<TensorLine> lines = integrate_tensor_lines(eta, starts, ls, &crossing);
     for (std::size_t m = 0; m < launched.size(); ++m) {

@@ -76,15 +76,16 @@ std::string fmt(double v, int digits = 4) {
 // 3 x 3 patch `spacing` apart (host advection with the experiment's integrator), the patch's tensor and shear fields
 // (the grid's own formulas: shear_fields, centred differences), d_g at the centre; arclength-weighted mean. Removes
 // the grid's O(h^2) derivative error and the bilinear interpolation, which grow with T next to the chaotic layer.
-double exact_mean_deviation(const sdk::Host &host, const gb_extract_input &in, const std::vector<double> &xy,
-                            int sign, double spacing, ShearDeviationForm form) {
+double exact_mean_deviation(const sdk::Host &host, const gb_extract_input &in, const std::vector<double> &xy, int sign,
+                            double spacing, ShearDeviationForm form) {
     const std::size_t n = xy.size() / 2;
     constexpr std::size_t side = 3, per_vertex = side * side;
     std::vector<double> patch_points(2 * per_vertex * n);
     for (std::size_t k = 0; k < n; ++k)
         for (std::size_t q = 0; q < per_vertex; ++q) {
             patch_points[2 * (k * per_vertex + q)] = xy[2 * k] + spacing * (static_cast<double>(q % side) - 1.0);
-            patch_points[2 * (k * per_vertex + q) + 1] = xy[2 * k + 1] + spacing * (static_cast<double>(q / side) - 1.0);
+            patch_points[2 * (k * per_vertex + q) + 1] =
+                xy[2 * k + 1] + spacing * (static_cast<double>(q / side) - 1.0);
         }
     std::vector<double> moved, dF;
     std::vector<std::uint8_t> mask;
@@ -154,7 +155,8 @@ struct Elliptic {
         integer_param("poincare_points", 200, 8, 100000, "points per barrier iterated by the Poincare map"),
         integer_param("plot_shearlines", 24, 0, 100000, "launched shearlines drawn per section and family"),
         string_param("line_method", "midpoint", "midpoint|rk4|bs32|dopri5",
-                     "tensor-line integration: fixed half-cell steps (midpoint, rk4) or adaptive pairs at the tolerance (bs32, dopri5); docs/extractors.md"),
+                     "tensor-line integration: fixed half-cell steps (midpoint, rk4) or adaptive pairs at the "
+                     "tolerance (bs32, dopri5); docs/extractors.md"),
         real_param("line_rtol", 1e-6, 1e-14, 1e-2, "",
                    "relative tolerance of shearline integration (adaptive line_method only)"),
         real_param("barrier_spacing", 0.05, 0.0, 1.0, "",
@@ -496,8 +498,7 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
                                      m_exact_deviation_points > 0 && m_exact_deviation_points < f.orbit.xy.size() / 2
                                          ? resample_polyline(f.orbit.xy, f.length / m_exact_deviation_points, true)
                                          : f.orbit.xy,
-                                     f.orbit.sign,
-                                     m_exact_deviation_spacing * std::min(grid.dx(), grid.dy()),
+                                     f.orbit.sign, m_exact_deviation_spacing * std::min(grid.dx(), grid.dy()),
                                      m_area_preserving ? ShearDeviationForm::area_preserving
                                                        : ShearDeviationForm::general));
         if (std::isfinite(f.max_ftle)) metrics.emplace_back("max_ftle", f.max_ftle);

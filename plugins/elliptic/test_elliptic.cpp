@@ -6,8 +6,8 @@
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/shear.hpp>
 
-#include <test_support.hpp>
 #include <circular_shear.hpp>
+#include <test_support.hpp>
 
 #include <doctest/doctest.h>
 #include <nlohmann/json.hpp>
@@ -462,18 +462,19 @@ TEST_CASE("convergence (paper figure poincare-shearline-ex1): the right island's
     // layer as T grows, and its 12 pi value changes with the grid (0.151, 0.145, 0.587 at the three grids).
     std::vector<json> runs;
     for (const double T : {8 * M_PI, 10 * M_PI, 12 * M_PI}) {
-        json e = {
-            {"system", {{"plugin", "duffing"}, {"params", {{"alpha", 1}, {"beta", 1}, {"delta", 0}}}}},
-            {"forcing", {{"plugin", "cosine"}, {"params", {{"amplitude", 0.08}, {"omega", 1}, {"phase", 0}}}}},
-            {"grid", {{"x", {-1.9, 1.9}}, {"y", {-1.1, 1.1}}, {"n", {381, 221}}}},
-            {"time", {{"t0", 0.0}, {"t1", T}}},
-            {"integrator", {{"method", "dopri5"}, {"rtol", 1e-8}, {"atol", 1e-10}}},
-            {"extractors",
-             {{{"plugin", "elliptic"},
-               {"params",
-                {{"launch_points", 300}, {"barrier_spacing", 0}, {"exact_deviation_spacing", 0.25},
-                 {"advect", "none"}}}}}},
-            {"output", {{"plots", false}}}};
+        json e = {{"system", {{"plugin", "duffing"}, {"params", {{"alpha", 1}, {"beta", 1}, {"delta", 0}}}}},
+                  {"forcing", {{"plugin", "cosine"}, {"params", {{"amplitude", 0.08}, {"omega", 1}, {"phase", 0}}}}},
+                  {"grid", {{"x", {-1.9, 1.9}}, {"y", {-1.1, 1.1}}, {"n", {381, 221}}}},
+                  {"time", {{"t0", 0.0}, {"t1", T}}},
+                  {"integrator", {{"method", "dopri5"}, {"rtol", 1e-8}, {"atol", 1e-10}}},
+                  {"extractors",
+                   {{{"plugin", "elliptic"},
+                     {"params",
+                      {{"launch_points", 300},
+                       {"barrier_spacing", 0},
+                       {"exact_deviation_spacing", 0.25},
+                       {"advect", "none"}}}}}},
+                  {"output", {{"plots", false}}}};
         runs.push_back(run(e, "convergence")["barriers"]);
     }
     const json *reference = nullptr;
@@ -497,8 +498,8 @@ TEST_CASE("convergence (paper figure poincare-shearline-ex1): the right island's
         CHECK(nearest < 0.04); // the same curve: within about four grid spacings everywhere (0.7 h and 1.0 h here)
         exact.push_back(value);
     }
-    MESSAGE("followed right-island barrier, exact <d_g> at 8 pi, 10 pi, 12 pi: " << exact[0] << ", " << exact[1]
-                                                                                  << ", " << exact[2]);
+    MESSAGE("followed right-island barrier, exact <d_g> at 8 pi, 10 pi, 12 pi: " << exact[0] << ", " << exact[1] << ", "
+                                                                                 << exact[2]);
     CHECK(exact[1] < exact[0]);
     CHECK(exact[2] < exact[1]);
     CHECK(exact[2] < 0.75 * exact[0]); // the paper's falls to 0.39 of its 8 pi value; ours to 0.58 here

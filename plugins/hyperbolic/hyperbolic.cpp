@@ -178,9 +178,9 @@ struct SegmentMeter {
         s.mean_deviation = ds.mean;
         s.max_deviation = ds.max;
         if (opposite) {
-            s.stretched_length = polyline_length(std::vector<double>(
-                line.xy_t1.begin() + 2 * static_cast<std::ptrdiff_t>(s.first),
-                line.xy_t1.begin() + 2 * static_cast<std::ptrdiff_t>(s.last + 1)));
+            s.stretched_length =
+                polyline_length(std::vector<double>(line.xy_t1.begin() + 2 * static_cast<std::ptrdiff_t>(s.first),
+                                                    line.xy_t1.begin() + 2 * static_cast<std::ptrdiff_t>(s.last + 1)));
         } else {
             // Interpolating log(lambda1) is exact for exponential variation across a cell.
             std::vector<double> root = sample_along(grid, log_lambda1, mask, xy);
@@ -214,13 +214,20 @@ struct Walls {
             item.erase(0, item.find_first_not_of(" \t"));
             item.erase(item.find_last_not_of(" \t") + 1);
             if (item.empty()) continue;
-            if (item == "all") w.left = w.right = w.bottom = w.top = w.mask = false;
-            else if (item == "box") w.left = w.right = w.bottom = w.top = false;
-            else if (item == "left") w.left = false;
-            else if (item == "right") w.right = false;
-            else if (item == "bottom") w.bottom = false;
-            else if (item == "top") w.top = false;
-            else if (item == "mask") w.mask = false;
+            if (item == "all")
+                w.left = w.right = w.bottom = w.top = w.mask = false;
+            else if (item == "box")
+                w.left = w.right = w.bottom = w.top = false;
+            else if (item == "left")
+                w.left = false;
+            else if (item == "right")
+                w.right = false;
+            else if (item == "bottom")
+                w.bottom = false;
+            else if (item == "top")
+                w.top = false;
+            else if (item == "mask")
+                w.mask = false;
             else
                 throw std::invalid_argument("hyperbolic: invariant_walls: \"" + item +
                                             "\" is not one of left, right, bottom, top, mask, box, all");
@@ -277,10 +284,10 @@ double fraction_along_walls(const Grid &g, const Walls &walls, const std::vector
         if (walls.bottom) d = std::min(d, y - g.y_min);
         if (walls.top) d = std::min(d, g.y_max - y);
         if (walls.mask) {
-            const std::size_t j = static_cast<std::size_t>(std::clamp(std::lround((x - g.x_min) / g.dx()), 0L,
-                                                                      static_cast<long>(g.nx) - 1)),
-                              i = static_cast<std::size_t>(std::clamp(std::lround((y - g.y_min) / g.dy()), 0L,
-                                                                      static_cast<long>(g.ny) - 1));
+            const std::size_t j = static_cast<std::size_t>(
+                                  std::clamp(std::lround((x - g.x_min) / g.dx()), 0L, static_cast<long>(g.nx) - 1)),
+                              i = static_cast<std::size_t>(
+                                  std::clamp(std::lround((y - g.y_min) / g.dy()), 0L, static_cast<long>(g.ny) - 1));
             d = std::min(d, to_mask[i * g.nx + j]);
         }
         near[k] = d < reach ? 1.0 : 0.0;
@@ -292,8 +299,7 @@ double fraction_along_walls(const Grid &g, const Walls &walls, const std::vector
 // Points about `spacing` apart along a polyline (at least 3, at most 64), at the middles of equal arc-length parts.
 std::vector<double> probe_points(const std::vector<double> &xy, double spacing) {
     const std::vector<double> arc = cumulative_length(xy);
-    const std::size_t count =
-        std::clamp<std::size_t>(static_cast<std::size_t>(std::ceil(arc.back() / spacing)), 3, 64);
+    const std::size_t count = std::clamp<std::size_t>(static_cast<std::size_t>(std::ceil(arc.back() / spacing)), 3, 64);
     std::vector<double> out(2 * count);
     for (std::size_t j = 0; j < count; ++j) {
         const double at = (static_cast<double>(j) + 0.5) / static_cast<double>(count) * arc.back();
@@ -307,11 +313,11 @@ std::vector<double> probe_points(const std::vector<double> &xy, double spacing) 
 
 // A barrier chosen by the selection rule (step 5 of docs/extractors.md).
 struct Selected {
-    Segment piece;              // what is reported: a whole candidate segment, or the part of one not yet covered
-    std::size_t candidate = 0;  // the candidate segment it was selected with
-    bool remainder = false;     // a part only: the rest of the candidate lies along barriers of smaller q
-    std::size_t probes = 0;     // probe points along the piece, about a neighbour distance apart
-    std::size_t dominated = 0;  // probes with a segment of smaller q within the neighbour distance
+    Segment piece;             // what is reported: a whole candidate segment, or the part of one not yet covered
+    std::size_t candidate = 0; // the candidate segment it was selected with
+    bool remainder = false;    // a part only: the rest of the candidate lies along barriers of smaller q
+    std::size_t probes = 0;    // probe points along the piece, about a neighbour distance apart
+    std::size_t dominated = 0; // probes with a segment of smaller q within the neighbour distance
 };
 
 struct Hyperbolic {
@@ -341,7 +347,8 @@ struct Hyperbolic {
                      "direct: integrate xi1 at t0; opposite-time: advect stretchlines of the opposite-time "
                      "Cauchy-Green tensor from t1 to t0 (paper, section 2.2, last paragraph)"),
         string_param("line_method", "midpoint", "midpoint|rk4|bs32|dopri5",
-                     "tensor-line integration: fixed half-cell steps (midpoint, rk4) or adaptive pairs at the tolerance (bs32, dopri5); docs/extractors.md"),
+                     "tensor-line integration: fixed half-cell steps (midpoint, rk4) or adaptive pairs at the "
+                     "tolerance (bs32, dopri5); docs/extractors.md"),
         bool_param("validate", true, "advect every barrier to t1 with point insertion and report its true length"),
         real_param("max_gap_fraction", 0.005, 1e-6, 0.5, "",
                    "curve advection: no gap in an image longer than this fraction of the image's size"),
@@ -622,7 +629,8 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
                 ++count;
             }
         if (count)
-            host.info("" + std::to_string(count) + " segments run along the box's edge or the mask's and are not "
+            host.info("" + std::to_string(count) +
+                      " segments run along the box's edge or the mask's and are not "
                       "reported (declare invariant walls with \"invariant_walls\")");
     }
 
@@ -641,9 +649,8 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     {
         std::vector<std::size_t> by_length(candidates.size());
         std::iota(by_length.begin(), by_length.end(), std::size_t{0});
-        std::stable_sort(by_length.begin(), by_length.end(), [&](std::size_t a, std::size_t b) {
-            return candidates[a].length > candidates[b].length;
-        });
+        std::stable_sort(by_length.begin(), by_length.end(),
+                         [&](std::size_t a, std::size_t b) { return candidates[a].length > candidates[b].length; });
         RunIndex distinct(g, radius);
         for (std::size_t c : by_length) {
             const std::vector<double> probes = probe_points(points_of(lines, candidates[c]), radius);
@@ -662,9 +669,10 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     // Each uncovered run at least min_length long is probed about every neighbour distance; it is a local minimum
     // of q among its own neighbours, and a barrier, when at most half of its probes have a segment of smaller q
     // (not a piece) within the neighbour distance. A remainder must also be at least a third of its segment: the
-    // shorter leftovers of pieces cut at different places would otherwise tile a curve already reported. So a family of strainlines whose q falls monotonically across it yields only
-    // its least member, while two curves that merely touch (the two homoclinic loops of a double well at its
-    // saddle) are both barriers, and so is the part of a segment that runs on past a barrier of smaller q
+    // shorter leftovers of pieces cut at different places would otherwise tile a curve already reported. So a family of
+    // strainlines whose q falls monotonically across it yields only its least member, while two curves that merely
+    // touch (the two homoclinic loops of a double well at its saddle) are both barriers, and so is the part of a
+    // segment that runs on past a barrier of smaller q
     // (`selection` "remainder").
     RunIndex index(g, radius);
     for (std::size_t c = 0; c < candidates.size(); ++c)
@@ -732,8 +740,9 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     for (std::size_t p = 0; p < g.size(); ++p) log_condition[p] = 0.5 * std::log(cg.lambda2[p] / cg.lambda1[p]);
     std::vector<double> condition(selected.size(), HUGE_VAL);
     for (std::size_t b = 0; b < selected.size(); ++b) {
-        const CurveStats cs = curve_statistics(points_of(lines, selected[b].piece),
-                                               sample_along(g, log_condition, cg.mask, points_of(lines, selected[b].piece)));
+        const CurveStats cs =
+            curve_statistics(points_of(lines, selected[b].piece),
+                             sample_along(g, log_condition, cg.mask, points_of(lines, selected[b].piece)));
         if (cs.finite_points) condition[b] = std::exp(cs.max);
     }
     std::vector<AdvectedCurve> advected(selected.size());

@@ -19,8 +19,8 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cstdint>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <limits>
 #include <sstream>
@@ -41,8 +41,8 @@ struct Segment {
     std::vector<double> xy;
     double length = 0.0;
     double mean_deviation = 0.0, max_deviation = 0.0;
-    double mid_x = 0.0, mid_y = 0.0;                                   // the point at half its arc length
-    double x_min = 0.0, x_max = 0.0, y_min = 0.0, y_max = 0.0;         // bounding box, for neighbour queries
+    double mid_x = 0.0, mid_y = 0.0;                           // the point at half its arc length
+    double x_min = 0.0, x_max = 0.0, y_min = 0.0, y_max = 0.0; // bounding box, for neighbour queries
 };
 
 std::string format(double v) {
@@ -100,7 +100,8 @@ struct Parabolic {
         string_param("deviation_form", "general", "general|area-preserving",
                      "shearline: d_g formula: general (any flow) or the paper's eq. dg_shr (lambda1 lambda2 = 1 only)"),
         string_param("line_method", "midpoint", "midpoint|rk4|bs32|dopri5",
-                     "tensor-line integration: fixed half-cell steps (midpoint, rk4) or adaptive pairs at the tolerance (bs32, dopri5); docs/extractors.md"),
+                     "tensor-line integration: fixed half-cell steps (midpoint, rk4) or adaptive pairs at the "
+                     "tolerance (bs32, dopri5); docs/extractors.md"),
     };
 
     explicit Parabolic(const sdk::Params &p)
@@ -161,8 +162,8 @@ void Parabolic::extract_shearless(const sdk::Host &host, const gb_extract_input 
               " long: parabolic barriers (jet cores) in " + format(elapsed) + " s");
     for (std::size_t b = 0; b < kept.size(); ++b) {
         const parabolic::Trench &t = *kept[b];
-        const CurveStats ftle = curve_statistics(t.xy, sample_along(g, cg.ftle, cg.mask, t.xy, mask_trajectory_bits),
-                                                 t.closed);
+        const CurveStats ftle =
+            curve_statistics(t.xy, sample_along(g, cg.ftle, cg.mask, t.xy, mask_trajectory_bits), t.closed);
         host.add_barrier("parabolic", t.closed, t.xy,
                          {{"length", t.length},
                           {"mean_ftle", ftle.mean},
@@ -231,7 +232,8 @@ void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const
                 if (!visited[i * g.nx + j]) unvisited_seeds.push_back(k);
             }
             std::vector<double> block_seeds;
-            for (const std::size_t k : unvisited_seeds) block_seeds.insert(block_seeds.end(), {seeds[2 * k], seeds[2 * k + 1]});
+            for (const std::size_t k : unvisited_seeds)
+                block_seeds.insert(block_seeds.end(), {seeds[2 * k], seeds[2 * k + 1]});
             std::vector<TwoWayLine> block_lines = integrate_tensor_lines_both_ways(field, block_seeds, settings);
             for (TwoWayLine &line : block_lines) {
                 for (std::size_t p = 0; p + 1 < line.xy.size(); p += 2) {
@@ -265,7 +267,8 @@ void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const
                     ++short_segments;
                     continue;
                 }
-                const CurveStats stats = curve_statistics(s.xy, std::vector<double>(dev.begin() + first, dev.begin() + k));
+                const CurveStats stats =
+                    curve_statistics(s.xy, std::vector<double>(dev.begin() + first, dev.begin() + k));
                 s.mean_deviation = stats.mean;
                 s.max_deviation = stats.max;
                 const std::vector<double> c = cumulative_length(s.xy);
@@ -351,6 +354,6 @@ void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const
     }
 }
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::extractor<Parabolic>())

@@ -78,7 +78,7 @@ fs::path fresh_dir(const std::string &name) {
     return dir;
 }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("shearless: the parabolic barrier of the Bickley jet is its core y = 0") {
     const fs::path dir = fresh_dir("jet-core");
@@ -88,8 +88,8 @@ TEST_CASE("shearless: the parabolic barrier of the Bickley jet is its core y = 0
     MESSAGE("jet core at mean y = " << core.mean_y << " (spread " << core.spread_y << "), x from " << core.x_min
                                     << " to " << core.x_max);
     const double dy = 0.05;
-    CHECK(std::abs(core.mean_y) < dy); // at y = 0 within a grid spacing
-    CHECK(core.spread_y < 0.1 * dy);   // and horizontal
+    CHECK(std::abs(core.mean_y) < dy);             // at y = 0 within a grid spacing
+    CHECK(core.spread_y < 0.1 * dy);               // and horizontal
     CHECK(core.x_max - core.x_min > 4.0 - 2 * dy); // across the whole box
     CHECK(fs::exists(dir / "parabolic.png"));
     fs::remove_all(dir);
@@ -118,8 +118,8 @@ TEST_CASE("shearline: the parabolic barrier of a shear layer is the layer's cent
                          << best.spread_y << "), x from " << best.x_min << " to " << best.x_max
                          << ", mean d_g = " << best.mean_deviation);
     const double dy = 0.05;
-    CHECK(std::abs(best.mean_y) < dy);  // at y = 0 within a grid spacing
-    CHECK(best.spread_y < 0.1 * dy);    // and horizontal
+    CHECK(std::abs(best.mean_y) < dy);             // at y = 0 within a grid spacing
+    CHECK(best.spread_y < 0.1 * dy);               // and horizontal
     CHECK(best.x_max - best.x_min > 4.0 - 2 * dy); // across the whole box
     // Its deviation is the analytic |1 - alpha| at s = T p'(0) = 10: alpha = mu / sqrt(1 + mu^2) with the singular
     // value mu = s/2 + sqrt(1 + s^2/4), so 1 - alpha = 0.00485; every curvature term vanishes there by symmetry.
@@ -203,7 +203,7 @@ double meander_length(double a, double b) {
     return length;
 }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("trench tracer: a meandering trench, V-shaped and smooth, is followed across the box") {
     // h = 0.05 is the smaller grid spacing; the correction stencil reaches 2 h across the trench, so a trace may
@@ -215,9 +215,9 @@ TEST_CASE("trench tracer: a meandering trench, V-shaped and smooth, is followed 
             return v_shaped ? std::abs(d) + 0.1 : d * d;
         });
         const double exact = meander_length(c.x_lo, c.x_hi);
-        MESSAGE(std::string(v_shaped ? "V-shaped" : "smooth") << ": largest distance from the meander " << c.max_error
-                                                   << ", x from " << c.x_lo << " to " << c.x_hi << ", length "
-                                                   << c.length << " (meander " << exact << ")");
+        MESSAGE(std::string(v_shaped ? "V-shaped" : "smooth")
+                << ": largest distance from the meander " << c.max_error << ", x from " << c.x_lo << " to " << c.x_hi
+                << ", length " << c.length << " (meander " << exact << ")");
         CHECK(c.max_error < 0.5 * h); // within half a grid spacing
         CHECK(c.x_lo < 2 * h);
         CHECK(c.x_hi > 2.0 * M_PI - 2 * h);

@@ -52,6 +52,6 @@ struct CoupledDuffing {
     double m_alpha, m_beta, m_delta, m_k, m_drive2;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::system<CoupledDuffing>())

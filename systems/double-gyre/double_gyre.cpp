@@ -70,6 +70,6 @@ struct DoubleGyre {
     double m_amplitude, m_epsilon, m_omega;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::system<DoubleGyre>())

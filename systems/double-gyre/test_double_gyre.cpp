@@ -25,7 +25,7 @@ std::pair<double, double> velocity(const System &s, double x, double y, double t
     s.rhs(1, 1, &t, state, &f, out, &status);
     return {out[0], out[1]};
 }
-}  // namespace
+} // namespace
 
 TEST_CASE("double-gyre: schema, Shadden et al. 2005 defaults and the domain [0, 2] x [0, 1]") {
     const PluginInfo &info = gyre().info;
@@ -65,8 +65,8 @@ TEST_CASE("double-gyre: the boundary of [0, 2] x [0, 1] is invariant (no normal 
         for (double a : {0.0, 0.25, 0.5, 0.77, 1.0}) {
             CAPTURE(t);
             CAPTURE(a);
-            CHECK(velocity(s, 0.0, a, t).first == 0.0);         // g(0) = 0 and sin 0 = 0 exactly
-            CHECK(velocity(s, 2.0 * a, 0.0, t).second == 0.0);  // sin(0) = 0 exactly
+            CHECK(velocity(s, 0.0, a, t).first == 0.0);        // g(0) = 0 and sin 0 = 0 exactly
+            CHECK(velocity(s, 2.0 * a, 0.0, t).second == 0.0); // sin(0) = 0 exactly
             // g(2) = 2 (2a + b) = 2 up to rounding of a few ulp, and sin(pi) = 1.2e-16 in doubles:
             // |u| and |v| stay below pi A times a few 1e-16 (g_x <= 1.5 on the domain).
             CHECK(std::fabs(velocity(s, 2.0, a, t).first) <= pi * A * 16 * DBL_EPSILON);

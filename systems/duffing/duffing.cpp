@@ -50,6 +50,6 @@ struct Duffing {
     double m_alpha, m_beta, m_delta;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::system<Duffing>())

@@ -33,7 +33,7 @@ Lanes three_lanes(std::size_t out_rows) {
     return l;
 }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("duffing: schema") {
     const PluginInfo &info = duffing().info;
@@ -67,9 +67,9 @@ TEST_CASE("duffing: right-hand side at hand-computed points") {
     CHECK(l.out[1] == 0.25);
     CHECK(l.out[2] == 2.0);
     // y' = 1.5 x - 0.5 x^3 - 0.25 y + f
-    CHECK(l.out[5] == 1.5 * 2 - 0.5 * 8 + 0.25 + 0.375);             // -0.375
-    CHECK(l.out[6] == 1.5 * 0.5 - 0.5 * 0.125 - 0.0625 + 0.0);        // 0.625
-    CHECK(l.out[7] == 1.5 * -1.5 + 0.5 * 3.375 - 0.5 - 0.125);        // -1.1875
+    CHECK(l.out[5] == 1.5 * 2 - 0.5 * 8 + 0.25 + 0.375);       // -0.375
+    CHECK(l.out[6] == 1.5 * 0.5 - 0.5 * 0.125 - 0.0625 + 0.0); // 0.625
+    CHECK(l.out[7] == 1.5 * -1.5 + 0.5 * 3.375 - 0.5 - 0.125); // -1.1875
     for (int k = 0; k < 3; ++k) CHECK(l.status[k] == GB_OK);
     // Lanes 3 and 4 are padding: untouched.
     CHECK(l.out[3] == -99.0);
@@ -114,8 +114,8 @@ TEST_CASE("duffing: analytic Jacobian [[0, 1], [alpha - 3 beta x^2, -delta]] and
 TEST_CASE("duffing: passes the conformance checks") {
     // The paper's three parameter sets: undamped (eq. duffing-ex3) and damped (eqs. duffing_dissipative, -ex4),
     // and a stiffer one with a sign change, on the paper's plotting box and beyond.
-    const nlohmann::json parameter_sets[] = {nlohmann::json::object(), {{"delta", 0.15}},
-                                             {{"alpha", -2.0}, {"beta", 3.0}, {"delta", -0.5}}};
+    const nlohmann::json parameter_sets[] = {
+        nlohmann::json::object(), {{"delta", 0.15}}, {{"alpha", -2.0}, {"beta", 3.0}, {"delta", -0.5}}};
     for (const auto &params : parameter_sets) {
         ConformanceOptions options;
         options.params = params;

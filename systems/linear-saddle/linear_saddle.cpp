@@ -33,6 +33,6 @@ struct LinearSaddle {
     double m_a;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::system<LinearSaddle>())

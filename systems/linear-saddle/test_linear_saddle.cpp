@@ -12,7 +12,7 @@ using namespace geobarrier;
 
 namespace {
 const PluginHandle &saddle() { return test::registry().find(PluginKind::system, "linear-saddle", "/system/plugin"); }
-}  // namespace
+} // namespace
 
 TEST_CASE("linear-saddle: schema") {
     const PluginInfo &info = saddle().info;

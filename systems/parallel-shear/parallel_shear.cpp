@@ -18,8 +18,8 @@ using geobarrier::sdk::string_param;
 struct ParallelShear {
     static constexpr const char *name = "parallel-shear";
     static constexpr const char *version = "1.0.0";
-    static constexpr const char *doc =
-        "steady parallel shear flow (test system): x' = U p(y/L), y' = 0 (U = velocity, L = width); p = sech^2 (jet) or tanh (layer)";
+    static constexpr const char *doc = "steady parallel shear flow (test system): x' = U p(y/L), y' = 0 (U = velocity, "
+                                       "L = width); p = sech^2 (jet) or tanh (layer)";
     static constexpr unsigned dimension = 2;
     // Positions along (x) and across (y) the flow, in the length unit of `width`.
     static constexpr const char *state_names[] = {"x", "y"}, *state_units[] = {"length", "length"};
@@ -53,6 +53,6 @@ struct ParallelShear {
     double m_u, m_l;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::system<ParallelShear>())

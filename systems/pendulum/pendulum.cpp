@@ -36,6 +36,6 @@ struct Pendulum {
     double m_omega0_squared, m_damping;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::system<Pendulum>())

@@ -21,7 +21,7 @@ IntegratorSettings tight() {
     s.atol = 1e-15;
     return s;
 }
-}  // namespace
+} // namespace
 
 TEST_CASE("pendulum: schema") {
     const PluginInfo &info = pendulum().info;
@@ -113,8 +113,7 @@ TEST_CASE("pendulum: det DF = exp(-damping T) (Liouville), forced or not") {
 }
 
 TEST_CASE("pendulum: passes the conformance checks") {
-    for (const nlohmann::json &params :
-         {nlohmann::json::object(), nlohmann::json{{"omega0", 2.0}, {"damping", 0.3}}}) {
+    for (const nlohmann::json &params : {nlohmann::json::object(), nlohmann::json{{"omega0", 2.0}, {"damping", 0.3}}}) {
         ConformanceOptions options;
         options.params = params;
         const auto checks = check_plugin(pendulum(), options);

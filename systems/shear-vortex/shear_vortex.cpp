@@ -41,6 +41,6 @@ struct ShearVortex {
     double m_omega, m_shear;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::system<ShearVortex>())

@@ -14,7 +14,7 @@ using namespace geobarrier;
 
 namespace {
 const PluginHandle &vortex() { return test::registry().find(PluginKind::system, "shear-vortex", "/system/plugin"); }
-}  // namespace
+} // namespace
 
 TEST_CASE("shear-vortex: schema") {
     const PluginInfo &info = vortex().info;

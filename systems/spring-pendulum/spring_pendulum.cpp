@@ -1,6 +1,6 @@
-// The forced spring (elastic) pendulum: a mass on a spring of stiffness k and rest length L0 (rest_length), swinging in a plane
-// under gravity g, with the spring's length forced by f(t). State (r, vr, theta, omega): the spring's length, its
-// rate, the angle from the downward vertical and the angular velocity,
+// The forced spring (elastic) pendulum: a mass on a spring of stiffness k and rest length L0 (rest_length), swinging in
+// a plane under gravity g, with the spring's length forced by f(t). State (r, vr, theta, omega): the spring's length,
+// its rate, the angle from the downward vertical and the angular velocity,
 //   r' = vr,          vr' = r omega^2 + g cos(theta) - k (r - L0) - damping vr + f(t)
 //   theta' = omega,   omega' = -(g sin(theta) + 2 vr omega) / r - damping omega
 // (per unit mass). Unforced and undamped its energy E = (vr^2 + r^2 omega^2) / 2 - g r cos(theta) + k (r - L0)^2 / 2
@@ -49,6 +49,6 @@ struct SpringPendulum {
     double m_g, m_k, m_rest, m_damping;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::system<SpringPendulum>())

@@ -14,10 +14,8 @@
 using namespace geobarrier;
 
 namespace {
-const PluginHandle &van_der_pol() {
-    return test::registry().find(PluginKind::system, "van-der-pol", "/system/plugin");
-}
-}  // namespace
+const PluginHandle &van_der_pol() { return test::registry().find(PluginKind::system, "van-der-pol", "/system/plugin"); }
+} // namespace
 
 TEST_CASE("van-der-pol: schema") {
     const PluginInfo &info = van_der_pol().info;

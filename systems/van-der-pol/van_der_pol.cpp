@@ -33,6 +33,6 @@ struct VanDerPol {
     double m_mu;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::system<VanDerPol>())

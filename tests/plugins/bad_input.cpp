@@ -77,6 +77,6 @@ struct SevenDimensional {
 
 } // namespace
 
-GEOBARRIER_PLUGINS(geobarrier::sdk::system<SevenDimensional>(), geobarrier::sdk::system<NanSystem>(), geobarrier::sdk::system<Oscillator>(),
-                   geobarrier::sdk::forcing<NanForcing>(), geobarrier::sdk::system<ThrowingSystem>(),
-                   geobarrier::sdk::system<ThrowingFactory>())
+GEOBARRIER_PLUGINS(geobarrier::sdk::system<SevenDimensional>(), geobarrier::sdk::system<NanSystem>(),
+                   geobarrier::sdk::system<Oscillator>(), geobarrier::sdk::forcing<NanForcing>(),
+                   geobarrier::sdk::system<ThrowingSystem>(), geobarrier::sdk::system<ThrowingFactory>())

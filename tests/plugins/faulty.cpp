@@ -53,9 +53,9 @@ struct NoFault {
     static constexpr bool batch_dependent = false, nan_outside = false, instance_dependent = false,
                           writes_padding = false, wrong_jacobian = false, wrong_divergence = false;
 };
-#define GB_FAULT(type, field)                                                                                  \
-    struct type : NoFault {                                                                                    \
-        static constexpr bool field = true;                                                                    \
+#define GB_FAULT(type, field)                                                                                          \
+    struct type : NoFault {                                                                                            \
+        static constexpr bool field = true;                                                                            \
     };
 GB_FAULT(BatchFault, batch_dependent)
 GB_FAULT(NanFault, nan_outside)
@@ -65,10 +65,10 @@ GB_FAULT(JacobianFault, wrong_jacobian)
 GB_FAULT(DivergenceFault, wrong_divergence)
 #undef GB_FAULT
 
-#define GB_FAULTY_SYSTEM(type, fault, plugin_name)                                                             \
-    struct type : Oscillator<fault> {                                                                          \
-        using Oscillator<fault>::Oscillator;                                                                   \
-        static constexpr const char *name = plugin_name, *version = "0.0.1", *doc = "faulty test system";  \
+#define GB_FAULTY_SYSTEM(type, fault, plugin_name)                                                                     \
+    struct type : Oscillator<fault> {                                                                                  \
+        using Oscillator<fault>::Oscillator;                                                                           \
+        static constexpr const char *name = plugin_name, *version = "0.0.1", *doc = "faulty test system";              \
     };
 GB_FAULTY_SYSTEM(Good, NoFault, "faulty-none")
 GB_FAULTY_SYSTEM(FaultyBatch, BatchFault, "faulty-batch")
@@ -101,15 +101,16 @@ template <bool OffGrid> struct FaultyExtractor {
     static constexpr const char *required_fields[] = {"ftle", nullptr};
     explicit FaultyExtractor(const Params &) {}
     void extract(const geobarrier::sdk::Host &host, const gb_extract_input &in) const {
-        if (OffGrid) host.add_barrier("hyperbolic", false, {0.0, 0.0, in.x_max + 10.0, 0.0}, {});
+        if (OffGrid)
+            host.add_barrier("hyperbolic", false, {0.0, 0.0, in.x_max + 10.0, 0.0}, {});
         else // corners and edge midpoints: radius 0.5 to 0.71
-            host.add_barrier("elliptic", true,
-                             {-0.5, -0.5, 0.0, -0.5, 0.5, -0.5, 0.5, 0.0, 0.5, 0.5, 0.0, 0.5, -0.5, 0.5, -0.5, 0.0, -0.5, -0.5},
-                             {});
+            host.add_barrier(
+                "elliptic", true,
+                {-0.5, -0.5, 0.0, -0.5, 0.5, -0.5, 0.5, 0.0, 0.5, 0.5, 0.0, 0.5, -0.5, 0.5, -0.5, 0.0, -0.5, -0.5}, {});
     }
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::system<Good>(), geobarrier::sdk::system<FaultyBatch>(),
                    geobarrier::sdk::system<FaultyNan>(), geobarrier::sdk::system<FaultyInstance>(),

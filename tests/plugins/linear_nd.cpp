@@ -43,7 +43,7 @@ template <unsigned D> struct LinearND {
     double m_c, m_s, m_a[D];
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::system<LinearND<3>>(), geobarrier::sdk::system<LinearND<4>>(),
                    geobarrier::sdk::system<LinearND<5>>(), geobarrier::sdk::system<LinearND<6>>())

@@ -41,6 +41,6 @@ struct ProbeExtractor {
     bool m_closed;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::extractor<ProbeExtractor>())

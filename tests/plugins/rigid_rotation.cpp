@@ -64,6 +64,6 @@ struct RigidRotation {
     double m_omega;
 };
 
-}  // namespace
+} // namespace
 
 GEOBARRIER_PLUGINS(geobarrier::sdk::system<RigidRotation>())

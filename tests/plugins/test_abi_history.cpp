@@ -20,8 +20,8 @@ struct Historic {
     const char *file;
     std::uint32_t minor;
 };
-const Historic historic[] = {{GEOBARRIER_ABI_1_0_PLUGIN, 0}, {GEOBARRIER_ABI_1_1_PLUGIN, 1},
-                             {GEOBARRIER_ABI_1_2_PLUGIN, 2}};
+const Historic historic[] = {
+    {GEOBARRIER_ABI_1_0_PLUGIN, 0}, {GEOBARRIER_ABI_1_1_PLUGIN, 1}, {GEOBARRIER_ABI_1_2_PLUGIN, 2}};
 
 const PluginHandle &find(const std::vector<PluginHandle> &handles, PluginKind kind) {
     for (const PluginHandle &h : handles)
@@ -30,7 +30,7 @@ const PluginHandle &find(const std::vector<PluginHandle> &handles, PluginKind ki
     throw;
 }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("plugins built against the 1.0, 1.1 and 1.2 headers load and compute in this core") {
     for (const Historic &v : historic) {
@@ -151,8 +151,8 @@ TEST_CASE("a fused step compiled with other numerics than the core's declines") 
             INFO(c.detail);
             CHECK(c.passed);
             CHECK(c.detail.find("declined: rk4, dop853") != std::string::npos);
-            CHECK(c.detail.find("numerics revision 0, the core's is " +
-                                std::to_string(GB_ADVANCE_TABLEAU_REVISION)) != std::string::npos);
+            CHECK(c.detail.find("numerics revision 0, the core's is " + std::to_string(GB_ADVANCE_TABLEAU_REVISION)) !=
+                  std::string::npos);
         }
 }
 

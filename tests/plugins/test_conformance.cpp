@@ -40,7 +40,7 @@ const ConformanceCheck &find_check(const std::vector<ConformanceCheck> &checks, 
     throw std::runtime_error("no check " + name);
 }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("conformance: a correct system passes every check, in the documented order") {
     const auto checks = check_plugin(faulty("faulty-none"));
@@ -48,11 +48,10 @@ TEST_CASE("conformance: a correct system passes every check, in the documented o
     CHECK(all_passed(checks));
     std::vector<std::string> names;
     for (const auto &c : checks) names.push_back(c.name);
-    CHECK(names == std::vector<std::string>{"abi_version", "schema", "code_generation", "create",
-                                            "batch_equals_scalar", "lanes_untouched",
-                                            "jacobian_vs_finite_differences", "divergence_equals_trace",
-                                            "determinism", "forcing_ignored", "finite_on_sample_box",
-                                            "advance_equals_stages"});
+    CHECK(names == std::vector<std::string>{"abi_version", "schema", "code_generation", "create", "batch_equals_scalar",
+                                            "lanes_untouched", "jacobian_vs_finite_differences",
+                                            "divergence_equals_trace", "determinism", "forcing_ignored",
+                                            "finite_on_sample_box", "advance_equals_stages"});
     CHECK(find_check(checks, "forcing_ignored").skipped); // it declares that it uses the forcing
     // Given as a batched rhs only, it has no fused step: the row says so instead of vanishing.
     CHECK(find_check(checks, "advance_equals_stages").skipped);
@@ -63,9 +62,12 @@ TEST_CASE("conformance: a correct system passes every check, in the documented o
 
 TEST_CASE("conformance: each faulty system fails exactly the check for its fault") {
     const std::pair<const char *, const char *> cases[] = {
-        {"faulty-batch", "batch_equals_scalar"},        {"faulty-padding", "lanes_untouched"},
-        {"faulty-jacobian", "jacobian_vs_finite_differences"}, {"faulty-divergence", "divergence_equals_trace"},
-        {"faulty-determinism", "determinism"},          {"faulty-nan", "finite_on_sample_box"},
+        {"faulty-batch", "batch_equals_scalar"},
+        {"faulty-padding", "lanes_untouched"},
+        {"faulty-jacobian", "jacobian_vs_finite_differences"},
+        {"faulty-divergence", "divergence_equals_trace"},
+        {"faulty-determinism", "determinism"},
+        {"faulty-nan", "finite_on_sample_box"},
     };
     for (const auto &[plugin, check] : cases) {
         CAPTURE(plugin);
@@ -104,9 +106,8 @@ TEST_CASE("conformance: forcings") {
     CHECK(all_passed(good));
     std::vector<std::string> names;
     for (const auto &c : good) names.push_back(c.name);
-    CHECK(names == std::vector<std::string>{"abi_version", "schema", "code_generation", "create",
-                                            "batch_equals_scalar", "lanes_untouched", "determinism",
-                                            "finite_on_sample_times"});
+    CHECK(names == std::vector<std::string>{"abi_version", "schema", "code_generation", "create", "batch_equals_scalar",
+                                            "lanes_untouched", "determinism", "finite_on_sample_times"});
     // Its values depend on the batch size and on the instance.
     const auto bad = check_plugin(faulty("faulty-forcing"));
     CHECK(failed(bad) == std::set<std::string>{"batch_equals_scalar", "determinism"});
@@ -178,8 +179,7 @@ TEST_CASE("conformance: state names and units (ABI 1.2)") {
     SUBCASE("an empty name, a name used twice, a count that is not the dimension") {
         h.info.state_names = {"x", ""};
         h.info.state_units = {"", ""};
-        CHECK(find_check(check_plugin(h), "schema").detail.find("state component 1 has no name") !=
-              std::string::npos);
+        CHECK(find_check(check_plugin(h), "schema").detail.find("state component 1 has no name") != std::string::npos);
         h.info.state_names = {"x", "x"};
         CHECK(find_check(check_plugin(h), "schema").detail.find("state name 'x' used twice") != std::string::npos);
         h.info.state_names = {"x"};

@@ -17,10 +17,9 @@ static gb_status evaluate(void *self, uint64_t n, const double *t, double *f, gb
     return GB_OK;
 }
 static const gb_forcing_vtable forcing_table = {evaluate, 0u, 0u, NULL};
-static const gb_plugin_descriptor descriptors[1] = {{GB_KIND_FORCING, "wrong-abi", "1.0.0",
-                                                     "forcing built for a future ABI major version", 0, NULL,
-                                                     GB_THREAD_SAFE_CONCURRENT, create, destroy, NULL,
-                                                     &forcing_table, NULL, NULL}};
+static const gb_plugin_descriptor descriptors[1] = {
+    {GB_KIND_FORCING, "wrong-abi", "1.0.0", "forcing built for a future ABI major version", 0, NULL,
+     GB_THREAD_SAFE_CONCURRENT, create, destroy, NULL, &forcing_table, NULL, NULL}};
 static const gb_plugin_entry entry = {GB_ABI_VERSION_MAJOR + 1u, 0u, 1u, descriptors};
 
 GB_PLUGIN_EXPORT const gb_plugin_entry *geobarrier_plugin_entry(void) { return &entry; }

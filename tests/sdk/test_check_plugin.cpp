@@ -34,7 +34,7 @@ std::string plugin_file(const std::string &name) {
     return (geobarrier::test::plugin_dir() / ("geobarrier-" + name + ".so")).string();
 }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("check-plugin: a good system, by file and by name") {
     const Result by_file = run("check-plugin " + plugin_file("double-gyre"));
@@ -102,7 +102,7 @@ TEST_CASE("check-plugin --all passes with no options, as on a fresh install") {
     INFO(all.output);
     CHECK(all.status == 0);
     CHECK_FALSE(contains(all.output, "FAIL"));
-    CHECK(contains(all.output, "SKIP  create"));  // the data forcing, which needs its file
+    CHECK(contains(all.output, "SKIP  create"));          // the data forcing, which needs its file
     CHECK(contains(all.output, "PASS  synthetic_field")); // the extractors, on a flow with a known answer
     // The elliptic extractor finds closed barriers there, and they are the known answer: circles about the centre.
     const Result elliptic = run("check-plugin elliptic");

@@ -47,7 +47,7 @@ std::string error_of(const json &forcing) {
 
 bool starts_with(const std::string &text, const std::string &prefix) { return text.rfind(prefix, 0) == 0; }
 
-}  // namespace
+} // namespace
 
 TEST_CASE("composite forcing: a sum of terms, evaluated by the core") {
     const ResolvedExperiment r = resolve(json::parse(R"({"plugin": "sum", "terms": [

@@ -15,10 +15,14 @@ using namespace geobarrier;
 
 TEST_CASE("the plugin SDK's experiments validate and resolve") {
     const std::vector<std::pair<std::string, std::string>> experiments = {
-        {"pendulum", "pendulum/cosine"},           {"van-der-pol", "van-der-pol/cosine"},
-        {"double-gyre", "double-gyre/none"},       {"shear-vortex", "shear-vortex/none"},
-        {"quasi-periodic-duffing", "duffing/quasi-periodic"}, {"data-duffing", "duffing/data"},
-        {"ramp-duffing", "duffing/ramp"},          {"sum-duffing", "duffing/sum"}};
+        {"pendulum", "pendulum/cosine"},
+        {"van-der-pol", "van-der-pol/cosine"},
+        {"double-gyre", "double-gyre/none"},
+        {"shear-vortex", "shear-vortex/none"},
+        {"quasi-periodic-duffing", "duffing/quasi-periodic"},
+        {"data-duffing", "duffing/data"},
+        {"ramp-duffing", "duffing/ramp"},
+        {"sum-duffing", "duffing/sum"}};
     for (const auto &[file, plugins] : experiments) {
         CAPTURE(file);
         const ResolvedExperiment r =
@@ -33,8 +37,8 @@ TEST_CASE("experiments/shear-vortex.json: FTLE = asinh(|shear| r^2 |T|) / |T| on
     const ResolvedExperiment r = resolve_experiment(e);
     REQUIRE(r.gradient == GradientMethod::variational);
     const double T = e.t1 - e.t0;
-    const GridFlowMap flow = compute_grid_flow_map(Dynamics{&r.system, &r.forcing}, e.grid, e.t0, e.t1,
-                                                   e.integrator, r.gradient, e.aux_offset, false);
+    const GridFlowMap flow = compute_grid_flow_map(Dynamics{&r.system, &r.forcing}, e.grid, e.t0, e.t1, e.integrator,
+                                                   r.gradient, e.aux_offset, false);
     const CauchyGreenField cg = cauchy_green_field(e.grid, flow.dF, flow.mask, std::fabs(T));
     const double shear = e.system.params["shear"];
     for (std::size_t i = 0; i < e.grid.ny; ++i)

@@ -32,6 +32,6 @@ inline CauchyGreenField circular_shear_cg(const Grid &grid, double omega, double
     return cauchy_green_field(grid, dF, std::vector<std::uint8_t>(grid.size(), 0), T);
 }
 
-}  // namespace geobarrier::test
+} // namespace geobarrier::test
 
-#endif  // GEOBARRIER_TEST_CIRCULAR_SHEAR_HPP
+#endif // GEOBARRIER_TEST_CIRCULAR_SHEAR_HPP

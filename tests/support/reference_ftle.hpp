@@ -89,6 +89,6 @@ inline FtleError ftle_error_against_reference(nlohmann::json experiment, const n
     return e;
 }
 
-}  // namespace geobarrier::test
+} // namespace geobarrier::test
 
-#endif  // GEOBARRIER_TEST_REFERENCE_FTLE_HPP
+#endif // GEOBARRIER_TEST_REFERENCE_FTLE_HPP

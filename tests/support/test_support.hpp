@@ -57,6 +57,6 @@ inline void sample_points(std::size_t n, std::vector<double> &x, std::vector<dou
 // The unforced, undamped Duffing oscillator's energy H = y^2/2 - x^2/2 + x^4/4: conserved along its trajectories.
 inline double duffing_energy(double x, double y) { return 0.5 * y * y - 0.5 * x * x + 0.25 * x * x * x * x; }
 
-}  // namespace geobarrier::test
+} // namespace geobarrier::test
 
-#endif  // GEOBARRIER_TEST_SUPPORT_HPP
+#endif // GEOBARRIER_TEST_SUPPORT_HPP

@@ -54,7 +54,8 @@ inline double ftle(double a, double b, double c, double d) {
 // The grid size from the command line: at least 2 points per direction.
 inline std::size_t parse_grid_size(const char *text) {
     const long n = std::strtol(text, nullptr, 10);
-    if (n < 2 || n > 100000) throw std::invalid_argument(std::string("N must be an integer in [2, 100000], got ") + text);
+    if (n < 2 || n > 100000)
+        throw std::invalid_argument(std::string("N must be an integer in [2, 100000], got ") + text);
     return static_cast<std::size_t>(n);
 }
 

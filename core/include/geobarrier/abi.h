@@ -63,21 +63,17 @@ extern "C" {
 /* Status of a call, and of a single lane in a batch. */
 typedef int32_t gb_status;
 #define GB_OK 0
-#define GB_ERROR 1          /* the call failed; see the message buffer */
-#define GB_LANE_INVALID 2   /* lane status only: this state is outside the model's domain */
-#define GB_UNSUPPORTED 3    /* advance() only: the plugin does not offer the requested method; nothing was written */
+#define GB_ERROR 1        /* the call failed; see the message buffer */
+#define GB_LANE_INVALID 2 /* lane status only: this state is outside the model's domain */
+#define GB_UNSUPPORTED 3  /* advance() only: the plugin does not offer the requested method; nothing was written */
 
-typedef enum gb_plugin_kind {
-    GB_KIND_SYSTEM = 1,
-    GB_KIND_FORCING = 2,
-    GB_KIND_EXTRACTOR = 3
-} gb_plugin_kind;
+typedef enum gb_plugin_kind { GB_KIND_SYSTEM = 1, GB_KIND_FORCING = 2, GB_KIND_EXTRACTOR = 3 } gb_plugin_kind;
 
 typedef enum gb_param_type {
     GB_PARAM_REAL = 1,
-    GB_PARAM_INTEGER = 2,  /* passed as a double holding an integer value */
-    GB_PARAM_BOOL = 3,     /* passed as 0.0 or 1.0 */
-    GB_PARAM_STRING = 4    /* passed in the strings array */
+    GB_PARAM_INTEGER = 2, /* passed as a double holding an integer value */
+    GB_PARAM_BOOL = 3,    /* passed as 0.0 or 1.0 */
+    GB_PARAM_STRING = 4   /* passed in the strings array */
 } gb_param_type;
 
 /* One declared parameter. Ranges are inclusive; use +-HUGE_VAL for "unbounded".
@@ -105,7 +101,7 @@ typedef struct gb_param_values {
 } gb_param_values;
 
 /* Thread contract of the objects a plugin creates. */
-#define GB_THREAD_SAFE_CONCURRENT 1u /* one instance may be called from many threads at once */
+#define GB_THREAD_SAFE_CONCURRENT 1u   /* one instance may be called from many threads at once */
 #define GB_THREAD_SAFE_PER_INSTANCE 0u /* one thread at a time per instance: the core then integrates on one thread */
 
 /* A caller-owned buffer for an error message (always NUL-terminated). */
@@ -116,9 +112,9 @@ typedef struct gb_message {
 
 /* ---------------------------------------------------------------- systems */
 
-#define GB_SYSTEM_HAS_JACOBIAN 1u    /* jacobian() is provided */
-#define GB_SYSTEM_HAS_DIVERGENCE 2u  /* divergence() is provided */
-#define GB_SYSTEM_USES_FORCING 4u    /* the right-hand side reads the forcing values */
+#define GB_SYSTEM_HAS_JACOBIAN 1u     /* jacobian() is provided */
+#define GB_SYSTEM_HAS_DIVERGENCE 2u   /* divergence() is provided */
+#define GB_SYSTEM_USES_FORCING 4u     /* the right-hand side reads the forcing values */
 #define GB_SYSTEM_JACOBIAN_DERIVED 8u /* informational: the SDK derived jacobian() by automatic differentiation */
 
 /* ABI 1.2: one fused explicit Runge-Kutta step of a batch (gb_system_vtable.advance). All lanes share the time t
@@ -133,8 +129,8 @@ typedef struct gb_message {
  *   lane_status  set by the plugin (GB_OK or GB_LANE_INVALID) for each lane
  * The core keeps everything else: masking (it restores lanes it had frozen), bounds, renormalisation, step counts. */
 typedef enum gb_advance_method {
-    GB_ADVANCE_RK4 = 1,   /* classic 4-stage Runge-Kutta */
-    GB_ADVANCE_DOP853 = 2, /* Dormand-Prince 8(5,3), 12 stages, as in Hairer's dop853.f, no error estimate */
+    GB_ADVANCE_RK4 = 1,           /* classic 4-stage Runge-Kutta */
+    GB_ADVANCE_DOP853 = 2,        /* Dormand-Prince 8(5,3), 12 stages, as in Hairer's dop853.f, no error estimate */
     GB_ADVANCE_DOP853_CHECKED = 3 /* ABI 1.3: DOP853 that also writes lane_error (see gb_advance_request) */
 } gb_advance_method;
 
@@ -180,8 +176,8 @@ typedef struct gb_system_vtable {
                      double *dxdt, int32_t *lane_status, gb_message *msg);
     gb_status (*jacobian)(void *self, uint64_t n, uint64_t ld, const double *t, const double *x, const double *f,
                           double *jac, int32_t *lane_status, gb_message *msg);
-    gb_status (*divergence)(void *self, uint64_t n, uint64_t ld, const double *t, const double *x,
-                            const double *f, double *div, int32_t *lane_status, gb_message *msg);
+    gb_status (*divergence)(void *self, uint64_t n, uint64_t ld, const double *t, const double *x, const double *f,
+                            double *div, int32_t *lane_status, gb_message *msg);
     /* ABI 1.1: the documented domain, `dimension` bounds each (lower, upper), or NULL when the
      * model is meant for any state. `geobarrier check-plugin` samples it for non-finite values
      * and generated docs print it; states outside it are not refused by the core. */
@@ -211,8 +207,8 @@ typedef struct gb_forcing_vtable {
     gb_status (*evaluate)(void *self, uint64_t n, const double *t, double *f, gb_message *msg);
     uint32_t min_terms;
     uint32_t max_terms;
-    gb_status (*combine)(void *self, uint64_t n, const double *t, uint32_t term_count, uint64_t ld,
-                         const double *terms, double *f, gb_message *msg);
+    gb_status (*combine)(void *self, uint64_t n, const double *t, uint32_t term_count, uint64_t ld, const double *terms,
+                         double *f, gb_message *msg);
 } gb_forcing_vtable;
 
 /* -------------------------------------------------------------- extractors */
@@ -277,7 +273,7 @@ typedef struct gb_extractor_vtable {
 /* ---------------------------------------------------------------- entry */
 
 typedef struct gb_plugin_descriptor {
-    int32_t kind; /* gb_plugin_kind */
+    int32_t kind;        /* gb_plugin_kind */
     const char *name;    /* unique within its kind, [a-z0-9-]+ */
     const char *version; /* the plugin's own version, e.g. "1.0.0" */
     const char *doc;     /* one line */

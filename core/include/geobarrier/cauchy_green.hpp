@@ -19,7 +19,7 @@ struct CauchyGreenPoint {
     double lambda1 = 1.0, lambda2 = 1.0;
     double xi1_x = 1.0, xi1_y = 0.0; // unit; xi2 = Omega xi1 = (-xi1_y, xi1_x)
     double xi2_x = 0.0, xi2_y = 1.0;
-    double ftle = 0.0; // log(lambda2) / (2 |t1 - t0|)
+    double ftle = 0.0;       // log(lambda2) / (2 |t1 - t0|)
     bool degenerate = false; // lambda2 - lambda1 <= tolerance * lambda2: eigenvectors undefined
 };
 
@@ -102,6 +102,6 @@ CauchyGreenND cauchy_green_nd(const double *dF, unsigned dimension, double abs_d
 void slice_gradient(const double *dF, unsigned dimension, const std::array<unsigned, 2> &axes, SliceTensor tensor,
                     int exponent, double log_abs_det, double *out, double &out_log_abs_det);
 
-}  // namespace geobarrier
+} // namespace geobarrier
 
-#endif  // GEOBARRIER_CAUCHY_GREEN_HPP
+#endif // GEOBARRIER_CAUCHY_GREEN_HPP

@@ -68,6 +68,6 @@ bool all_passed(const std::vector<ConformanceCheck> &checks);
 // A pass/fail table, one line per check: "PASS  name  detail" (PASS, WARN, SKIP or FAIL).
 std::string format_checks(const std::vector<ConformanceCheck> &checks);
 
-}  // namespace geobarrier
+} // namespace geobarrier
 
-#endif  // GEOBARRIER_CONFORMANCE_HPP
+#endif // GEOBARRIER_CONFORMANCE_HPP

@@ -43,6 +43,6 @@ class IoError : public Error {
     using Error::Error;
 };
 
-}  // namespace geobarrier
+} // namespace geobarrier
 
-#endif  // GEOBARRIER_ERRORS_HPP
+#endif // GEOBARRIER_ERRORS_HPP

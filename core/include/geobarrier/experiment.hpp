@@ -169,6 +169,6 @@ struct RunSummary {
 
 RunSummary run_experiment(const ResolvedExperiment &experiment, const RunOptions &options);
 
-}  // namespace geobarrier
+} // namespace geobarrier
 
-#endif  // GEOBARRIER_EXPERIMENT_HPP
+#endif // GEOBARRIER_EXPERIMENT_HPP

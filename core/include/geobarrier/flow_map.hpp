@@ -38,7 +38,7 @@ struct IntegratorSettings {
     // Fixed steps: the largest step; the run takes ceil(|t1 - t0| / step) equal steps landing on t1. Adaptive: the
     // first trial step.
     double step = 0.01;
-    std::size_t batch = 64;         // lanes in lockstep; 64 was fastest of 1..64 on a 400x400 Duffing grid
+    std::size_t batch = 64;          // lanes in lockstep; 64 was fastest of 1..64 on a 400x400 Duffing grid
     std::size_t max_steps = 1000000; // per batch; lanes still running after it are masked
     // Lockstep, fixed steps of rk4 or dop853: take each step with the system plugin's fused step (ABI 1.2
     // gb_system_vtable.advance, all stages in registers) when it has one; the same numbers to rounding, several
@@ -133,8 +133,8 @@ struct IntegratorStats {
     std::uint64_t rhs_evaluations = 0; // lane right-hand-side evaluations (batch calls x lanes)
     std::uint64_t masked = 0;          // trajectories masked for any reason
     std::uint64_t masked_left_bounds = 0, masked_non_finite = 0, masked_step_limit = 0, masked_invalid_state = 0;
-    std::uint64_t masked_unstable = 0;  // checked fixed steps: failed the error test at the smallest sub-step
-    std::uint64_t planned_steps = 0;    // fixed steps: the steps of the fixed grid, summed over batches (0: adaptive)
+    std::uint64_t masked_unstable = 0; // checked fixed steps: failed the error test at the smallest sub-step
+    std::uint64_t planned_steps = 0;   // fixed steps: the steps of the fixed grid, summed over batches (0: adaptive)
     std::uint64_t renormalised = 0;    // variational: trajectories whose DF left [1/2, 2^256] and was rescaled
     std::uint64_t fused_batches = 0;   // batches the system plugin's fused step integrated (ABI 1.2 advance)
     double wall_seconds = 0.0;
@@ -148,15 +148,15 @@ struct IntegratorStats {
 using ProgressFn = std::function<void(std::size_t done, std::size_t total)>;
 
 struct AdvectResult {
-    std::vector<double> x, y;         // final positions (NaN where masked)
-    std::vector<double> dF;           // variational only: 4 per point, F11 F12 F21 F22 (row-major DF), see dF_exponent
+    std::vector<double> x, y; // final positions (NaN where masked)
+    std::vector<double> dF;   // variational only: 4 per point, F11 F12 F21 F22 (row-major DF), see dF_exponent
     // Variational only. On long horizons DF leaves the double range (|DF| ~ e^{FTLE |T|}); the engine then carries
     // it renormalised, and DF = 2^dF_exponent[k] * dF. dF_exponent is 0 wherever DF itself fits in a double.
     std::vector<std::int32_t> dF_exponent;
     // Variational only: log|det DF| by Liouville's formula, the integral of tr Dv along the trajectory. Exact for
     // area-preserving systems, and accurate where det DF computed from the entries is lost to cancellation.
     std::vector<double> log_det;
-    std::vector<std::uint8_t> mask;   // MaskBits per point
+    std::vector<std::uint8_t> mask; // MaskBits per point
     IntegratorStats stats;
 };
 
@@ -169,8 +169,9 @@ AdvectResult advect_points(const Dynamics &dynamics, const std::vector<double> &
 
 // The flow map of whole states of a system of any dimension 2 .. max_dimension: point k starts at the state `start`
 // writes (dimension values), and the result holds every component of the final state and, with `variational`, the
-// whole n x n DF. Dynamics::slice, if any, only says which two components the bounds box limits (else 0 and 1). Points next to each other share a batch. Every point masked is a result, not an
-// error. The auxiliary grid is planar only (use the variational equations).
+// whole n x n DF. Dynamics::slice, if any, only says which two components the bounds box limits (else 0 and 1). Points
+// next to each other share a batch. Every point masked is a result, not an error. The auxiliary grid is planar only
+// (use the variational equations).
 struct StateFlowMap {
     unsigned dimension = 0;
     std::vector<double> state;             // final states, dimension per point (NaN where masked)
@@ -196,8 +197,8 @@ const char *to_string(GradientMethod method);
 
 struct GridFlowMap {
     Grid grid;
-    std::vector<double> flow_x, flow_y; // F(x0) on the grid; empty unless requested
-    std::vector<double> dF;             // 4 per point (F11 F12 F21 F22); empty for GradientMethod::none
+    std::vector<double> flow_x, flow_y;    // F(x0) on the grid; empty unless requested
+    std::vector<double> dF;                // 4 per point (F11 F12 F21 F22); empty for GradientMethod::none
     std::vector<std::int32_t> dF_exponent; // variational only: DF = 2^dF_exponent * dF (see AdvectResult)
     std::vector<double> log_det;           // variational only: log|det DF| (Liouville)
     std::vector<std::uint8_t> mask;
@@ -243,15 +244,14 @@ using StartFn = std::function<void(std::size_t k, double &x, double &y)>;
 // the runner rest on this). The result's `grid` is left default; flow_x/flow_y hold the positions when asked for (or
 // gradient none). Unlike compute_grid_flow_map, every point masked is a result here, not an error. `reuse` lends its
 // buffers to the result (a previous result, say): repeated calls then allocate, and fault in, no new memory.
-GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, const StartFn &start, double t0,
-                               double t1, const IntegratorSettings &settings, GradientMethod gradient,
-                               double offset_x, double offset_y, bool want_positions,
-                               const std::optional<Bounds> &bounds = std::nullopt, const ProgressFn &progress = {},
-                               GridFlowMap reuse = {});
+GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, const StartFn &start, double t0, double t1,
+                               const IntegratorSettings &settings, GradientMethod gradient, double offset_x,
+                               double offset_y, bool want_positions, const std::optional<Bounds> &bounds = std::nullopt,
+                               const ProgressFn &progress = {}, GridFlowMap reuse = {});
 
 // Points per lockstep batch of flow_map_at_points (see there): the alignment of bit-identical tiles.
 std::size_t points_per_batch(const IntegratorSettings &settings, GradientMethod gradient, bool want_positions);
 
-}  // namespace geobarrier
+} // namespace geobarrier
 
-#endif  // GEOBARRIER_FLOW_MAP_HPP
+#endif // GEOBARRIER_FLOW_MAP_HPP

@@ -45,18 +45,18 @@ struct Slice {
 // Why a grid point is masked; a point's mask is the OR of these bits, 0 = valid.
 // Written to fields.nc as the `mask` variable with CF flag_masks/flag_meanings.
 enum MaskBits : std::uint8_t {
-    mask_left_bounds = 1,     // the trajectory left the experiment's `bounds` box
-    mask_non_finite = 2,      // the trajectory blew up or the plugin returned NaN/Inf
-    mask_step_limit = 4,      // the integrator hit its step limit or step-size floor
-    mask_invalid_state = 8,   // the plugin declared the state outside its domain
-    mask_degenerate = 16,     // lambda1 == lambda2 (to rounding): eigenvectors undefined
-    mask_unstable = 32,       // checked fixed steps: the step's error estimate failed even at the smallest sub-step
+    mask_left_bounds = 1,   // the trajectory left the experiment's `bounds` box
+    mask_non_finite = 2,    // the trajectory blew up or the plugin returned NaN/Inf
+    mask_step_limit = 4,    // the integrator hit its step limit or step-size floor
+    mask_invalid_state = 8, // the plugin declared the state outside its domain
+    mask_degenerate = 16,   // lambda1 == lambda2 (to rounding): eigenvectors undefined
+    mask_unstable = 32,     // checked fixed steps: the step's error estimate failed even at the smallest sub-step
 };
 
 // Bits that make every value at a point unusable (all but mask_degenerate).
 constexpr std::uint8_t mask_trajectory_bits =
     mask_left_bounds | mask_non_finite | mask_step_limit | mask_invalid_state | mask_unstable;
 
-}  // namespace geobarrier
+} // namespace geobarrier
 
-#endif  // GEOBARRIER_GRID_HPP
+#endif // GEOBARRIER_GRID_HPP

@@ -74,7 +74,7 @@ MaskAttributes mask_attributes();
 
 // A polyline drawn over a field picture.
 struct PlotCurve {
-    std::vector<double> xy; // x0, y0, x1, y1, ...
+    std::vector<double> xy;    // x0, y0, x1, y1, ...
     std::string color = "red"; // a name from plot_colors() or "#rrggbb"
     double width = 1.5;
     bool closed = false;
@@ -106,13 +106,13 @@ struct PlotSeries {
     enum class Style { line, points, line_points };
     enum class Dash { solid, dashed, dotted };
     std::vector<double> xy;
-    std::string label;            // shown in the legend; empty = not listed
-    std::string color = "blue";   // a name from plot_colors() or "#rrggbb"
-    double width = 1.5;           // line width
+    std::string label;          // shown in the legend; empty = not listed
+    std::string color = "blue"; // a name from plot_colors() or "#rrggbb"
+    double width = 1.5;         // line width
     Style style = Style::line;
     Dash dash = Dash::solid;
-    double marker_px = 5.0;       // marker diameter in pixels
-    bool closed = false;          // join the last point to the first (lines only)
+    double marker_px = 5.0; // marker diameter in pixels
+    bool closed = false;    // join the last point to the first (lines only)
 };
 
 // An x-y picture: axes with ticks and labels, a title, series and, when any series has a label, a legend.
@@ -163,6 +163,6 @@ struct XYZPlot {
 };
 void plot_xyz_png(const std::filesystem::path &file, const XYZPlot &plot);
 
-}  // namespace geobarrier
+} // namespace geobarrier
 
-#endif  // GEOBARRIER_OUTPUT_HPP
+#endif // GEOBARRIER_OUTPUT_HPP

@@ -11,8 +11,8 @@
 
 #include <cstdint>
 #include <deque>
-#include <functional>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -260,6 +260,6 @@ class PluginRegistry {
 // Closest candidate by edit distance, or "" when nothing is close enough.
 std::string did_you_mean(const std::string &word, const std::vector<std::string> &candidates);
 
-}  // namespace geobarrier
+} // namespace geobarrier
 
-#endif  // GEOBARRIER_PLUGIN_HPP
+#endif // GEOBARRIER_PLUGIN_HPP

@@ -1,9 +1,10 @@
 // Butcher tableaux of the explicit Runge-Kutta methods of the lockstep engine (flow_map.cpp) and of the fused step
 // the SDK compiles into plugins (sdk.hpp, gb_advance_request): one definition, so both give the same numbers. Public
 // because plugins include it through the SDK; not part of the C ABI. Sparse compile-time rows so that a stage state
-// x + h sum_j a_ij k_j is one vectorisable pass over the block with the zero coefficients left out. Sources: Dormand & Prince 1980 (dopri5), Fehlberg 1968 as in Boost.Odeint's runge_kutta_fehlberg78
-// (rkf78), Hairer, Norsett & Wanner, Solving ODEs I, and their DOP853 code (dop853), Kutta 1901 (rk4), Runge 1895
-// (midpoint), Bogacki & Shampine 1989 (bs32); the last two serve the tensor-line integrator only.
+// x + h sum_j a_ij k_j is one vectorisable pass over the block with the zero coefficients left out. Sources: Dormand &
+// Prince 1980 (dopri5), Fehlberg 1968 as in Boost.Odeint's runge_kutta_fehlberg78 (rkf78), Hairer, Norsett & Wanner,
+// Solving ODEs I, and their DOP853 code (dop853), Kutta 1901 (rk4), Runge 1895 (midpoint), Bogacki & Shampine 1989
+// (bs32); the last two serve the tensor-line integrator only.
 #ifndef GEOBARRIER_RK_TABLEAUX_HPP
 #define GEOBARRIER_RK_TABLEAUX_HPP
 
@@ -104,7 +105,8 @@ struct Bs32Tableau {
         {0, {}}, {1, {{0, 0.5}}}, {1, {{1, 0.75}}}, {3, {{0, 2.0 / 9}, {1, 1.0 / 3}, {2, 4.0 / 9}}}};
     static constexpr RkRow b = a[3];
     // b - b_hat (b_hat: the 2nd-order weights 7/24, 1/4, 1/3, 1/8).
-    static constexpr RkRow e = {4, {{0, 2.0 / 9 - 7.0 / 24}, {1, 1.0 / 3 - 1.0 / 4}, {2, 4.0 / 9 - 1.0 / 3}, {3, -1.0 / 8}}};
+    static constexpr RkRow e = {
+        4, {{0, 2.0 / 9 - 7.0 / 24}, {1, 1.0 / 3 - 1.0 / 4}, {2, 4.0 / 9 - 1.0 / 3}, {3, -1.0 / 8}}};
     static constexpr RkRow e3 = {0, {}};
 };
 
@@ -143,7 +145,7 @@ struct Rkf78Tableau {
     static constexpr int stages = 13, order = 8, error_order = 7;
     static constexpr bool fsal = false;
     static constexpr RkError error = RkError::embedded;
-    static constexpr double c[stages] = {0.0,       2.0 / 27, 1.0 / 9, 1.0 / 6, 5.0 / 12, 0.5, 5.0 / 6,
+    static constexpr double c[stages] = {0.0,     2.0 / 27, 1.0 / 9, 1.0 / 6, 5.0 / 12, 0.5, 5.0 / 6,
                                          1.0 / 6, 2.0 / 3,  1.0 / 3, 1.0,     0.0,      1.0};
     static constexpr RkRow a[stages] = {
         {0, {}},
@@ -155,16 +157,43 @@ struct Rkf78Tableau {
         {4, {{0, -25.0 / 108}, {3, 125.0 / 108}, {4, -65.0 / 27}, {5, 125.0 / 54}}},
         {4, {{0, 31.0 / 300}, {4, 61.0 / 225}, {5, -2.0 / 9}, {6, 13.0 / 900}}},
         {6, {{0, 2.0}, {3, -53.0 / 6}, {4, 704.0 / 45}, {5, -107.0 / 9}, {6, 67.0 / 90}, {7, 3.0}}},
-        {7, {{0, -91.0 / 108}, {3, 23.0 / 108}, {4, -976.0 / 135}, {5, 311.0 / 54}, {6, -19.0 / 60}, {7, 17.0 / 6},
-             {8, -1.0 / 12}}},
-        {8, {{0, 2383.0 / 4100}, {3, -341.0 / 164}, {4, 4496.0 / 1025}, {5, -301.0 / 82}, {6, 2133.0 / 4100},
-             {7, 45.0 / 82}, {8, 45.0 / 164}, {9, 18.0 / 41}}},
+        {7,
+         {{0, -91.0 / 108},
+          {3, 23.0 / 108},
+          {4, -976.0 / 135},
+          {5, 311.0 / 54},
+          {6, -19.0 / 60},
+          {7, 17.0 / 6},
+          {8, -1.0 / 12}}},
+        {8,
+         {{0, 2383.0 / 4100},
+          {3, -341.0 / 164},
+          {4, 4496.0 / 1025},
+          {5, -301.0 / 82},
+          {6, 2133.0 / 4100},
+          {7, 45.0 / 82},
+          {8, 45.0 / 164},
+          {9, 18.0 / 41}}},
         {6, {{0, 3.0 / 205}, {5, -6.0 / 41}, {6, -3.0 / 205}, {7, -3.0 / 41}, {8, 3.0 / 41}, {9, 6.0 / 41}}},
-        {9, {{0, -1777.0 / 4100}, {3, -341.0 / 164}, {4, 4496.0 / 1025}, {5, -289.0 / 82}, {6, 2193.0 / 4100},
-             {7, 51.0 / 82}, {8, 33.0 / 164}, {9, 12.0 / 41}, {11, 1.0}}},
+        {9,
+         {{0, -1777.0 / 4100},
+          {3, -341.0 / 164},
+          {4, 4496.0 / 1025},
+          {5, -289.0 / 82},
+          {6, 2193.0 / 4100},
+          {7, 51.0 / 82},
+          {8, 33.0 / 164},
+          {9, 12.0 / 41},
+          {11, 1.0}}},
     };
-    static constexpr RkRow b = {7, {{5, 34.0 / 105}, {6, 9.0 / 35}, {7, 9.0 / 35}, {8, 9.0 / 280}, {9, 9.0 / 280},
-                                    {11, 41.0 / 840}, {12, 41.0 / 840}}};
+    static constexpr RkRow b = {7,
+                                {{5, 34.0 / 105},
+                                 {6, 9.0 / 35},
+                                 {7, 9.0 / 35},
+                                 {8, 9.0 / 280},
+                                 {9, 9.0 / 280},
+                                 {11, 41.0 / 840},
+                                 {12, 41.0 / 840}}};
     static constexpr RkRow e = {4, {{0, -41.0 / 840}, {10, -41.0 / 840}, {11, 41.0 / 840}, {12, 41.0 / 840}}};
     static constexpr RkRow e3 = {0, {}};
 };
@@ -297,6 +326,6 @@ GEOBARRIER_ALWAYS_INLINE double lane_error_estimate(Value value) {
     return worst;
 }
 
-}  // namespace geobarrier::detail
+} // namespace geobarrier::detail
 
-#endif  // GEOBARRIER_RK_TABLEAUX_HPP
+#endif // GEOBARRIER_RK_TABLEAUX_HPP

@@ -177,18 +177,19 @@ inline std::uint32_t host_abi_minor() {
 // The code generation of this plugin (gb_build_info, the GB_EXTENSION_BUILD_INFO extension): the widest vectors and
 // whether mul_add is one instruction. check-plugin compares it with the core's.
 constexpr gb_build_info build_info() {
-    return gb_build_info{sizeof(gb_build_info), GEOBARRIER_SDK_TABLEAU_REVISION,
+    return gb_build_info {
+        sizeof(gb_build_info), GEOBARRIER_SDK_TABLEAU_REVISION,
 #if defined(__AVX512F__)
-                         512,
+            512,
 #elif defined(__AVX__)
-                         256,
+            256,
 #else
-                         128,
+            128,
 #endif
 #if defined(__FMA__) || defined(__aarch64__)
-                         1
+            1
 #else
-                         0
+            0
 #endif
     };
 }
@@ -244,6 +245,7 @@ class Host {
                            gradient ? gradient->data() : nullptr, mask.data(), &msg) != GB_OK)
             throw std::runtime_error(std::string("advection failed: ") + text);
     }
+
   private:
     const gb_host *m_host;
 };
@@ -282,9 +284,8 @@ template <class Body> gb_status guarded(gb_message *msg, Body &&body) noexcept {
 
 template <class T, class = void> struct has_jacobian : std::false_type {};
 template <class T>
-struct has_jacobian<T, std::void_t<decltype(std::declval<const T &>().jacobian(std::declval<const Batch &>(),
-                                                                               static_cast<double *>(nullptr)))>>
-    : std::true_type {};
+struct has_jacobian<T, std::void_t<decltype(std::declval<const T &>().jacobian(
+                           std::declval<const Batch &>(), static_cast<double *>(nullptr)))>> : std::true_type {};
 
 template <class T, class = void> struct has_divergence : std::false_type {};
 template <class T>
@@ -293,16 +294,15 @@ struct has_divergence<T, std::void_t<decltype(std::declval<const T &>().divergen
 
 template <class T, class = void> struct has_rhs : std::false_type {};
 template <class T>
-struct has_rhs<T, std::void_t<decltype(std::declval<const T &>().rhs(std::declval<const Batch &>(),
-                                                                     static_cast<double *>(nullptr)))>>
-    : std::true_type {};
+struct has_rhs<T, std::void_t<decltype(std::declval<const T &>().rhs(
+                      std::declval<const Batch &>(), static_cast<double *>(nullptr)))>> : std::true_type {};
 
 // A plugin may set lane_status itself by declaring rhs(const Batch&, double*, int32_t*).
 template <class T, class = void> struct has_lane_status_rhs : std::false_type {};
 template <class T>
-struct has_lane_status_rhs<T, std::void_t<decltype(std::declval<const T &>().rhs(
-                                  std::declval<const Batch &>(), static_cast<double *>(nullptr),
-                                  static_cast<std::int32_t *>(nullptr)))>> : std::true_type {};
+struct has_lane_status_rhs<
+    T, std::void_t<decltype(std::declval<const T &>().rhs(std::declval<const Batch &>(), static_cast<double *>(nullptr),
+                                                          static_cast<std::int32_t *>(nullptr)))>> : std::true_type {};
 
 template <class T, class = void> struct uses_forcing : std::true_type {};
 template <class T> struct uses_forcing<T, std::void_t<decltype(T::uses_forcing)>> {
@@ -358,9 +358,8 @@ template <class T> constexpr const char *const *state_units() {
 // A composite forcing provides combine(const Terms &, double *).
 template <class T, class = void> struct has_combine : std::false_type {};
 template <class T>
-struct has_combine<T, std::void_t<decltype(std::declval<const T &>().combine(std::declval<const Terms &>(),
-                                                                               static_cast<double *>(nullptr)))>>
-    : std::true_type {};
+struct has_combine<T, std::void_t<decltype(std::declval<const T &>().combine(
+                          std::declval<const Terms &>(), static_cast<double *>(nullptr)))>> : std::true_type {};
 
 // A plugin without parameters simply declares no `params` member.
 template <class T, class = void> struct has_params : std::false_type {};
@@ -393,8 +392,8 @@ inline void clear_lanes(std::int32_t *lane_status, std::uint64_t n) {
 // The per-lane vector field of the fused step (see the header comment).
 template <class T, class = void> struct has_field : std::false_type {};
 template <class T>
-struct has_field<T, std::void_t<decltype(std::declval<const T &>().field(0.0, static_cast<const double *>(nullptr),
-                                                                         0.0, static_cast<double *>(nullptr)))>>
+struct has_field<T, std::void_t<decltype(std::declval<const T &>().field(0.0, static_cast<const double *>(nullptr), 0.0,
+                                                                         static_cast<double *>(nullptr)))>>
     : std::true_type {};
 template <class T, class = void> struct has_field_jacobian : std::false_type {};
 template <class T>
@@ -405,9 +404,10 @@ struct has_field_jacobian<T, std::void_t<decltype(std::declval<const T &>().fiel
 // A `field` the SDK can differentiate: a template over the number type (or an overload) taking dual numbers.
 template <class T, class = void> struct has_dual_field : std::false_type {};
 template <class T>
-struct has_dual_field<T, std::void_t<decltype(std::declval<const T &>().field(
-                             0.0, static_cast<const Dual<T::dimension> *>(nullptr), 0.0,
-                             static_cast<Dual<T::dimension> *>(nullptr)))>> : std::true_type {};
+struct has_dual_field<
+    T, std::void_t<decltype(std::declval<const T &>().field(0.0, static_cast<const Dual<T::dimension> *>(nullptr), 0.0,
+                                                            static_cast<Dual<T::dimension> *>(nullptr)))>>
+    : std::true_type {};
 
 // A Jacobian one lane at a time: given (field_jacobian) or derived (a differentiable field).
 template <class T> constexpr bool has_lane_jacobian = has_field_jacobian<T>::value || has_dual_field<T>::value;
@@ -415,13 +415,13 @@ template <class T> constexpr bool has_lane_jacobian = has_field_jacobian<T>::val
 // Whether T declares a member of this name at all, whatever its signature: in a class deriving from T and from a
 // probe that has the member too, naming it is ambiguous exactly when T has one. With the has_* traits above this
 // tells "no field" (fine) from "a field the SDK cannot call" (a compile error saying what to write).
-#define GEOBARRIER_SDK_MEMBER_PROBE(member)                                                                          \
-    struct probe_##member {                                                                                          \
-        int member;                                                                                                  \
-    };                                                                                                               \
-    template <class T> struct probed_##member : T, probe_##member {};                                                \
-    template <class T, class = void> struct declares_##member : std::true_type {};                                   \
-    template <class T>                                                                                               \
+#define GEOBARRIER_SDK_MEMBER_PROBE(member)                                                                            \
+    struct probe_##member {                                                                                            \
+        int member;                                                                                                    \
+    };                                                                                                                 \
+    template <class T> struct probed_##member : T, probe_##member {};                                                  \
+    template <class T, class = void> struct declares_##member : std::true_type {};                                     \
+    template <class T>                                                                                                 \
     struct declares_##member<T, std::void_t<decltype(&probed_##member<T>::member)>> : std::false_type {};
 GEOBARRIER_SDK_MEMBER_PROBE(field)
 GEOBARRIER_SDK_MEMBER_PROBE(field_jacobian)
@@ -520,8 +520,8 @@ template <class T> struct SystemShape {
                   "geobarrier::sdk: `field_jacobian` is given without `field`: give the per-lane field too");
     static constexpr bool jacobian = has_jacobian<T>::value || (field && has_lane_jacobian<T>);
     static constexpr bool divergence = has_divergence<T>::value || (field && has_lane_jacobian<T>);
-    static constexpr bool derived_jacobian = !has_jacobian<T>::value && !has_field_jacobian<T>::value && field &&
-                                             has_dual_field<T>::value;
+    static constexpr bool derived_jacobian =
+        !has_jacobian<T>::value && !has_field_jacobian<T>::value && field && has_dual_field<T>::value;
 };
 
 // One fused explicit Runge-Kutta step of tableau Tab for every lane of a request (gb_advance_request). Per lane the
@@ -546,8 +546,7 @@ template <class T, class Tab, bool Variational> struct FusedStep {
     }
 
     // d/dt of the lane's extended state: v, DF' = Dv DF, (log|det DF|)' = tr Dv (Liouville).
-    GEOBARRIER_ALWAYS_INLINE static void derivative(const T &sys, double t, double f, const double *y,
-                                                        double *dy) {
+    GEOBARRIER_ALWAYS_INLINE static void derivative(const T &sys, double t, double f, const double *y, double *dy) {
         sys.field(t, y, f, dy);
         if constexpr (Variational) {
             double J[D * D];
@@ -580,15 +579,15 @@ template <class T, class Tab, bool Variational> struct FusedStep {
 
     // y = x + h sum_j row_j k_j, component by component (flow_map.cpp's stage_state and new_state).
     GEOBARRIER_ALWAYS_INLINE static void combine(const geobarrier::detail::RkRow &row, double h, const double *x,
-                                                     const double (*k)[C], double *y) {
+                                                 const double (*k)[C], double *y) {
 #pragma GCC unroll 16
         for (unsigned q = 0; q < C; ++q)
             y[q] = geobarrier::detail::row_step(row, h, x[q], [&](int j) { return k[j][q]; });
     }
 
     template <int I>
-    GEOBARRIER_ALWAYS_INLINE static void stage(const T &sys, double t, double h, const double *forcing,
-                                                   const double *x, double (*k)[C]) {
+    GEOBARRIER_ALWAYS_INLINE static void stage(const T &sys, double t, double h, const double *forcing, const double *x,
+                                               double (*k)[C]) {
         if constexpr (I == 0) {
             derivative(sys, t, forcing[0], x, k[0]);
         } else {
@@ -598,9 +597,8 @@ template <class T, class Tab, bool Variational> struct FusedStep {
         }
     }
     template <int... I>
-    GEOBARRIER_ALWAYS_INLINE static void stages(std::integer_sequence<int, I...>, const T &sys, double t,
-                                                    double h, const double *forcing, const double *x,
-                                                    double (*k)[C]) {
+    GEOBARRIER_ALWAYS_INLINE static void stages(std::integer_sequence<int, I...>, const T &sys, double t, double h,
+                                                const double *forcing, const double *x, double (*k)[C]) {
         (stage<I>(sys, t, h, forcing, x, k), ...);
     }
 
@@ -656,9 +654,12 @@ template <class T> struct SystemThunks {
             const Batch b{n, ld, t, x, f};
             const T &sys = *static_cast<const T *>(self);
             clear_lanes(lane_status, n);
-            if constexpr (has_lane_status_rhs<T>::value) sys.rhs(b, dxdt, lane_status);
-            else if constexpr (has_rhs<T>::value) sys.rhs(b, dxdt);
-            else if constexpr (Shape::field) LaneLoops<T>::rhs(sys, b, dxdt);
+            if constexpr (has_lane_status_rhs<T>::value)
+                sys.rhs(b, dxdt, lane_status);
+            else if constexpr (has_rhs<T>::value)
+                sys.rhs(b, dxdt);
+            else if constexpr (Shape::field)
+                LaneLoops<T>::rhs(sys, b, dxdt);
         });
     }
     static gb_status jacobian(void *self, std::uint64_t n, std::uint64_t ld, const double *t, const double *x,
@@ -666,8 +667,10 @@ template <class T> struct SystemThunks {
         return guarded(msg, [&] {
             const T &sys = *static_cast<const T *>(self);
             clear_lanes(lane_status, n);
-            if constexpr (has_jacobian<T>::value) sys.jacobian(Batch{n, ld, t, x, f}, jac);
-            else if constexpr (Shape::jacobian) LaneLoops<T>::jacobian(sys, Batch{n, ld, t, x, f}, jac);
+            if constexpr (has_jacobian<T>::value)
+                sys.jacobian(Batch{n, ld, t, x, f}, jac);
+            else if constexpr (Shape::jacobian)
+                LaneLoops<T>::jacobian(sys, Batch{n, ld, t, x, f}, jac);
         });
     }
     static gb_status divergence(void *self, std::uint64_t n, std::uint64_t ld, const double *t, const double *x,
@@ -675,8 +678,10 @@ template <class T> struct SystemThunks {
         return guarded(msg, [&] {
             const T &sys = *static_cast<const T *>(self);
             clear_lanes(lane_status, n);
-            if constexpr (has_divergence<T>::value) sys.divergence(Batch{n, ld, t, x, f}, div);
-            else if constexpr (Shape::divergence) LaneLoops<T>::divergence(sys, Batch{n, ld, t, x, f}, div);
+            if constexpr (has_divergence<T>::value)
+                sys.divergence(Batch{n, ld, t, x, f}, div);
+            else if constexpr (Shape::divergence)
+                LaneLoops<T>::divergence(sys, Batch{n, ld, t, x, f}, div);
         });
     }
     static gb_status advance(void *self, const gb_advance_request *r, gb_message *msg) noexcept {
@@ -692,9 +697,12 @@ template <class T> struct SystemThunks {
                 clear_lanes(r->lane_status, r->n);
                 const T &sys = *static_cast<const T *>(self);
                 using geobarrier::detail::Dop853Tableau;
-                if (r->method == GB_ADVANCE_RK4) fused_step<T, geobarrier::detail::Rk4Tableau>(sys, *r);
-                else if (r->method == GB_ADVANCE_DOP853) fused_step<T, Dop853Tableau>(sys, *r);
-                else fused_step<T, Dop853Tableau, true>(sys, *r);
+                if (r->method == GB_ADVANCE_RK4)
+                    fused_step<T, geobarrier::detail::Rk4Tableau>(sys, *r);
+                else if (r->method == GB_ADVANCE_DOP853)
+                    fused_step<T, Dop853Tableau>(sys, *r);
+                else
+                    fused_step<T, Dop853Tableau, true>(sys, *r);
             }
         });
     }
@@ -703,11 +711,16 @@ template <class T> struct SystemThunks {
                (uses_forcing<T>::value ? GB_SYSTEM_USES_FORCING : 0u) |
                (Shape::derived_jacobian ? GB_SYSTEM_JACOBIAN_DERIVED : 0u);
     }
-    static inline const gb_system_vtable table{T::dimension, capabilities(), &rhs,
+    static inline const gb_system_vtable table{T::dimension,
+                                               capabilities(),
+                                               &rhs,
                                                Shape::jacobian ? &jacobian : nullptr,
                                                Shape::divergence ? &divergence : nullptr,
-                                               domain_min<T>(), domain_max<T>(), state_names<T>(),
-                                               state_units<T>(), has_field<T>::value ? &advance : nullptr};
+                                               domain_min<T>(),
+                                               domain_max<T>(),
+                                               state_names<T>(),
+                                               state_units<T>(),
+                                               has_field<T>::value ? &advance : nullptr};
 };
 
 template <class T> struct ForcingThunks {
@@ -728,12 +741,16 @@ template <class T> struct ForcingThunks {
         });
     }
     static constexpr std::uint32_t min_terms() {
-        if constexpr (has_combine<T>::value) return T::min_terms;
-        else return 0;
+        if constexpr (has_combine<T>::value)
+            return T::min_terms;
+        else
+            return 0;
     }
     static constexpr std::uint32_t max_terms() {
-        if constexpr (has_combine<T>::value) return T::max_terms;
-        else return 0;
+        if constexpr (has_combine<T>::value)
+            return T::max_terms;
+        else
+            return 0;
     }
     static_assert(!has_combine<T>::value || (1 <= min_terms() && min_terms() <= max_terms()),
                   "a composite forcing needs 1 <= min_terms <= max_terms");
@@ -742,35 +759,35 @@ template <class T> struct ForcingThunks {
 };
 
 template <class T> struct ExtractorThunks {
-    static gb_status extract(void *self, const gb_host *host, const gb_extract_input *input,
-                             gb_message *msg) noexcept {
+    static gb_status extract(void *self, const gb_host *host, const gb_extract_input *input, gb_message *msg) noexcept {
         return guarded(msg, [&] { static_cast<const T *>(self)->extract(Host(host), *input); });
     }
     static inline const gb_extractor_vtable table{T::required_fields, &extract};
 };
 
 template <class T> gb_plugin_descriptor descriptor(gb_plugin_kind kind) {
-    return gb_plugin_descriptor{kind,
-                                T::name,
-                                T::version,
-                                T::doc,
-                                param_count<T>(),
-                                param_specs<T>(),
-                                GB_THREAD_SAFE_CONCURRENT,
-                                &create<T>,
-                                &destroy<T>,
-                                nullptr,
-                                nullptr,
-                                nullptr,
+    return gb_plugin_descriptor{
+        kind,
+        T::name,
+        T::version,
+        T::doc,
+        param_count<T>(),
+        param_specs<T>(),
+        GB_THREAD_SAFE_CONCURRENT,
+        &create<T>,
+        &destroy<T>,
+        nullptr,
+        nullptr,
+        nullptr,
 #ifdef GEOBARRIER_VERSION
-                                GEOBARRIER_VERSION // this plugin links the core's C++ library
+        GEOBARRIER_VERSION // this plugin links the core's C++ library
 #else
-                                nullptr
+        nullptr
 #endif
     };
 }
 
-}  // namespace detail
+} // namespace detail
 
 // Descriptors for GEOBARRIER_PLUGINS(...). The object's const methods must be
 // safe to call from several threads at once (GB_THREAD_SAFE_CONCURRENT).
@@ -790,7 +807,7 @@ template <class T> gb_plugin_descriptor extractor() {
     return d;
 }
 
-}  // namespace geobarrier::sdk
+} // namespace geobarrier::sdk
 
 namespace geobarrier::sdk::detail {
 // The library's extensions by id (gb_plugin_entry.get_extension): its build info, for every descriptor.
@@ -803,19 +820,18 @@ inline const void *library_extension(std::uint32_t, const char *id) noexcept {
 
 // Defines the library's exported entry points, listing its plugins: the plain one, and the one through which a core
 // of ABI 1.3 or newer also tells the plugin its version (gb_host_info).
-#define GEOBARRIER_PLUGINS(...)                                                                          \
-    extern "C" GB_PLUGIN_EXPORT const gb_plugin_entry *geobarrier_plugin_entry(void) {                   \
-        static const gb_plugin_descriptor geobarrier_descriptors[] = {__VA_ARGS__};                      \
-        static const gb_plugin_entry geobarrier_entry = {                                                \
-            GB_ABI_VERSION_MAJOR, GB_ABI_VERSION_MINOR,                                                  \
-            static_cast<std::uint32_t>(sizeof(geobarrier_descriptors) / sizeof(geobarrier_descriptors[0])), \
-            geobarrier_descriptors, &geobarrier::sdk::detail::library_extension};                        \
-        return &geobarrier_entry;                                                                        \
-    }                                                                                                    \
-    extern "C" GB_PLUGIN_EXPORT const gb_plugin_entry *geobarrier_plugin_entry_with_host(               \
-        const gb_host_info *host) {                                                                      \
-        if (host && host->struct_size >= sizeof(std::uint32_t) * 3) geobarrier::sdk::detail::loaded_by = host; \
-        return geobarrier_plugin_entry();                                                                \
+#define GEOBARRIER_PLUGINS(...)                                                                                        \
+    extern "C" GB_PLUGIN_EXPORT const gb_plugin_entry *geobarrier_plugin_entry(void) {                                 \
+        static const gb_plugin_descriptor geobarrier_descriptors[] = {__VA_ARGS__};                                    \
+        static const gb_plugin_entry geobarrier_entry = {                                                              \
+            GB_ABI_VERSION_MAJOR, GB_ABI_VERSION_MINOR,                                                                \
+            static_cast<std::uint32_t>(sizeof(geobarrier_descriptors) / sizeof(geobarrier_descriptors[0])),            \
+            geobarrier_descriptors, &geobarrier::sdk::detail::library_extension};                                      \
+        return &geobarrier_entry;                                                                                      \
+    }                                                                                                                  \
+    extern "C" GB_PLUGIN_EXPORT const gb_plugin_entry *geobarrier_plugin_entry_with_host(const gb_host_info *host) {   \
+        if (host && host->struct_size >= sizeof(std::uint32_t) * 3) geobarrier::sdk::detail::loaded_by = host;         \
+        return geobarrier_plugin_entry();                                                                              \
     }
 
-#endif  // GEOBARRIER_SDK_HPP
+#endif // GEOBARRIER_SDK_HPP

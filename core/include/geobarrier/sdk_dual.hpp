@@ -40,11 +40,14 @@ template <class T> constexpr bool is_dual = dual_size<T>::value > 0;
 template <class A, class B>
 constexpr bool dual_pair = (is_dual<A> || is_dual<B>)&&(is_dual<A> || std::is_arithmetic_v<A>)&&(
     is_dual<B> || std::is_arithmetic_v<B>)&&(!is_dual<A> || !is_dual<B> || dual_size<A>::value == dual_size<B>::value);
-template <class A, class B> constexpr unsigned pair_size = dual_size<A>::value ? dual_size<A>::value : dual_size<B>::value;
+template <class A, class B>
+constexpr unsigned pair_size = dual_size<A>::value ? dual_size<A>::value : dual_size<B>::value;
 
 template <class T> GEOBARRIER_ALWAYS_INLINE double value_of(const T &x) {
-    if constexpr (is_dual<T>) return x.v;
-    else return static_cast<double>(x);
+    if constexpr (is_dual<T>)
+        return x.v;
+    else
+        return static_cast<double>(x);
 }
 
 // r.d = sa * a.d + sb * b.d, with the terms of a non-Dual operand left out (its derivatives are 0, and 0 * x is not
@@ -53,9 +56,12 @@ template <unsigned N, class A, class B>
 GEOBARRIER_ALWAYS_INLINE void combine_derivatives(Dual<N> &r, double sa, const A &a, double sb, const B &b) {
 #pragma GCC unroll 16
     for (unsigned j = 0; j < N; ++j) {
-        if constexpr (is_dual<A> && is_dual<B>) r.d[j] = sa * a.d[j] + sb * b.d[j];
-        else if constexpr (is_dual<A>) r.d[j] = sa * a.d[j];
-        else r.d[j] = sb * b.d[j];
+        if constexpr (is_dual<A> && is_dual<B>)
+            r.d[j] = sa * a.d[j] + sb * b.d[j];
+        else if constexpr (is_dual<A>)
+            r.d[j] = sa * a.d[j];
+        else
+            r.d[j] = sb * b.d[j];
     }
 }
 // The chain rule for a function of one variable: r = g(x), r.d = g'(x) x.d.
@@ -93,14 +99,16 @@ GEOBARRIER_ALWAYS_INLINE Dual<detail::pair_size<A, B>> operator/(const A &a, con
     detail::combine_derivatives(r, 1.0 / bv, a, -q / bv, b); // (a / b)' = a' / b - (a / b) b' / b
     return r;
 }
-template <unsigned N> GEOBARRIER_ALWAYS_INLINE Dual<N> operator-(const Dual<N> &x) { return detail::chain(-x.v, -1.0, x); }
+template <unsigned N> GEOBARRIER_ALWAYS_INLINE Dual<N> operator-(const Dual<N> &x) {
+    return detail::chain(-x.v, -1.0, x);
+}
 template <unsigned N> GEOBARRIER_ALWAYS_INLINE Dual<N> operator+(const Dual<N> &x) { return x; }
 
 // Comparisons look at values only: a branch of a piecewise field picks the piece, whose derivative is the result's.
-#define GEOBARRIER_DUAL_COMPARISON(op)                                                                                \
-    template <class A, class B, std::enable_if_t<detail::dual_pair<A, B>, int> = 0>                                 \
-    GEOBARRIER_ALWAYS_INLINE bool operator op(const A &a, const B &b) {                                               \
-        return detail::value_of(a) op detail::value_of(b);                                                            \
+#define GEOBARRIER_DUAL_COMPARISON(op)                                                                                 \
+    template <class A, class B, std::enable_if_t<detail::dual_pair<A, B>, int> = 0>                                    \
+    GEOBARRIER_ALWAYS_INLINE bool operator op(const A &a, const B &b) {                                                \
+        return detail::value_of(a) op detail::value_of(b);                                                             \
     }
 GEOBARRIER_DUAL_COMPARISON(<)
 GEOBARRIER_DUAL_COMPARISON(<=)

@@ -17,8 +17,8 @@ namespace geobarrier {
 
 // One swept parameter: the JSON pointer into the experiment, a short name for tables, and its values.
 struct SweepParameter {
-    std::string path;  // e.g. "/forcing/params/amplitude"
-    std::string name;  // e.g. "amplitude" (the pointer's last token unless given)
+    std::string path; // e.g. "/forcing/params/amplitude"
+    std::string name; // e.g. "amplitude" (the pointer's last token unless given)
     std::vector<nlohmann::json> values;
 };
 
@@ -30,19 +30,19 @@ struct SweepMember {
 };
 
 struct Sweep {
-    std::filesystem::path file;          // the sweep file ("" in memory)
+    std::filesystem::path file; // the sweep file ("" in memory)
     std::string description;
-    std::filesystem::path relative_to;   // what the members' relative paths are relative to (the base's file)
+    std::filesystem::path relative_to; // what the members' relative paths are relative to (the base's file)
     nlohmann::json base;
     std::vector<SweepParameter> parameters;
-    std::string combine = "grid";        // "grid": every combination; "zip": the k-th value of each
+    std::string combine = "grid"; // "grid": every combination; "zip": the k-th value of each
     std::vector<SweepMember> members;
     std::filesystem::path output_dir;
-    std::vector<std::string> figures;    // summary columns, see sweep_figure_names()
-    std::string plot_figure;             // the figure drawn against plot_parameter ("" = no picture)
+    std::vector<std::string> figures; // summary columns, see sweep_figure_names()
+    std::string plot_figure;          // the figure drawn against plot_parameter ("" = no picture)
     std::size_t plot_parameter = 0;
-    int processes = 0;                   // local processes (0: as many as cores, at most one per member)
-    int threads = 0;                     // threads per member (0: cores / processes)
+    int processes = 0; // local processes (0: as many as cores, at most one per member)
+    int threads = 0;   // threads per member (0: cores / processes)
 };
 
 // The named summary figures (besides a JSON pointer into the member's manifest.json).

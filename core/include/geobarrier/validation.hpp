@@ -37,7 +37,7 @@ struct SeedDisc {
 struct PoincareSpec {
     double period = 0.0;
     std::size_t iterations = 100;
-    std::optional<double> t_start;  // default: the experiment's t0
+    std::optional<double> t_start; // default: the experiment's t0
     std::vector<std::array<double, 2>> seeds;
     std::optional<SeedLattice> lattice;
     std::size_t barrier_points = 0; // seeds spread evenly along each chosen barrier (0 = none)
@@ -69,8 +69,8 @@ struct ForcingSpec {
 // Every found barrier advected from t0 to each of `times` (default: `samples` evenly spaced times of [t0, t1]).
 struct AdvectBarriersSpec {
     std::vector<double> times;
-    std::string which = "all";          // "all", "outermost" (the outermost elliptic ones), or see `indices`
-    std::vector<std::size_t> indices;   // given: these barriers (0-based, in barriers.json order)
+    std::string which = "all";        // "all", "outermost" (the outermost elliptic ones), or see `indices`
+    std::vector<std::size_t> indices; // given: these barriers (0-based, in barriers.json order)
     std::size_t samples = 9;
     double max_gap = 0.005;         // curve advection: image gaps at most this fraction of the image's size
     bool tube = true;               // tube.vtp and tube.png (the barriers swept through extended phase space)
@@ -83,11 +83,11 @@ struct AdvectBarriersSpec {
 struct SectionSpec {
     std::vector<double> normal; // one entry per state component
     double offset = 0.0;
-    int direction = 1; // +1, -1, or 0 for both
+    int direction = 1;                      // +1, -1, or 0 for both
     std::vector<std::vector<double>> seeds; // whole initial states
-    std::optional<double> t_start, t_end; // default: t0, t1
-    std::size_t crossings = 10000;        // at most, over all seeds
-    double sample = 0.1;                  // bracketing interval (time); crossings closer than it may be missed
+    std::optional<double> t_start, t_end;   // default: t0, t1
+    std::size_t crossings = 10000;          // at most, over all seeds
+    double sample = 0.1;                    // bracketing interval (time); crossings closer than it may be missed
 };
 
 struct ValidationSpec {
@@ -144,10 +144,10 @@ Snapshots poincare_iterates(const Dynamics &dynamics, const IntegratorSettings &
 // trajectory, to the integrator's own accuracy. Integration stops at t_end or after max_crossings crossings.
 struct SectionCrossings {
     unsigned dimension = 0;
-    std::vector<double> states;      // dimension per crossing
-    std::vector<double> times;       // per crossing
-    std::vector<std::size_t> seeds;  // per crossing: the seed it came from
-    std::size_t masked = 0;          // seeds whose trajectory was masked before t_end
+    std::vector<double> states;     // dimension per crossing
+    std::vector<double> times;      // per crossing
+    std::vector<std::size_t> seeds; // per crossing: the seed it came from
+    std::size_t masked = 0;         // seeds whose trajectory was masked before t_end
     IntegratorStats stats;
 };
 SectionCrossings section_crossings(const Dynamics &dynamics, const IntegratorSettings &settings,
@@ -217,6 +217,6 @@ struct ValidationOutput {
 ValidationOutput run_validation(const ValidationSpec &spec, const ValidationInput &input,
                                 const std::filesystem::path &out_dir);
 
-}  // namespace geobarrier
+} // namespace geobarrier
 
-#endif  // GEOBARRIER_VALIDATION_HPP
+#endif // GEOBARRIER_VALIDATION_HPP

@@ -58,8 +58,8 @@ static gb_status saddle_rhs(void *self, uint64_t n, uint64_t ld, const double *t
     }
     return GB_OK;
 }
-static gb_status saddle_jacobian(void *self, uint64_t n, uint64_t ld, const double *t, const double *x,
-                                 const double *f, double *jac, int32_t *lane_status, gb_message *msg) {
+static gb_status saddle_jacobian(void *self, uint64_t n, uint64_t ld, const double *t, const double *x, const double *f,
+                                 double *jac, int32_t *lane_status, gb_message *msg) {
     const double a = ((const saddle *)self)->a;
     uint64_t k;
     (void)t;
@@ -162,14 +162,33 @@ static const char *const probe_fields[2] = {"ftle", NULL};
 static const gb_extractor_vtable probe_table = {.required_fields = probe_fields, .extract = probe_extract};
 
 static const gb_plugin_descriptor descriptors[3] = {
-    {.kind = GB_KIND_SYSTEM, .name = "history-saddle", .version = "1.0.0", .doc = "saddle x' = a x, y' = -a y + f",
-     .param_count = 1, .params = saddle_params, .thread_safety = GB_THREAD_SAFE_CONCURRENT, .create = create_saddle,
-     .destroy = destroy, .system = &saddle_table},
-    {.kind = GB_KIND_FORCING, .name = "history-linear", .version = "1.0.0", .doc = "f(t) = slope t",
-     .param_count = 1, .params = linear_params, .thread_safety = GB_THREAD_SAFE_CONCURRENT, .create = create_linear,
-     .destroy = destroy, .forcing = &linear_table},
-    {.kind = GB_KIND_EXTRACTOR, .name = "history-probe", .version = "1.0.0", .doc = "reports the grid's corners",
-     .thread_safety = GB_THREAD_SAFE_CONCURRENT, .create = create_probe, .destroy = destroy_probe,
+    {.kind = GB_KIND_SYSTEM,
+     .name = "history-saddle",
+     .version = "1.0.0",
+     .doc = "saddle x' = a x, y' = -a y + f",
+     .param_count = 1,
+     .params = saddle_params,
+     .thread_safety = GB_THREAD_SAFE_CONCURRENT,
+     .create = create_saddle,
+     .destroy = destroy,
+     .system = &saddle_table},
+    {.kind = GB_KIND_FORCING,
+     .name = "history-linear",
+     .version = "1.0.0",
+     .doc = "f(t) = slope t",
+     .param_count = 1,
+     .params = linear_params,
+     .thread_safety = GB_THREAD_SAFE_CONCURRENT,
+     .create = create_linear,
+     .destroy = destroy,
+     .forcing = &linear_table},
+    {.kind = GB_KIND_EXTRACTOR,
+     .name = "history-probe",
+     .version = "1.0.0",
+     .doc = "reports the grid's corners",
+     .thread_safety = GB_THREAD_SAFE_CONCURRENT,
+     .create = create_probe,
+     .destroy = destroy_probe,
      .extractor = &probe_table},
 };
 static const gb_plugin_entry entry = {GB_ABI_VERSION_MAJOR, GB_ABI_VERSION_MINOR, 3u, descriptors};

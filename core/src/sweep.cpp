@@ -1,9 +1,9 @@
 // Parameter sweeps (see sweep.hpp): parsing and checking the sweep file, running the members in forked processes
 // (or in-process on MPI ranks), resuming, and the summary table and picture.
+#include "mpi.hpp"
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
-#include "mpi.hpp"
 #include <geobarrier/output.hpp>
 #include <geobarrier/sweep.hpp>
 
@@ -90,7 +90,8 @@ std::vector<json> range_values(double from, double to, std::size_t count, bool i
     bool all_integral = integer;
     std::vector<double> numbers;
     for (std::size_t k = 0; k < count; ++k) {
-        const double v = k + 1 == count ? to : from + (to - from) * static_cast<double>(k) / static_cast<double>(count - 1);
+        const double v =
+            k + 1 == count ? to : from + (to - from) * static_cast<double>(k) / static_cast<double>(count - 1);
         numbers.push_back(v);
         all_integral = all_integral && std::nearbyint(v) == v && std::abs(v) < 9e15;
     }
@@ -133,8 +134,9 @@ std::vector<std::string> default_figures(const json &base) {
 } // namespace
 
 const std::vector<std::string> &sweep_figure_names() {
-    static const std::vector<std::string> names = {"outermost_elliptic_area", "elliptic_barriers", "barriers",
-                                                   "ftle_mean",  "ftle_max", "masked_fraction", "wall_seconds"};
+    static const std::vector<std::string> names = {
+        "outermost_elliptic_area", "elliptic_barriers", "barriers", "ftle_mean", "ftle_max",
+        "masked_fraction",         "wall_seconds"};
     return names;
 }
 
@@ -189,15 +191,16 @@ SweepParameter read_parameter(const json &entry, const std::string &at, const js
     try {
         pointer = json::json_pointer(parameter.path);
     } catch (const json::exception &) {
-        throw ConfigError(p.child("path"), "\"" + parameter.path +
-                                               "\" is not a JSON pointer (e.g. \"/forcing/params/amplitude\")");
+        throw ConfigError(p.child("path"),
+                          "\"" + parameter.path + "\" is not a JSON pointer (e.g. \"/forcing/params/amplitude\")");
     }
     if (pointer.empty())
         throw ConfigError(p.child("path"), "\"\" is the whole experiment; name a value in it (e.g. "
                                            "\"/forcing/params/amplitude\")");
     if (parameter.path.rfind("/output", 0) == 0)
-        throw ConfigError(p.child("path"), "\"" + parameter.path + "\": each member writes into its own folder "
-                                           "of the sweep's output; sweep \"output\" in the sweep file instead");
+        throw ConfigError(p.child("path"), "\"" + parameter.path +
+                                               "\": each member writes into its own folder "
+                                               "of the sweep's output; sweep \"output\" in the sweep file instead");
     check_pointer_in_base(base, parameter.path, p.child("path"));
     for (const SweepParameter &other : earlier)
         if (other.path == parameter.path)
@@ -615,7 +618,8 @@ std::string markdown_cell(std::string text) {
 }
 
 // summary.csv, summary.md and (with a plot figure) summary.png in `out`.
-std::vector<fs::path> write_summary(const Sweep &s, const fs::path &out, const std::vector<SweepMemberResult> &results) {
+std::vector<fs::path> write_summary(const Sweep &s, const fs::path &out,
+                                    const std::vector<SweepMemberResult> &results) {
     std::vector<std::string> header = {"member"};
     for (const SweepParameter &p : s.parameters) header.push_back(p.name);
     header.push_back("status");
@@ -627,7 +631,8 @@ std::vector<fs::path> write_summary(const Sweep &s, const fs::path &out, const s
         const SweepMember &m = s.members[k];
         const SweepMemberResult &r = results[k];
         std::vector<std::string> row = {m.name};
-        for (std::size_t p = 0; p < s.parameters.size(); ++p) row.push_back(value_text(s.parameters[p].values[m.choice[p]]));
+        for (std::size_t p = 0; p < s.parameters.size(); ++p)
+            row.push_back(value_text(s.parameters[p].values[m.choice[p]]));
         row.push_back(r.status);
         for (std::size_t f = 0; f < s.figures.size(); ++f)
             row.push_back(f < r.figures.size() ? number_text(r.figures[f]) : std::string());
@@ -657,8 +662,8 @@ std::vector<fs::path> write_summary(const Sweep &s, const fs::path &out, const s
     write_text_file(files[1], md);
 
     if (!s.plot_figure.empty()) {
-        const std::size_t f = static_cast<std::size_t>(
-            std::find(s.figures.begin(), s.figures.end(), s.plot_figure) - s.figures.begin());
+        const std::size_t f =
+            static_cast<std::size_t>(std::find(s.figures.begin(), s.figures.end(), s.plot_figure) - s.figures.begin());
         const std::size_t x = s.plot_parameter;
         // One series per combination of the other parameters' values, in member order.
         std::map<std::vector<std::size_t>, std::size_t> series_of;
@@ -756,6 +761,26 @@ void run_members_on_ranks(const Sweep &s, const fs::path &out, std::vector<std::
     }
 }
 
+// Names every member's result; members already complete from an earlier run (a manifest of the same experiment in
+// their folder) are "reused", and the others' indices are returned, in order.
+std::vector<std::size_t> members_to_run(const Sweep &s, const fs::path &out, bool quiet,
+                                        std::vector<SweepMemberResult> &results) {
+    results.resize(s.members.size());
+    std::vector<std::size_t> pending;
+    for (std::size_t k = 0; k < s.members.size(); ++k) {
+        results[k].name = s.members[k].name;
+        if (finished_manifest(out / s.members[k].name, s.members[k].experiment)) {
+            results[k].status = "reused";
+            if (!quiet)
+                spdlog::info("{} ({}): complete from an earlier run, skipped", s.members[k].name,
+                             describe_member(s, s.members[k]));
+        } else {
+            pending.push_back(k);
+        }
+    }
+    return pending;
+}
+
 } // namespace
 
 SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
@@ -767,18 +792,7 @@ SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
     fs::create_directories(out / "logs", ec);
     if (ec) throw IoError((out / "logs").string() + ": cannot create the sweep's folders (" + ec.message() + ")");
 
-    result.members.resize(s.members.size());
-    std::vector<std::size_t> pending;
-    for (std::size_t k = 0; k < s.members.size(); ++k) {
-        result.members[k].name = s.members[k].name;
-        if (finished_manifest(out / s.members[k].name, s.members[k].experiment)) {
-            result.members[k].status = "reused";
-            if (!options.quiet) spdlog::info("{} ({}): complete from an earlier run, skipped", s.members[k].name,
-                                             describe_member(s, s.members[k]));
-        } else {
-            pending.push_back(k);
-        }
-    }
+    std::vector<std::size_t> pending = members_to_run(s, out, options.quiet, result.members);
 
     if (mpi::size() > 1) {
         // One member at a time per rank, with the rank's threads (mpirun's binding decides how many cores).
@@ -792,7 +806,9 @@ SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
     const int cores = std::max(1, omp_get_num_procs());
     int processes = options.processes > 0 ? options.processes : s.processes > 0 ? s.processes : cores;
     processes = std::max(1, std::min<int>(processes, static_cast<int>(std::max<std::size_t>(pending.size(), 1))));
-    const int threads = options.threads > 0 ? options.threads : s.threads > 0 ? s.threads : std::max(1, cores / processes);
+    const int threads = options.threads > 0 ? options.threads
+                        : s.threads > 0     ? s.threads
+                                            : std::max(1, cores / processes);
     if (!options.quiet && !pending.empty())
         spdlog::info("sweep: {} of {} members to run, {} at a time, {} thread(s) each; logs in {}", pending.size(),
                      s.members.size(), processes, threads, (out / "logs").string());
@@ -837,7 +853,8 @@ SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
         const bool interrupted = WIFEXITED(status) && WEXITSTATUS(status) > 128 && cancel_requested();
         if (ok) {
             r.status = "done";
-            if (!options.quiet) spdlog::info("{} ({}): done in {:.1f} s", m.name, describe_member(s, m), r.wall_seconds);
+            if (!options.quiet)
+                spdlog::info("{} ({}): done in {:.1f} s", m.name, describe_member(s, m), r.wall_seconds);
         } else if (interrupted) {
             r.status = "interrupted";
         } else {

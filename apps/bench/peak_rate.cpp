@@ -12,10 +12,6 @@ namespace {
 constexpr int chains = 12;
 constexpr long rounds_per_call = 1 << 16;
 
-template <class Clock = std::chrono::steady_clock> double seconds_since(typename Clock::time_point start) {
-    return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
 __attribute__((target("avx512f"))) double fma_rounds_512(long rounds) {
     __m512d x[chains];
     for (int c = 0; c < chains; ++c) x[c] = _mm512_set1_pd(1.0 + c);
@@ -55,7 +51,7 @@ double peak_lane_fma_rate(int lanes, double seconds) {
     while (spent < seconds) {
         const auto start = std::chrono::steady_clock::now();
         sink = sink + kernel(rounds_per_call);
-        const double t = seconds_since(start);
+        const double t = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         spent += t;
         if (t > 0.0) {
             const double rate = static_cast<double>(rounds_per_call) * chains * lanes / t;

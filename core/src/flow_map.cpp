@@ -918,8 +918,7 @@ template <unsigned N> class BatchIntegrator {
         Rhs<N> sys{&m_ctx};
         const double span = m_t1 - m_t0;
         const double h = std::copysign(m_settings.step, span);
-        const double ratio = std::abs(span) / m_settings.step;
-        const double count = std::max(1.0, std::ceil(ratio - 1e-9 * ratio));
+        const double count = fixed_step_count();
         for (double i = 0; i < count && m_active > 0; ++i) {
             if (const int signal = cancel_requested()) throw Cancelled(signal, "while integrating trajectories");
             if (m_steps >= m_settings.max_steps) {
@@ -962,8 +961,7 @@ template <unsigned N> class BatchIntegrator {
 
         double count = 1.0, h_fixed = span;
         if (!adaptive) {
-            const double ratio = std::abs(span) / m_settings.step;
-            count = std::max(1.0, std::ceil(ratio - 1e-9 * ratio));
+            count = fixed_step_count();
             h_fixed = span / count;
         }
         double dt = std::copysign(std::min(m_settings.step, std::abs(span)), span);
@@ -1311,8 +1309,7 @@ template <unsigned N> class BatchIntegrator {
         m_x_new.assign(stride, 0.0);
         m_dxdt.assign(stride, 0.0); // screen_trial zeroes frozen lanes here
         const double span = m_t1 - m_t0;
-        const double ratio = std::abs(span) / m_settings.step;
-        const double count = std::max(1.0, std::ceil(ratio - 1e-9 * ratio));
+        const double count = fixed_step_count();
         const double h_fixed = span / count;
         gb_advance_request request = fused_request(method);
         for (double i = 0; m_active > 0 && i < count;) {

@@ -400,7 +400,6 @@ TEST_CASE("a plugin returning NaN: those lanes are masked non-finite, the others
     }
 }
 
-
 TEST_CASE("checked steps: a DF that turns NaN under a finite state is masked non-finite, not a failed step") {
     // faulty-nan-jacobian is the harmonic oscillator x' = y, y' = -k x with a finite field everywhere but a NaN
     // Jacobian entry at x >= 2: the state stays exact, DF goes NaN on the circles of radius > 2. The checked steps

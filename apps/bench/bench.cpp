@@ -209,6 +209,7 @@ std::vector<Config> headline_configs() {
         {"quality draft", {{"quality", "draft"}}, 2},
         {"quality standard", {{"quality", "standard"}}, 2},
         {"quality publication", {{"quality", "publication"}}, 2},
+        {"default, adaptive steps", {{"integrator", {{"adaptive", true}}}}, 2},
         {"paper tolerances, aux 1e-4", with(integrator("dopri5", 1e-6, 1e-4), aux(1e-4)), 2},
         {"paper tolerances, variational", with(integrator("dopri5", 1e-6, 1e-4), variational), 2},
     };

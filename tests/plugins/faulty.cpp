@@ -121,6 +121,5 @@ GEOBARRIER_PLUGINS(geobarrier::sdk::system<Good>(), geobarrier::sdk::system<Faul
                    geobarrier::sdk::system<FaultyNan>(), geobarrier::sdk::system<FaultyInstance>(),
                    geobarrier::sdk::system<FaultyPadding>(), geobarrier::sdk::system<FaultyJacobian>(),
                    geobarrier::sdk::system<FaultyDivergence>(), geobarrier::sdk::system<FaultyNanJacobian>(),
-                   geobarrier::sdk::forcing<FaultyForcing>(),
-                   geobarrier::sdk::extractor<FaultyExtractor<true>>(),
+                   geobarrier::sdk::forcing<FaultyForcing>(), geobarrier::sdk::extractor<FaultyExtractor<true>>(),
                    geobarrier::sdk::extractor<FaultyExtractor<false>>())

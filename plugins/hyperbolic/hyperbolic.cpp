@@ -30,7 +30,7 @@ using geobarrier::sdk::string_param;
 
 constexpr double nan_value = std::numeric_limits<double>::quiet_NaN();
 
-// Largest sqrt(lambda2 / lambda1) along a barrier for which its advected length is measured (step 5 of extract):
+// Largest sqrt(lambda2 / lambda1) along a barrier for which its advected length is measured (advect_barriers):
 // with tangent errors theta ~ 5e-4 the image length then stays within kappa^2 theta^2 / 2 ~ 1e-3 of the barrier's.
 constexpr double max_condition = 100.0;
 
@@ -320,6 +320,20 @@ struct Selected {
     std::size_t dominated = 0; // probes with a segment of smaller q within the neighbour distance
 };
 
+// The lengths and distances of Alg. 1 in state units, from the parameters or the box.
+struct Scales {
+    double max_length; // longest strainline, per direction from its seed
+    double min_length; // shortest candidate segment
+    double radius;     // the neighbour distance of the selection rule
+};
+
+// The check of the shortcut l(gamma_t1) = int sqrt(lambda1) ds: each barrier advected to t1 with point insertion.
+struct AdvectionCheck {
+    std::vector<double> condition;       // max sqrt(lambda2 / lambda1) along each barrier; HUGE_VAL if unknown
+    std::vector<AdvectedCurve> advected; // the images of the barriers advected (was_advected)
+    std::vector<char> was_advected;
+};
+
 struct Hyperbolic {
     static constexpr const char *name = "hyperbolic";
     static constexpr const char *version = "1.0.0";
@@ -389,6 +403,19 @@ struct Hyperbolic {
                                                const std::vector<double> &deviation, double max_length) const;
     std::vector<Strainline> opposite_time_strainlines(const sdk::Host &host, const gb_extract_input &in,
                                                       const std::vector<double> &deviation, double max_length) const;
+    Scales scales(const Grid &g) const;
+    std::vector<Segment> truncated_segments(const sdk::Host &host, const std::vector<Strainline> &lines,
+                                            const SegmentMeter &meter, double min_length) const;
+    std::vector<char> along_walls(const sdk::Host &host, const CauchyGreenField &cg,
+                                  const std::vector<Strainline> &lines, const std::vector<Segment> &candidates,
+                                  double radius) const;
+    std::vector<Selected> local_minima(const sdk::Host &host, const Grid &g, const std::vector<Strainline> &lines,
+                                       const std::vector<Segment> &candidates, const std::vector<char> &along_wall,
+                                       const SegmentMeter &meter, const Scales &scale) const;
+    AdvectionCheck advect_barriers(const sdk::Host &host, const gb_extract_input &in, const CauchyGreenField &cg,
+                                   const std::vector<Strainline> &lines, const std::vector<Selected> &selected) const;
+    void draw_strainlines(const gb_extract_input &in, const Grid &g, const std::vector<Strainline> &lines,
+                          const std::vector<Selected> &selected) const;
 };
 
 // The seed lattice: points (steps_x, steps_y) grid cells apart, starting half a step in from the box's lower
@@ -556,29 +583,17 @@ std::vector<Strainline> Hyperbolic::opposite_time_strainlines(const sdk::Host &h
     return lines;
 }
 
-void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) const {
-    const CauchyGreenField cg = cauchy_green_from_input(in);
-    const Grid &g = cg.grid;
-    const double *dev_data = find_field(in, "strain_deviation");
-    if (!dev_data) throw std::invalid_argument("the core did not hand over the field \"strain_deviation\"");
-    const std::vector<double> deviation(dev_data, dev_data + g.size());
+Scales Hyperbolic::scales(const Grid &g) const {
     const double diagonal = std::hypot(g.x_max - g.x_min, g.y_max - g.y_min);
-    const double max_length = m_max_length > 0 ? m_max_length : 4.0 * diagonal;
-    const double min_length = m_min_length > 0 ? m_min_length : 0.1 * diagonal;
-    const double radius = m_neighbour_distance > 0 ? m_neighbour_distance : 0.02 * diagonal;
-    const bool backward = in.t1 < in.t0;
-    const bool opposite = m_route == "opposite-time";
+    return {m_max_length > 0 ? m_max_length : 4.0 * diagonal, m_min_length > 0 ? m_min_length : 0.1 * diagonal,
+            m_neighbour_distance > 0 ? m_neighbour_distance : 0.02 * diagonal};
+}
 
-    // 1. Strainlines, with d_g^xi1 along them.
-    const std::vector<Strainline> lines = opposite ? opposite_time_strainlines(host, in, deviation, max_length)
-                                                   : direct_strainlines(host, cg, deviation, max_length);
-
-    // 2. Truncation to compact segments with d_g^xi1 < epsilon at every point (Alg. 1, step 2), and relative
-    // stretching q = l(gamma_t1) / l(gamma_t0) (eq. `rel_stretch`); directly l(gamma_t1) = int sqrt(lambda1) ds.
-    // Line by line in parallel, gathered in line order.
-    std::vector<double> log_lambda1(g.size());
-    for (std::size_t p = 0; p < g.size(); ++p) log_lambda1[p] = std::log(cg.lambda1[p]);
-    const SegmentMeter meter{g, log_lambda1, cg.mask, opposite};
+// Alg. 1, step 2: each strainline truncated to the compact segments with d_g^xi1 < epsilon at every point, those at
+// least min_length long measured (relative stretching q, eq. `rel_stretch`). Line by line in parallel, gathered in
+// line order.
+std::vector<Segment> Hyperbolic::truncated_segments(const sdk::Host &host, const std::vector<Strainline> &lines,
+                                                    const SegmentMeter &meter, double min_length) const {
     std::vector<std::vector<Segment>> per_line(lines.size());
     std::vector<std::size_t> short_per_line(lines.size(), 0);
 #pragma omp parallel for schedule(dynamic)
@@ -609,76 +624,74 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
         candidates.insert(candidates.end(), per_line[l].begin(), per_line[l].end());
         short_segments += short_per_line[l];
     }
-    per_line.clear();
     host.info("" + std::to_string(lines.size()) + " strainlines, " + std::to_string(candidates.size()) +
               " segments with d_g < " + format(m_epsilon) + " at least " + format(min_length) + " long (" +
               std::to_string(short_segments) + " shorter ones left out)");
-    if (host.progress(0.7)) throw std::runtime_error("stopped by the user");
+    return candidates;
+}
 
-    // 3. Segments running along a wall that is not declared invariant (more than half their length within the
-    // neighbour distance of it) are no candidates for reporting; they stay in the neighbourhoods below, so that the
-    // strainlines beside them do not become local minima in their place.
+// The wall filter: segments running along a wall that is not declared invariant (more than half their length within
+// the neighbour distance of it) are flagged. They are no candidates for reporting but stay in the neighbourhoods of
+// the selection, so that the strainlines beside them do not become local minima in their place.
+std::vector<char> Hyperbolic::along_walls(const sdk::Host &host, const CauchyGreenField &cg,
+                                          const std::vector<Strainline> &lines, const std::vector<Segment> &candidates,
+                                          double radius) const {
     std::vector<char> along_wall(candidates.size(), 0);
-    {
-        const std::vector<double> to_mask = m_walls.mask ? distance_to_mask(g, cg.mask) : std::vector<double>();
-        std::size_t count = 0;
+    const std::vector<double> to_mask = m_walls.mask ? distance_to_mask(cg.grid, cg.mask) : std::vector<double>();
+    std::size_t count = 0;
 #pragma omp parallel for schedule(dynamic) reduction(+ : count)
-        for (std::size_t c = 0; c < candidates.size(); ++c)
-            if (fraction_along_walls(g, m_walls, to_mask, points_of(lines, candidates[c]), radius) > 0.5) {
-                along_wall[c] = 1;
-                ++count;
-            }
-        if (count)
-            host.info("" + std::to_string(count) +
-                      " segments run along the box's edge or the mask's and are not "
-                      "reported (declare invariant walls with \"invariant_walls\")");
-    }
-
-    // 4. Local minima of q (Alg. 1, step 3), disjoint. The neighbours of a segment are the other strainlines
-    // running beside it, not the same curve found again from another seed and cut elsewhere by d_g or by where its
-    // strainline left the curve: comparing such pieces by q would favour the shortest piece where sqrt(lambda1) is
-    // least (along a homoclinic loop, the branch entering the saddle) and drop the rest of the curve. So a segment
-    // lying along longer ones (at least 90% of its probes, about a neighbour distance apart, within two grid cells
-    // of them) is a piece: it can be chosen, but it is nobody's neighbour; the longer segments stand for it.
-    const auto first_point = [&](const Segment &c) { return lines[c.line].xy.data() + 2 * c.first; };
-    const double cover_distance = std::min(radius, 2.0 * std::max(g.dx(), g.dy()));
-    // Visited longest first, so that the index holds only the distinct curves (a few hundred where thousands of
-    // strainlines crowd onto an attractor), a segment is a piece when 90% of its probes lie within two grid cells
-    // of the longer segments kept so far.
-    std::vector<char> piece_of_longer(candidates.size(), 0);
-    {
-        std::vector<std::size_t> by_length(candidates.size());
-        std::iota(by_length.begin(), by_length.end(), std::size_t{0});
-        std::stable_sort(by_length.begin(), by_length.end(),
-                         [&](std::size_t a, std::size_t b) { return candidates[a].length > candidates[b].length; });
-        RunIndex distinct(g, radius);
-        for (std::size_t c : by_length) {
-            const std::vector<double> probes = probe_points(points_of(lines, candidates[c]), radius);
-            const std::size_t count = probes.size() / 2;
-            std::size_t along = 0;
-            for (std::size_t j = 0; j < count; ++j)
-                along += distinct.any_near(probes[2 * j], probes[2 * j + 1], cover_distance) ? 1 : 0;
-            if (static_cast<double>(along) >= 0.9 * static_cast<double>(count))
-                piece_of_longer[c] = 1;
-            else
-                distinct.add(first_point(candidates[c]), candidates[c].last - candidates[c].first + 1, c);
-        }
-    }
-    // Then the neighbourhoods. Visited in order of increasing q (ties: the longer first), a segment's points within
-    // two grid cells of a barrier already chosen are covered: that stretch of it is a barrier of smaller q already.
-    // Each uncovered run at least min_length long is probed about every neighbour distance; it is a local minimum
-    // of q among its own neighbours, and a barrier, when at most half of its probes have a segment of smaller q
-    // (not a piece) within the neighbour distance. A remainder must also be at least a third of its segment: the
-    // shorter leftovers of pieces cut at different places would otherwise tile a curve already reported. So a family of
-    // strainlines whose q falls monotonically across it yields only its least member, while two curves that merely
-    // touch (the two homoclinic loops of a double well at its saddle) are both barriers, and so is the part of a
-    // segment that runs on past a barrier of smaller q
-    // (`selection` "remainder").
-    RunIndex index(g, radius);
     for (std::size_t c = 0; c < candidates.size(); ++c)
-        if (!piece_of_longer[c]) index.add(first_point(candidates[c]), candidates[c].last - candidates[c].first + 1, c);
-    const auto q_of = [&](std::size_t c) { return candidates[c].q; };
-    index.sort_buckets(q_of);
+        if (fraction_along_walls(cg.grid, m_walls, to_mask, points_of(lines, candidates[c]), radius) > 0.5) {
+            along_wall[c] = 1;
+            ++count;
+        }
+    if (count)
+        host.info("" + std::to_string(count) +
+                  " segments run along the box's edge or the mask's and are not "
+                  "reported (declare invariant walls with \"invariant_walls\")");
+    return along_wall;
+}
+
+// A segment's first point, where its run of points in its strainline starts.
+const double *first_point(const std::vector<Strainline> &lines, const Segment &s) {
+    return lines[s.line].xy.data() + 2 * s.first;
+}
+
+// Within two grid cells (at most the neighbour distance) a point lies along another curve: it covers the point.
+double cover_distance(const Grid &g, double radius) { return std::min(radius, 2.0 * std::max(g.dx(), g.dy())); }
+
+// The neighbours of a segment in the selection are the other strainlines running beside it, not the same curve found
+// again from another seed and cut elsewhere by d_g or by where its strainline left the curve: comparing such pieces
+// by q would favour the shortest piece where sqrt(lambda1) is least (along a homoclinic loop, the branch entering the
+// saddle) and drop the rest of the curve. So a segment lying along longer ones (at least 90% of its probes, about a
+// neighbour distance apart, within two grid cells of them) is a piece: it can be chosen, but it is nobody's
+// neighbour; the longer segments stand for it. Visited longest first, so that the index holds only the distinct
+// curves (a few hundred where thousands of strainlines crowd onto an attractor).
+std::vector<char> pieces_of_longer(const Grid &g, const std::vector<Strainline> &lines,
+                                   const std::vector<Segment> &candidates, double radius) {
+    std::vector<char> piece(candidates.size(), 0);
+    std::vector<std::size_t> by_length(candidates.size());
+    std::iota(by_length.begin(), by_length.end(), std::size_t{0});
+    std::stable_sort(by_length.begin(), by_length.end(),
+                     [&](std::size_t a, std::size_t b) { return candidates[a].length > candidates[b].length; });
+    RunIndex distinct(g, radius);
+    for (std::size_t c : by_length) {
+        const std::vector<double> probes = probe_points(points_of(lines, candidates[c]), radius);
+        const std::size_t count = probes.size() / 2;
+        std::size_t along = 0;
+        for (std::size_t j = 0; j < count; ++j)
+            along += distinct.any_near(probes[2 * j], probes[2 * j + 1], cover_distance(g, radius)) ? 1 : 0;
+        if (static_cast<double>(along) >= 0.9 * static_cast<double>(count))
+            piece[c] = 1;
+        else
+            distinct.add(first_point(lines, candidates[c]), candidates[c].last - candidates[c].first + 1, c);
+    }
+    return piece;
+}
+
+// The order in which the selection visits candidates: those not along a wall, by increasing q (ties: the longer
+// first, then the earlier).
+std::vector<std::size_t> selection_order(const std::vector<Segment> &candidates, const std::vector<char> &along_wall) {
     std::vector<std::size_t> order;
     for (std::size_t c = 0; c < candidates.size(); ++c)
         if (!along_wall[c]) order.push_back(c);
@@ -687,18 +700,44 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
         if (candidates[a].length != candidates[b].length) return candidates[a].length > candidates[b].length;
         return a < b;
     });
+    return order;
+}
+
+// Alg. 1, step 3: the local minima of q, disjoint. Visited in order of increasing q (selection_order), a segment's
+// points within two grid cells of a barrier already chosen are covered: that stretch of it is a barrier of smaller q
+// already. Each uncovered run at least min_length long is probed about every neighbour distance; it is a local
+// minimum of q among its own neighbours, and a barrier, when at most half of its probes have a segment of smaller q
+// (not a piece, pieces_of_longer) within the neighbour distance. A remainder must also be at least a third of its
+// segment: the shorter leftovers of pieces cut at different places would otherwise tile a curve already reported. So
+// a family of strainlines whose q falls monotonically across it yields only its least member, while two curves that
+// merely touch (the two homoclinic loops of a double well at its saddle) are both barriers, and so is the part of a
+// segment that runs on past a barrier of smaller q (`selection` "remainder"). Ranked by the q of what is reported
+// (a remainder's own q).
+std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid &g,
+                                               const std::vector<Strainline> &lines,
+                                               const std::vector<Segment> &candidates,
+                                               const std::vector<char> &along_wall, const SegmentMeter &meter,
+                                               const Scales &scale) const {
+    const std::vector<char> piece_of_longer = pieces_of_longer(g, lines, candidates, scale.radius);
+    RunIndex index(g, scale.radius);
+    for (std::size_t c = 0; c < candidates.size(); ++c)
+        if (!piece_of_longer[c])
+            index.add(first_point(lines, candidates[c]), candidates[c].last - candidates[c].first + 1, c);
+    const auto q_of = [&](std::size_t c) { return candidates[c].q; };
+    index.sort_buckets(q_of);
+    const double cover = cover_distance(g, scale.radius);
     std::vector<Selected> selected;
-    RunIndex kept(g, radius);
-    for (std::size_t c : order) {
+    RunIndex kept(g, scale.radius);
+    for (std::size_t c : selection_order(candidates, along_wall)) {
         if (m_max_barriers > 0 && selected.size() >= m_max_barriers) break;
         const Segment &cand = candidates[c];
         const std::size_t n = cand.last - cand.first + 1;
-        const double *xy = first_point(cand);
+        const double *xy = first_point(lines, cand);
         std::size_t k = 0;
         while (k < n) {
-            while (k < n && kept.any_near(xy[2 * k], xy[2 * k + 1], cover_distance)) ++k;
+            while (k < n && kept.any_near(xy[2 * k], xy[2 * k + 1], cover)) ++k;
             const std::size_t begin = k;
-            while (k < n && !kept.any_near(xy[2 * k], xy[2 * k + 1], cover_distance)) ++k;
+            while (k < n && !kept.any_near(xy[2 * k], xy[2 * k + 1], cover)) ++k;
             if (k - begin < 2) continue;
             Selected pick;
             pick.candidate = c;
@@ -708,8 +747,9 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
             pick.remainder = begin > 0 || k < n;
             const std::vector<double> piece_xy = points_of(lines, pick.piece);
             pick.piece.length = polyline_length(piece_xy);
-            if (pick.piece.length < min_length || (pick.remainder && 3.0 * pick.piece.length < cand.length)) continue;
-            const std::vector<double> probes = probe_points(piece_xy, radius);
+            if (pick.piece.length < scale.min_length || (pick.remainder && 3.0 * pick.piece.length < cand.length))
+                continue;
+            const std::vector<double> probes = probe_points(piece_xy, scale.radius);
             pick.probes = probes.size() / 2;
             for (std::size_t j = 0; j < pick.probes; ++j)
                 if (index.any_near_below(probes[2 * j], probes[2 * j + 1], cand.q, c, q_of)) ++pick.dominated;
@@ -719,23 +759,25 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
         }
         // This candidate's pieces cover only from now on, not the rest of the same candidate.
         for (std::size_t b = selected.size(); b-- > 0 && selected[b].candidate == c;)
-            kept.add(first_point(selected[b].piece), selected[b].piece.last - selected[b].piece.first + 1, b);
+            kept.add(first_point(lines, selected[b].piece), selected[b].piece.last - selected[b].piece.first + 1, b);
     }
-    // Ranked by the q of what is reported (a remainder's own q).
     std::stable_sort(selected.begin(), selected.end(),
                      [](const Selected &a, const Selected &b) { return a.piece.q < b.piece.q; });
     std::size_t remainders = 0;
     for (const Selected &p : selected) remainders += p.remainder ? 1 : 0;
     host.info("" + std::to_string(selected.size()) + " barriers: disjoint local minima of q (neighbour distance " +
-              format(radius) + "), " + std::to_string(remainders) + " of them remainders of a segment past a " +
+              format(scale.radius) + "), " + std::to_string(remainders) + " of them remainders of a segment past a " +
               "barrier of smaller q");
+    return selected;
+}
 
-    // 5. Check the shortcut: advect each barrier to t1 with point insertion and compare lengths, where that
-    // measurement is well-conditioned. A polyline whose tangent is off xi1 by theta has an image longer than
-    // int sqrt(lambda1) ds by about kappa^2 theta^2 / 2 relatively, kappa = sqrt(lambda2 / lambda1): the curve
-    // advection then measures the polyline's discretisation error (theta ~ 5e-4 on a grid of h = 0.02, measured
-    // below), amplified, and two builds that round differently disagree on it (38.4 against 56.1 for one barrier).
-    // Barriers with kappa above max_condition get no advected figures; their stretching_condition says why.
+// The condition of each barrier's advected length: a polyline whose tangent is off xi1 by theta has an image longer
+// than int sqrt(lambda1) ds by about kappa^2 theta^2 / 2 relatively, kappa = sqrt(lambda2 / lambda1): the curve
+// advection then measures the polyline's discretisation error (theta ~ 5e-4 on a grid of h = 0.02), amplified, and
+// two builds that round differently disagree on it (38.4 against 56.1 for one barrier).
+std::vector<double> stretching_conditions(const CauchyGreenField &cg, const std::vector<Strainline> &lines,
+                                          const std::vector<Selected> &selected) {
+    const Grid &g = cg.grid;
     std::vector<double> log_condition(g.size());
     for (std::size_t p = 0; p < g.size(); ++p) log_condition[p] = 0.5 * std::log(cg.lambda2[p] / cg.lambda1[p]);
     std::vector<double> condition(selected.size(), HUGE_VAL);
@@ -745,33 +787,47 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
                              sample_along(g, log_condition, cg.mask, points_of(lines, selected[b].piece)));
         if (cs.finite_points) condition[b] = std::exp(cs.max);
     }
-    std::vector<AdvectedCurve> advected(selected.size());
-    std::vector<char> was_advected(selected.size(), 0);
-    if (m_validate && !selected.empty()) {
-        const AdvectPointsFn advect = [&](const std::vector<double> &pts, std::vector<double> &out,
-                                          std::vector<std::uint8_t> &m) { host.advect(pts, in.t0, in.t1, out, m); };
-        CurveAdvectionSettings cs;
-        cs.max_gap_fraction = m_max_gap_fraction;
-        std::vector<std::vector<double>> curves;
-        std::vector<std::size_t> which;
-        for (std::size_t b = 0; b < selected.size(); ++b)
-            if (condition[b] <= max_condition) {
-                curves.push_back(points_of(lines, selected[b].piece));
-                which.push_back(b);
-            }
-        const std::vector<AdvectedCurve> images =
-            advect_curves(curves, std::vector<bool>(curves.size(), false), advect, cs);
-        for (std::size_t k = 0; k < which.size(); ++k) {
-            advected[which[k]] = images[k];
-            was_advected[which[k]] = 1;
-        }
-        if (which.size() < selected.size())
-            host.info("" + std::to_string(selected.size() - which.size()) + " barriers not advected: condition " +
-                      "sqrt(lambda2/lambda1) above " + format(max_condition) + ", the advected length would " +
-                      "measure the polyline's tangent error");
-    }
-    if (host.progress(0.9)) throw std::runtime_error("stopped by the user");
+    return condition;
+}
 
+// Advects the barriers whose condition is at most max_condition to t1 (when `validate`); the others get no advected
+// figures, their stretching_condition says why.
+AdvectionCheck Hyperbolic::advect_barriers(const sdk::Host &host, const gb_extract_input &in,
+                                           const CauchyGreenField &cg, const std::vector<Strainline> &lines,
+                                           const std::vector<Selected> &selected) const {
+    AdvectionCheck check;
+    check.condition = stretching_conditions(cg, lines, selected);
+    check.advected.resize(selected.size());
+    check.was_advected.assign(selected.size(), 0);
+    if (!m_validate || selected.empty()) return check;
+    const AdvectPointsFn advect = [&](const std::vector<double> &pts, std::vector<double> &out,
+                                      std::vector<std::uint8_t> &m) { host.advect(pts, in.t0, in.t1, out, m); };
+    CurveAdvectionSettings cs;
+    cs.max_gap_fraction = m_max_gap_fraction;
+    std::vector<std::vector<double>> curves;
+    std::vector<std::size_t> which;
+    for (std::size_t b = 0; b < selected.size(); ++b)
+        if (check.condition[b] <= max_condition) {
+            curves.push_back(points_of(lines, selected[b].piece));
+            which.push_back(b);
+        }
+    const std::vector<AdvectedCurve> images =
+        advect_curves(curves, std::vector<bool>(curves.size(), false), advect, cs);
+    for (std::size_t k = 0; k < which.size(); ++k) {
+        check.advected[which[k]] = images[k];
+        check.was_advected[which[k]] = 1;
+    }
+    if (which.size() < selected.size())
+        host.info("" + std::to_string(selected.size() - which.size()) + " barriers not advected: condition " +
+                  "sqrt(lambda2/lambda1) above " + format(max_condition) + ", the advected length would " +
+                  "measure the polyline's tangent error");
+    return check;
+}
+
+// The barriers handed to the host, least q first, with their figures and attributes, and the log's summary line.
+void report_barriers(const sdk::Host &host, const std::vector<Strainline> &lines,
+                     const std::vector<Segment> &candidates, const std::vector<Selected> &selected,
+                     const AdvectionCheck &check, bool backward) {
     for (std::size_t b = 0; b < selected.size(); ++b) {
         const Selected &p = selected[b];
         const Segment &s = p.piece;
@@ -786,9 +842,9 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
             {"probes_with_smaller_q", static_cast<double>(p.dominated)},
         };
         if (p.remainder) metrics.push_back({"segment_relative_stretching", candidates[p.candidate].q});
-        if (std::isfinite(condition[b])) metrics.push_back({"stretching_condition", condition[b]});
-        if (was_advected[b]) {
-            const AdvectedCurve &a = advected[b];
+        if (std::isfinite(check.condition[b])) metrics.push_back({"stretching_condition", check.condition[b]});
+        if (check.was_advected[b]) {
+            const AdvectedCurve &a = check.advected[b];
             metrics.push_back({"advected_length", a.length1});
             metrics.push_back({"advected_relative_stretching", a.length1 / a.length0});
             metrics.push_back({"advected_points", static_cast<double>(a.xy1.size() / 2)});
@@ -798,25 +854,26 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
             {backward ? "attracting" : "repelling", "true"},
             {"global_minimum", b == 0 ? "true" : "false"},
             {"selection", p.remainder ? "\"remainder\"" : "\"local-minimum\""}};
-        if (was_advected[b]) attributes.push_back({"advection_converged", advected[b].converged ? "true" : "false"});
+        if (check.was_advected[b])
+            attributes.push_back({"advection_converged", check.advected[b].converged ? "true" : "false"});
         host.set_barrier_attributes(attributes);
     }
     if (!selected.empty()) {
         const Segment &s = selected[0].piece;
         std::string line = "global minimum q = " + format(s.q) + ", length " + format(s.length);
-        if (was_advected[0])
-            line += "; advected length " + format(advected[0].length1) + " vs int sqrt(lambda1) ds " +
+        if (check.was_advected[0])
+            line += "; advected length " + format(check.advected[0].length1) + " vs int sqrt(lambda1) ds " +
                     format(s.stretched_length);
         host.info(line);
     } else {
         host.warn("no barrier found; try a smaller min_length, a larger max_deviation or a denser seed "
                   "lattice");
     }
+}
 
-    // 5. Pictures: the FTLE with the barriers, and the paper's figure strainline-ex2 (all strainlines grey, the
-    // least-stretching barrier red, the points of its strainline above max_deviation black).
-    if (!in.plots) return;
-    const std::filesystem::path folder(in.output_dir);
+// The picture barriers.png: the FTLE with the barriers, the least-stretching one red.
+void draw_barriers(const gb_extract_input &in, const CauchyGreenField &cg, const std::vector<Strainline> &lines,
+                   const std::vector<Selected> &selected, bool backward) {
     const std::string which = backward ? "attracting" : "repelling";
     FieldPlot fp;
     fp.title = "FTLE and " + which + " hyperbolic barriers, t = " + format(in.t0) + " to " + format(in.t1);
@@ -830,12 +887,17 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
         c.width = b == 0 ? 3.0 : 1.5;
         fp.curves.push_back(c);
     }
-    plot_field_png(folder / "barriers.png", g, cg.ftle, cg.mask, fp);
+    plot_field_png(std::filesystem::path(in.output_dir) / "barriers.png", cg.grid, cg.ftle, cg.mask, fp);
+}
 
+// The picture strainlines.png, the paper's figure strainline-ex2: all strainlines grey, the least-stretching barrier
+// red, the points of its strainline with d_g >= epsilon black.
+void Hyperbolic::draw_strainlines(const gb_extract_input &in, const Grid &g, const std::vector<Strainline> &lines,
+                                  const std::vector<Selected> &selected) const {
     XYPlot xp;
     xp.title = "strainlines (grey), least-stretching barrier (red), d_g > " + format(m_epsilon) + " (black)";
-    xp.x_label = fp.x_label;
-    xp.y_label = fp.y_label;
+    xp.x_label = sdk::axis_label(in, 0);
+    xp.y_label = sdk::axis_label(in, 1);
     xp.equal_aspect = true;
     xp.x_range = std::make_pair(g.x_min, g.x_max);
     xp.y_range = std::make_pair(g.y_min, g.y_max);
@@ -882,7 +944,37 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
             }
         if (!above.xy.empty()) xp.series.push_back(above);
     }
-    plot_xy_png(folder / "strainlines.png", xp);
+    plot_xy_png(std::filesystem::path(in.output_dir) / "strainlines.png", xp);
+}
+
+// Alg. 1 in stages: strainlines (step 1), their segments with d_g^xi1 < epsilon and q (step 2), the wall filter, the
+// disjoint local minima of q (step 3) ranked by q, the advection check, the report and the pictures.
+void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) const {
+    const CauchyGreenField cg = cauchy_green_from_input(in);
+    const Grid &g = cg.grid;
+    const double *dev_data = find_field(in, "strain_deviation");
+    if (!dev_data) throw std::invalid_argument("the core did not hand over the field \"strain_deviation\"");
+    const std::vector<double> deviation(dev_data, dev_data + g.size());
+    const Scales scale = scales(g);
+    const bool backward = in.t1 < in.t0;
+    const bool opposite = m_route == "opposite-time";
+
+    const std::vector<Strainline> lines = opposite ? opposite_time_strainlines(host, in, deviation, scale.max_length)
+                                                   : direct_strainlines(host, cg, deviation, scale.max_length);
+    // Directly l(gamma_t1) = int sqrt(lambda1) ds, from log lambda1 on the grid.
+    std::vector<double> log_lambda1(g.size());
+    for (std::size_t p = 0; p < g.size(); ++p) log_lambda1[p] = std::log(cg.lambda1[p]);
+    const SegmentMeter meter{g, log_lambda1, cg.mask, opposite};
+    const std::vector<Segment> candidates = truncated_segments(host, lines, meter, scale.min_length);
+    if (host.progress(0.7)) throw std::runtime_error("stopped by the user");
+    const std::vector<char> along_wall = along_walls(host, cg, lines, candidates, scale.radius);
+    const std::vector<Selected> selected = local_minima(host, g, lines, candidates, along_wall, meter, scale);
+    const AdvectionCheck check = advect_barriers(host, in, cg, lines, selected);
+    if (host.progress(0.9)) throw std::runtime_error("stopped by the user");
+    report_barriers(host, lines, candidates, selected, check, backward);
+    if (!in.plots) return;
+    draw_barriers(in, cg, lines, selected, backward);
+    draw_strainlines(in, g, lines, selected);
 }
 
 } // namespace

@@ -72,6 +72,14 @@ bool passes_near(const Segment &s, double x, double y, double r) {
     return false;
 }
 
+// The shearlines found so far (both families) and their candidate segments.
+struct Shearlines {
+    std::vector<std::vector<double>> open_lines; // for the picture
+    std::vector<Segment> candidates;
+    std::size_t closed_lines = 0;   // closed shearlines: elliptic, left to the elliptic extractor
+    std::size_t short_segments = 0; // segments with d_g < epsilon shorter than min_length
+};
+
 struct Parabolic {
     static constexpr const char *name = "parabolic";
     static constexpr const char *version = "1.0.0";
@@ -130,6 +138,18 @@ struct Parabolic {
     double m_singular_gap;
     bool m_area_preserving;
     TensorLineMethod m_line_method;
+
+  private:
+    std::vector<double> shearline_seeds(const Grid &g, const LineField &field,
+                                        const std::vector<double> &deviation) const;
+    std::vector<TwoWayLine> distinct_shearlines(const Grid &g, const LineField &field, const std::vector<double> &seeds,
+                                                double max_length) const;
+    void add_segments(const Grid &g, const std::vector<double> &line, const std::vector<double> &deviation, int family,
+                      double min_length, Shearlines &out) const;
+    Shearlines shearlines(const sdk::Host &host, const CauchyGreenField &cg, const ShearFields &shear,
+                          double max_length, double min_length) const;
+    void draw_shearlines(const gb_extract_input &in, const CauchyGreenField &cg, const Shearlines &found,
+                         const std::vector<std::size_t> &barriers) const;
 };
 
 // Jet cores: trenches of the FTLE (a monotone function of lambda2, on a log scale), at least min_length long,
@@ -196,120 +216,131 @@ void Parabolic::extract_shearless(const sdk::Host &host, const gb_extract_input 
     }
 }
 
-void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const {
-    if (m_shearless) return extract_shearless(host, in);
-    const auto started = std::chrono::steady_clock::now();
-    const CauchyGreenField cg = cauchy_green_from_input(in);
-    const Grid &g = cg.grid;
-    const ShearFields shear =
-        shear_fields(cg, m_area_preserving ? ShearDeviationForm::area_preserving : ShearDeviationForm::general);
-    const double diagonal = std::hypot(g.x_max - g.x_min, g.y_max - g.y_min);
-    const double spacing = std::max(g.dx(), g.dy()) * static_cast<double>(m_seed_spacing);
-    const double max_length = m_max_length > 0 ? m_max_length : 2.0 * diagonal;
-    const double min_length = m_min_length > 0 ? m_min_length : 0.25 * diagonal;
-    const double radius = m_neighbour_distance > 0 ? m_neighbour_distance : 3.0 * spacing;
+// The seeds of one family: every seed_spacing-th grid point where d_g < epsilon and eta is defined.
+std::vector<double> Parabolic::shearline_seeds(const Grid &g, const LineField &field,
+                                               const std::vector<double> &deviation) const {
+    std::vector<double> seeds;
+    for (std::size_t i = 0; i < g.ny; i += m_seed_spacing)
+        for (std::size_t j = 0; j < g.nx; j += m_seed_spacing) {
+            const double d = deviation[i * g.nx + j];
+            if (!(d < m_epsilon) || field.status_at(g.x(j), g.y(i)) != LineStatus::ok) continue;
+            seeds.insert(seeds.end(), {g.x(j), g.y(i)});
+        }
+    return seeds;
+}
 
-    // 1. Shearlines of each family from a lattice of grid points where d_g < epsilon, truncated to the compact
-    // segments where d_g < epsilon at every point. Closed shearlines are elliptic, not parabolic: left out.
-    std::vector<Segment> candidates;
-    std::vector<std::vector<double>> all_lines;
-    std::size_t closed_lines = 0, short_segments = 0;
+// Shearlines r' = eta(r) (eq. `shrline`) from the seeds, both ways. Seeds whose grid point a line of this family
+// already passed (its nearest grid point) would give that line again: they are skipped. Blocks of seeds are
+// integrated in parallel, then their lines marked.
+std::vector<TwoWayLine> Parabolic::distinct_shearlines(const Grid &g, const LineField &field,
+                                                       const std::vector<double> &seeds, double max_length) const {
+    const std::size_t n = seeds.size() / 2;
+    TensorLineSettings settings;
+    settings.method = m_line_method;
+    settings.max_length = max_length;
+    settings.detect_closure = true;
+    std::vector<std::uint8_t> visited(g.size(), 0);
+    std::vector<TwoWayLine> lines;
+    const std::size_t block = 64;
+    for (std::size_t start = 0; start < n; start += block) {
+        std::vector<std::size_t> unvisited_seeds;
+        for (std::size_t k = start; k < std::min(n, start + block); ++k) {
+            const std::size_t j = static_cast<std::size_t>(std::lround((seeds[2 * k] - g.x_min) / g.dx()));
+            const std::size_t i = static_cast<std::size_t>(std::lround((seeds[2 * k + 1] - g.y_min) / g.dy()));
+            if (!visited[i * g.nx + j]) unvisited_seeds.push_back(k);
+        }
+        std::vector<double> block_seeds;
+        for (const std::size_t k : unvisited_seeds)
+            block_seeds.insert(block_seeds.end(), {seeds[2 * k], seeds[2 * k + 1]});
+        std::vector<TwoWayLine> block_lines = integrate_tensor_lines_both_ways(field, block_seeds, settings);
+        for (TwoWayLine &line : block_lines) {
+            for (std::size_t p = 0; p + 1 < line.xy.size(); p += 2) {
+                const long j = std::lround((line.xy[p] - g.x_min) / g.dx());
+                const long i = std::lround((line.xy[p + 1] - g.y_min) / g.dy());
+                if (i >= 0 && j >= 0 && i < static_cast<long>(g.ny) && j < static_cast<long>(g.nx))
+                    visited[static_cast<std::size_t>(i) * g.nx + static_cast<std::size_t>(j)] = 1;
+            }
+            lines.push_back(std::move(line));
+        }
+    }
+    return lines;
+}
+
+// A segment of a shearline with its figures: mean and max d_g^eta (eq. `dg_shr`), midpoint, bounding box.
+Segment measured_segment(int family, std::vector<double> xy, double length, const std::vector<double> &deviation) {
+    Segment s;
+    s.family = family;
+    s.xy = std::move(xy);
+    s.length = length;
+    const CurveStats stats = curve_statistics(s.xy, deviation);
+    s.mean_deviation = stats.mean;
+    s.max_deviation = stats.max;
+    const std::vector<double> c = cumulative_length(s.xy);
+    const std::size_t mid = std::min<std::size_t>(
+        c.size() - 1, static_cast<std::size_t>(std::lower_bound(c.begin(), c.end(), 0.5 * s.length) - c.begin()));
+    s.mid_x = s.xy[2 * mid];
+    s.mid_y = s.xy[2 * mid + 1];
+    s.x_min = s.x_max = s.xy[0];
+    s.y_min = s.y_max = s.xy[1];
+    for (std::size_t p = 0; p + 1 < s.xy.size(); p += 2) {
+        s.x_min = std::min(s.x_min, s.xy[p]);
+        s.x_max = std::max(s.x_max, s.xy[p]);
+        s.y_min = std::min(s.y_min, s.xy[p + 1]);
+        s.y_max = std::max(s.y_max, s.xy[p + 1]);
+    }
+    return s;
+}
+
+// One open shearline truncated to the compact segments with d_g^eta < epsilon at every point; those at least
+// min_length long with a finite mean deviation become candidates.
+void Parabolic::add_segments(const Grid &g, const std::vector<double> &line, const std::vector<double> &deviation,
+                             int family, double min_length, Shearlines &out) const {
+    const std::vector<double> dev = sample_along(g, deviation, {}, line);
+    const std::size_t m = line.size() / 2;
+    std::size_t k = 0;
+    while (k < m) {
+        while (k < m && !(dev[k] < m_epsilon)) ++k;
+        const std::size_t first = k;
+        while (k < m && dev[k] < m_epsilon) ++k;
+        if (k - first < 2) continue;
+        std::vector<double> xy(line.begin() + 2 * first, line.begin() + 2 * k);
+        const double length = polyline_length(xy);
+        if (length < min_length) {
+            ++out.short_segments;
+            continue;
+        }
+        Segment s =
+            measured_segment(family, std::move(xy), length, std::vector<double>(dev.begin() + first, dev.begin() + k));
+        if (std::isfinite(s.mean_deviation)) out.candidates.push_back(std::move(s));
+    }
+}
+
+// Step 1: shearlines of each family searched, from a lattice of grid points where d_g < epsilon, truncated to
+// their candidate segments. Closed shearlines are elliptic, not parabolic: left out.
+Shearlines Parabolic::shearlines(const sdk::Host &host, const CauchyGreenField &cg, const ShearFields &shear,
+                                 double max_length, double min_length) const {
+    Shearlines found;
     for (const int sign : {+1, -1}) {
         if ((sign > 0 && m_families == "eta-") || (sign < 0 && m_families == "eta+")) continue;
         const LineField field = shear_line_field(cg, shear, sign, m_singular_gap);
         const std::vector<double> &deviation = sign > 0 ? shear.deviation_plus : shear.deviation_minus;
-        std::vector<double> seeds;
-        for (std::size_t i = 0; i < g.ny; i += m_seed_spacing)
-            for (std::size_t j = 0; j < g.nx; j += m_seed_spacing) {
-                const double d = deviation[i * g.nx + j];
-                if (!(d < m_epsilon) || field.status_at(g.x(j), g.y(i)) != LineStatus::ok) continue;
-                seeds.insert(seeds.end(), {g.x(j), g.y(i)});
-            }
-        const std::size_t n = seeds.size() / 2;
-        TensorLineSettings settings;
-        settings.method = m_line_method;
-        settings.max_length = max_length;
-        settings.detect_closure = true;
-        // Seeds whose grid point a line of this family already passed (its nearest grid point) would give that
-        // line again: they are skipped. Blocks of seeds are integrated in parallel, then their lines marked.
-        std::vector<std::uint8_t> visited(g.size(), 0);
-        std::vector<TwoWayLine> lines;
-        const std::size_t block = 64;
-        for (std::size_t start = 0; start < n; start += block) {
-            std::vector<std::size_t> unvisited_seeds;
-            for (std::size_t k = start; k < std::min(n, start + block); ++k) {
-                const std::size_t j = static_cast<std::size_t>(std::lround((seeds[2 * k] - g.x_min) / g.dx()));
-                const std::size_t i = static_cast<std::size_t>(std::lround((seeds[2 * k + 1] - g.y_min) / g.dy()));
-                if (!visited[i * g.nx + j]) unvisited_seeds.push_back(k);
-            }
-            std::vector<double> block_seeds;
-            for (const std::size_t k : unvisited_seeds)
-                block_seeds.insert(block_seeds.end(), {seeds[2 * k], seeds[2 * k + 1]});
-            std::vector<TwoWayLine> block_lines = integrate_tensor_lines_both_ways(field, block_seeds, settings);
-            for (TwoWayLine &line : block_lines) {
-                for (std::size_t p = 0; p + 1 < line.xy.size(); p += 2) {
-                    const long j = std::lround((line.xy[p] - g.x_min) / g.dx());
-                    const long i = std::lround((line.xy[p + 1] - g.y_min) / g.dy());
-                    if (i >= 0 && j >= 0 && i < static_cast<long>(g.ny) && j < static_cast<long>(g.nx))
-                        visited[static_cast<std::size_t>(i) * g.nx + static_cast<std::size_t>(j)] = 1;
-                }
-                lines.push_back(std::move(line));
-            }
-        }
-        for (const TwoWayLine &line : lines) {
+        const std::vector<double> seeds = shearline_seeds(cg.grid, field, deviation);
+        for (const TwoWayLine &line : distinct_shearlines(cg.grid, field, seeds, max_length)) {
             if (line.closed) {
-                ++closed_lines;
+                ++found.closed_lines;
                 continue;
             }
-            all_lines.push_back(line.xy);
-            const std::vector<double> dev = sample_along(g, deviation, {}, line.xy);
-            const std::size_t m = line.xy.size() / 2;
-            std::size_t k = 0;
-            while (k < m) {
-                while (k < m && !(dev[k] < m_epsilon)) ++k;
-                const std::size_t first = k;
-                while (k < m && dev[k] < m_epsilon) ++k;
-                if (k - first < 2) continue;
-                Segment s;
-                s.family = sign;
-                s.xy.assign(line.xy.begin() + 2 * first, line.xy.begin() + 2 * k);
-                s.length = polyline_length(s.xy);
-                if (s.length < min_length) {
-                    ++short_segments;
-                    continue;
-                }
-                const CurveStats stats =
-                    curve_statistics(s.xy, std::vector<double>(dev.begin() + first, dev.begin() + k));
-                s.mean_deviation = stats.mean;
-                s.max_deviation = stats.max;
-                const std::vector<double> c = cumulative_length(s.xy);
-                const std::size_t mid = std::min<std::size_t>(
-                    c.size() - 1,
-                    static_cast<std::size_t>(std::lower_bound(c.begin(), c.end(), 0.5 * s.length) - c.begin()));
-                s.mid_x = s.xy[2 * mid];
-                s.mid_y = s.xy[2 * mid + 1];
-                s.x_min = s.x_max = s.xy[0];
-                s.y_min = s.y_max = s.xy[1];
-                for (std::size_t p = 0; p + 1 < s.xy.size(); p += 2) {
-                    s.x_min = std::min(s.x_min, s.xy[p]);
-                    s.x_max = std::max(s.x_max, s.xy[p]);
-                    s.y_min = std::min(s.y_min, s.xy[p + 1]);
-                    s.y_max = std::max(s.y_max, s.xy[p + 1]);
-                }
-                if (std::isfinite(s.mean_deviation)) candidates.push_back(std::move(s));
-            }
+            found.open_lines.push_back(line.xy);
+            add_segments(cg.grid, line.xy, deviation, sign, min_length, found);
         }
         if (host.progress(sign > 0 ? 0.4 : 0.8)) throw std::runtime_error("parabolic: stopped on request");
     }
-    host.info("" + std::to_string(all_lines.size()) + " open shearlines (" + std::to_string(closed_lines) +
-              " closed ones left to the elliptic extractor), " + std::to_string(candidates.size()) +
-              " segments with d_g < " + format(m_epsilon) + " at least " + format(min_length) + " long (" +
-              std::to_string(short_segments) + " shorter)");
+    return found;
+}
 
-    // 2. Barriers: segments whose mean deviation is a local minimum among their neighbours (the segments passing
-    // within `radius` of their midpoint, either family), thinned so that one barrier stands for all the copies
-    // found from seeds along it: visit the minima from the least mean deviation up (ties: the longer first) and
-    // drop those passing within `radius` of a kept barrier's midpoint or whose midpoint a kept one passes near.
+// Step 2a: the segments whose mean deviation is a local minimum among their neighbours (the segments passing within
+// `radius` of their midpoint, either family).
+std::vector<std::size_t> minima_of_mean_deviation(const std::vector<Segment> &candidates, double radius) {
     std::vector<std::size_t> minima;
     for (std::size_t c = 0; c < candidates.size(); ++c) {
         bool minimal = true;
@@ -319,6 +350,14 @@ void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const
                 minimal = false;
         if (minimal) minima.push_back(c);
     }
+    return minima;
+}
+
+// Step 2b: the minima thinned so that one barrier stands for all the copies found from seeds along it: visited from
+// the least mean deviation up (ties: the longer first), those passing within `radius` of a kept barrier's midpoint or
+// whose midpoint a kept one passes near are dropped; at most max_barriers (0: all) kept.
+std::vector<std::size_t> disjoint_minima(const std::vector<Segment> &candidates, std::vector<std::size_t> minima,
+                                         double radius, std::size_t max_barriers) {
     std::sort(minima.begin(), minima.end(), [&](std::size_t a, std::size_t b) {
         if (candidates[a].mean_deviation != candidates[b].mean_deviation)
             return candidates[a].mean_deviation < candidates[b].mean_deviation;
@@ -332,8 +371,50 @@ void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const
                     passes_near(candidates[c], candidates[b].mid_x, candidates[b].mid_y, radius);
         if (taken) continue;
         barriers.push_back(c);
-        if (m_max_barriers > 0 && barriers.size() >= m_max_barriers) break;
+        if (max_barriers > 0 && barriers.size() >= max_barriers) break;
     }
+    return barriers;
+}
+
+// The picture: open shearlines (grey), candidates (black), barriers (red) over the FTLE.
+void Parabolic::draw_shearlines(const gb_extract_input &in, const CauchyGreenField &cg, const Shearlines &found,
+                                const std::vector<std::size_t> &barriers) const {
+    FieldPlot plot;
+    plot.title = "Parabolic barriers (red); shearlines with d_g < " + format(m_epsilon) + " (black)";
+    plot.colorbar_label = "FTLE";
+    plot.x_label = sdk::axis_label(in, 0);
+    plot.y_label = sdk::axis_label(in, 1);
+    const std::size_t stride = std::max<std::size_t>(1, found.open_lines.size() / 150);
+    for (std::size_t l = 0; l < found.open_lines.size(); l += stride)
+        plot.curves.push_back({found.open_lines[l], "#b0b0b0", 0.6, false});
+    for (const Segment &s : found.candidates) plot.curves.push_back({s.xy, "black", 0.8, false});
+    for (std::size_t b : barriers) plot.curves.push_back({found.candidates[b].xy, "red", 2.5, false});
+    plot_field_png(std::filesystem::path(in.output_dir) / "parabolic.png", cg.grid, cg.ftle, ftle_mask(cg), plot);
+}
+
+// The shearline method (paper, section 2.1): open shearlines and their segments with d_g^eta < epsilon (step 1), the
+// disjoint local minima of the mean deviation (step 2), reported best first, and the picture.
+void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const {
+    if (m_shearless) return extract_shearless(host, in);
+    const auto started = std::chrono::steady_clock::now();
+    const CauchyGreenField cg = cauchy_green_from_input(in);
+    const Grid &g = cg.grid;
+    const ShearFields shear =
+        shear_fields(cg, m_area_preserving ? ShearDeviationForm::area_preserving : ShearDeviationForm::general);
+    const double diagonal = std::hypot(g.x_max - g.x_min, g.y_max - g.y_min);
+    const double spacing = std::max(g.dx(), g.dy()) * static_cast<double>(m_seed_spacing);
+    const double max_length = m_max_length > 0 ? m_max_length : 2.0 * diagonal;
+    const double min_length = m_min_length > 0 ? m_min_length : 0.25 * diagonal;
+    const double radius = m_neighbour_distance > 0 ? m_neighbour_distance : 3.0 * spacing;
+
+    const Shearlines found = shearlines(host, cg, shear, max_length, min_length);
+    const std::vector<Segment> &candidates = found.candidates;
+    host.info("" + std::to_string(found.open_lines.size()) + " open shearlines (" + std::to_string(found.closed_lines) +
+              " closed ones left to the elliptic extractor), " + std::to_string(candidates.size()) +
+              " segments with d_g < " + format(m_epsilon) + " at least " + format(min_length) + " long (" +
+              std::to_string(found.short_segments) + " shorter)");
+    const std::vector<std::size_t> minima = minima_of_mean_deviation(candidates, radius);
+    const std::vector<std::size_t> barriers = disjoint_minima(candidates, minima, radius, m_max_barriers);
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     host.info("" + std::to_string(minima.size()) + " local minima of the mean deviation, " +
               std::to_string(barriers.size()) + " parabolic barriers (neighbour distance " + format(radius) + ") in " +
@@ -348,21 +429,7 @@ void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const
                           {"rank", static_cast<double>(b + 1)}});
         host.set_barrier_attributes({{"family", s.family > 0 ? "\"+\"" : "\"-\""}, {"method", "\"shearline\""}});
     }
-
-    // 3. The picture: open shearlines (grey), candidates (black), barriers (red) over the FTLE.
-    if (in.plots && in.output_dir) {
-        FieldPlot plot;
-        plot.title = "Parabolic barriers (red); shearlines with d_g < " + format(m_epsilon) + " (black)";
-        plot.colorbar_label = "FTLE";
-        plot.x_label = sdk::axis_label(in, 0);
-        plot.y_label = sdk::axis_label(in, 1);
-        const std::size_t stride = std::max<std::size_t>(1, all_lines.size() / 150);
-        for (std::size_t l = 0; l < all_lines.size(); l += stride)
-            plot.curves.push_back({all_lines[l], "#b0b0b0", 0.6, false});
-        for (const Segment &s : candidates) plot.curves.push_back({s.xy, "black", 0.8, false});
-        for (std::size_t b : barriers) plot.curves.push_back({candidates[b].xy, "red", 2.5, false});
-        plot_field_png(std::filesystem::path(in.output_dir) / "parabolic.png", g, cg.ftle, ftle_mask(cg), plot);
-    }
+    if (in.plots && in.output_dir) draw_shearlines(in, cg, found, barriers);
 }
 
 } // namespace

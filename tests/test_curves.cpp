@@ -63,6 +63,19 @@ TEST_CASE("lengths, resampling, shoelace area, bilinear sampling, statistics") {
     const std::vector<double> rc = resample_polyline(square, 0.5, true);
     REQUIRE(rc.size() == 2 * 8);
     CHECK(polyline_length(rc, true) == doctest::Approx(4.0)); // the corners are among the points
+    // A spacing of length / N gives N parts whichever way the quotient rounds: 3.469052 / (3.469052 / 500) is
+    // 500.00000000000006 in double, and a count from ceil() alone gave 501 parts there (and 500 in a build whose
+    // length came out one ulp different), moving every point. 6% of these lengths did so.
+    for (int i = 1; i < 2000; ++i) {
+        const double length = 1.0 + 0.001237 * i;
+        for (const std::size_t parts : {10, 500}) {
+            const std::vector<double> open = resample_polyline({0, 0, length, 0}, length / parts);
+            REQUIRE(open.size() == 2 * (parts + 1));
+            CHECK(open[2 * parts] == doctest::Approx(length));
+            const std::vector<double> loop = resample_polyline({0, 0, length, 0}, 2 * length / parts, true);
+            REQUIRE(loop.size() == 2 * parts);
+        }
+    }
 
     Grid g;
     g.x_min = -1;

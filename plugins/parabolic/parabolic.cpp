@@ -35,6 +35,10 @@ using geobarrier::sdk::integer_param;
 using geobarrier::sdk::real_param;
 using geobarrier::sdk::string_param;
 
+// A mean FTLE along a trench below this fraction of the FTLE's range over the box is zero to the precision of the
+// numbers: the flow map resolves lambda2 to its tolerance (rtol >= 1e-14) at best, and rounding alone gave 2.6e-16.
+constexpr double unresolved_ftle = 1e-12;
+
 // A compact shearline segment with d_g^eta < max_deviation at every point: a barrier candidate.
 struct Segment {
     int family = 1; // +1: eta+, -1: eta-
@@ -180,15 +184,22 @@ void Parabolic::extract_shearless(const sdk::Host &host, const gb_extract_input 
     host.info(std::to_string(all.size()) + " FTLE trenches at least " + format(settings.min_depth) + " deep, " +
               std::to_string(kept.size()) + " at least " + format(min_length) +
               " long: parabolic barriers (jet cores) in " + format(elapsed) + " s");
+    // A jet core's FTLE is zero in theory (C = I on it); what the grid then holds is rounding (2.6e-16 against
+    // 2.3e-16 in two builds on parallel-shear-jet, FTLE range 0.2), no figure of the barrier. A mean below this
+    // floor is reported as the bound `mean_ftle_below` instead of a value.
+    const double ftle_floor = high > low ? unresolved_ftle * (high - low) : 0.0;
     for (std::size_t b = 0; b < kept.size(); ++b) {
         const parabolic::Trench &t = *kept[b];
         const CurveStats ftle =
             curve_statistics(t.xy, sample_along(g, cg.ftle, cg.mask, t.xy, mask_trajectory_bits), t.closed);
-        host.add_barrier("parabolic", t.closed, t.xy,
-                         {{"length", t.length},
-                          {"mean_ftle", ftle.mean},
-                          {"trench_depth", t.mean_depth},
-                          {"rank", static_cast<double>(b + 1)}});
+        std::vector<std::pair<std::string, double>> metrics = {{"length", t.length}};
+        if (std::abs(ftle.mean) < ftle_floor)
+            metrics.emplace_back("mean_ftle_below", ftle_floor);
+        else
+            metrics.emplace_back("mean_ftle", ftle.mean);
+        metrics.emplace_back("trench_depth", t.mean_depth);
+        metrics.emplace_back("rank", static_cast<double>(b + 1));
+        host.add_barrier("parabolic", t.closed, t.xy, metrics);
         host.set_barrier_attributes({{"method", "\"shearless\""}});
     }
     // The picture: trenches too short (black) and the barriers (red) over the FTLE.

@@ -27,6 +27,7 @@ namespace {
 
 struct Line {
     double mean_y = 0.0, spread_y = 0.0, x_min = 0.0, x_max = 0.0, mean_deviation = 0.0;
+    json figures; // the barrier's entry in barriers.json
     std::string family;
 };
 
@@ -49,6 +50,7 @@ std::vector<Line> parabolic_barriers(const std::string &profile, const std::stri
         CHECK(barrier["kind"] == "parabolic");
         CHECK(barrier["closed"] == false);
         Line l;
+        l.figures = barrier;
         double lo = HUGE_VAL, hi = -HUGE_VAL;
         l.x_min = HUGE_VAL;
         l.x_max = -HUGE_VAL;
@@ -92,6 +94,26 @@ TEST_CASE("shearless: the parabolic barrier of the Bickley jet is its core y = 0
     CHECK(core.spread_y < 0.1 * dy);               // and horizontal
     CHECK(core.x_max - core.x_min > 4.0 - 2 * dy); // across the whole box
     CHECK(fs::exists(dir / "parabolic.png"));
+    // C = I on the core: its FTLE is rounding (2.6e-16 in one build, 2.3e-16 in another), so no mean_ftle is
+    // reported, only the bound below which it lies.
+    CHECK_FALSE(core.figures.contains("mean_ftle"));
+    REQUIRE(core.figures.contains("mean_ftle_below"));
+    CHECK(core.figures["mean_ftle_below"].get<double>() > 1e-15);
+    CHECK(core.figures["mean_ftle_below"].get<double>() < 1e-12);
+    fs::remove_all(dir);
+
+    // Another build rounds differently; so does this one on a grid moved by two ulps: the same figures, each within
+    // 1e-4 (a rounding-level mean_ftle differed by 12% between GEOBARRIER_NATIVE=ON and OFF).
+    const std::vector<Line> moved =
+        parabolic_barriers("jet", "shearless", dir, std::nextafter(std::nextafter(-2.0, 0.0), 0.0));
+    REQUIRE(moved.size() == 1);
+    for (const auto &[name, value] : core.figures.items()) {
+        if (!value.is_number()) continue;
+        REQUIRE(moved[0].figures.contains(name));
+        const double a = value, b = moved[0].figures[name];
+        CHECK_MESSAGE(std::abs(a - b) <= 1e-4 * std::max(std::abs(a), std::abs(b)), name << ": " << a << " vs " << b);
+    }
+    CHECK(moved[0].figures.size() == core.figures.size());
     fs::remove_all(dir);
 
     // A grid whose rows miss the core (nearest rows at y = -0.03 and 0.02): the trench is found between them.
@@ -100,6 +122,9 @@ TEST_CASE("shearless: the parabolic barrier of the Bickley jet is its core y = 0
     MESSAGE("offset grid: jet core at mean y = " << offset[0].mean_y << " (spread " << offset[0].spread_y << ")");
     CHECK(std::abs(offset[0].mean_y) < 0.5 * dy);
     CHECK(offset[0].x_max - offset[0].x_min > 4.0 - 2 * dy);
+    // Between the rows the interpolated FTLE is a resolved (positive) number, and is reported.
+    REQUIRE(offset[0].figures.contains("mean_ftle"));
+    CHECK(offset[0].figures["mean_ftle"].get<double>() > 1e-6);
     fs::remove_all(dir);
 }
 

@@ -163,27 +163,41 @@ std::vector<Trench> trace_trenches(const Grid &grid, const std::vector<double> &
             Vec p = *start, n = seed.n;
             Vec t{-n.y, n.x};
             if (side == 1) t = {-t.x, -t.y};
-            for (std::size_t s = 0; s < max_steps; ++s) {
+            // A step that fails is halved until the stop is located within min_step: ends on the grid of full
+            // steps from the seed would move by a step when rounding picks another seed along a flat trench (a jet
+            // core's FTLE is rounding: its length came out 4 or 3.975 on a grid moved by two ulps).
+            const double min_step = 1e-4 * step;
+            double ds = step;
+            for (std::size_t s = 0, tries = 0; s < max_steps && tries < 64 * max_steps; ++tries) {
                 if (const std::optional<Vec> m = f.across(p)) n = *m;
                 Vec tn{-n.y, n.x};
                 if (tn.x * t.x + tn.y * t.y < 0.0) tn = {-tn.x, -tn.y};
-                t = tn;
-                const Vec q{p.x + step * t.x, p.y + step * t.y};
+                const Vec q{p.x + ds * tn.x, p.y + ds * tn.y};
                 Vec nq = n;
                 if (const std::optional<Vec> m = f.across(q)) nq = *m;
                 const std::optional<Vec> next = settle(f, q, nq, h);
-                if (!next) break;
-                const double jump = std::hypot(next->x - p.x, next->y - p.y);
-                if (jump > 2.0 * step || jump < 0.25 * step) break; // jumped to another trench, or stalled
-                if (!(depth(f, *next, nq, w) >= 0.5 * settings.min_depth && depth(f, *next, nq, w) > 0.0)) break;
-                const long o = owner[nearest_point(grid, *next)];
-                if (o >= 0 && o != id) break; // met a trench traced before
+                bool ok = next.has_value();
+                if (ok) {
+                    const double jump = std::hypot(next->x - p.x, next->y - p.y);
+                    ok = jump <= 2.0 * ds && jump >= 0.25 * ds; // else: jumped to another trench, or stalled
+                }
+                ok = ok && depth(f, *next, nq, w) >= 0.5 * settings.min_depth && depth(f, *next, nq, w) > 0.0;
+                const long o = ok ? owner[nearest_point(grid, *next)] : -1;
+                ok = ok && !(o >= 0 && o != id); // else: met a trench traced before
+                if (!ok) {
+                    if (ds <= min_step) break;
+                    ds *= 0.5;
+                    continue;
+                }
+                t = tn;
                 if (side == 0 && s > 8 && std::hypot(next->x - start->x, next->y - start->y) < step) {
                     closed = true;
                     break;
                 }
                 halves[side].push_back(*next);
                 p = *next;
+                ++s;
+                ds = std::min(2.0 * ds, step);
             }
         }
         Trench trench;

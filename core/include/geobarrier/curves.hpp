@@ -21,7 +21,8 @@ namespace geobarrier {
 double polyline_length(const std::vector<double> &xy, bool closed = false);
 // Arc length at each point from the first (size n; with `closed`, n + 1: the last entry is the full length).
 std::vector<double> cumulative_length(const std::vector<double> &xy, bool closed = false);
-// Points spaced evenly in arc length, at most `spacing` apart, keeping both ends of an open curve.
+// Points spaced evenly in arc length, at most `spacing` apart (to 1e-9 relative), keeping both ends of an open curve.
+// A spacing of length / N gives N parts in every build: the count does not hinge on the last bit of the quotient.
 std::vector<double> resample_polyline(const std::vector<double> &xy, double spacing, bool closed = false);
 // Enclosed signed area (shoelace formula), positive for counter-clockwise curves; the curve is taken as closed.
 double shoelace_area(const std::vector<double> &xy);

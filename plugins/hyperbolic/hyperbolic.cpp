@@ -237,8 +237,8 @@ struct Walls {
 };
 
 // Distance from every grid point to the nearest masked point (8-neighbour chamfer transform: exact along grid lines
-// and diagonals, within 8% elsewhere, which is plenty for "within the neighbour distance of the mask"); HUGE_VAL
-// everywhere when nothing is masked.
+// and diagonals, within 8% elsewhere, which is plenty for "within the neighbour distance of the mask"); empty when
+// nothing is masked (no mask wall: the wall filter then looks up no point).
 std::vector<double> distance_to_mask(const Grid &g, const std::vector<std::uint8_t> &mask) {
     std::vector<double> d(g.size(), HUGE_VAL);
     bool any = false;
@@ -247,7 +247,7 @@ std::vector<double> distance_to_mask(const Grid &g, const std::vector<std::uint8
             d[p] = 0.0;
             any = true;
         }
-    if (!any) return d;
+    if (!any) return {};
     const double dx = g.dx(), dy = g.dy(), dd = std::hypot(dx, dy);
     const auto relax = [&](std::size_t i, std::size_t j, long di, long dj, double w) {
         const long ii = static_cast<long>(i) + di, jj = static_cast<long>(j) + dj;
@@ -276,6 +276,7 @@ std::vector<double> distance_to_mask(const Grid &g, const std::vector<std::uint8
 double fraction_along_walls(const Grid &g, const Walls &walls, const std::vector<double> &to_mask,
                             const std::vector<double> &xy, double reach) {
     std::vector<double> near(xy.size() / 2, 0.0);
+    bool any_near = false;
     for (std::size_t k = 0; k < near.size(); ++k) {
         const double x = xy[2 * k], y = xy[2 * k + 1];
         double d = HUGE_VAL;
@@ -283,7 +284,7 @@ double fraction_along_walls(const Grid &g, const Walls &walls, const std::vector
         if (walls.right) d = std::min(d, g.x_max - x);
         if (walls.bottom) d = std::min(d, y - g.y_min);
         if (walls.top) d = std::min(d, g.y_max - y);
-        if (walls.mask) {
+        if (walls.mask && !to_mask.empty()) {
             const std::size_t j = static_cast<std::size_t>(
                                   std::clamp(std::lround((x - g.x_min) / g.dx()), 0L, static_cast<long>(g.nx) - 1)),
                               i = static_cast<std::size_t>(
@@ -291,7 +292,9 @@ double fraction_along_walls(const Grid &g, const Walls &walls, const std::vector
             d = std::min(d, to_mask[i * g.nx + j]);
         }
         near[k] = d < reach ? 1.0 : 0.0;
+        any_near = any_near || d < reach;
     }
+    if (!any_near) return 0.0; // most segments: no wall in reach, and the integral below would be 0
     const CurveStats st = curve_statistics(xy, near);
     return st.covered_length > 0.0 ? st.integral / st.covered_length : 0.0;
 }

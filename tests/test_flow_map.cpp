@@ -400,6 +400,50 @@ TEST_CASE("a plugin returning NaN: those lanes are masked non-finite, the others
     }
 }
 
+TEST_CASE("checked steps: a DF that turns NaN under a finite state is masked non-finite, not a failed step") {
+    // faulty-nan-jacobian is the harmonic oscillator x' = y, y' = -k x with a finite field everywhere but a NaN
+    // Jacobian entry at x >= 2: the state stays exact, DF goes NaN on the circles of radius > 2. The checked steps
+    // screen the state through the error test and DF where it is renormalised (every few steps, and after the
+    // last): such lanes end masked non-finite with no rejected step; the others have the rotation's exact DF.
+    std::vector<PluginHandle> handles =
+        load_plugin_library(geobarrier::test::test_plugin_dir() / "faulty" / "geobarrier-faulty.so");
+    const auto it = std::find_if(handles.begin(), handles.end(), [](const PluginHandle &h) {
+        return h.info.kind == PluginKind::system && h.info.name == "faulty-nan-jacobian";
+    });
+    REQUIRE(it != handles.end());
+    const System faulty(*it, validate_params(it->info, {{"k", 1.0}}, "/system/params"));
+    const Dynamics dyn{&faulty, nullptr};
+    const std::vector<double> x0 = {0.5, 0.0, -1.0, 2.5, 0.3, -2.2, 1.0, 0.0};
+    const std::vector<double> y0 = {0.0, 3.0, 0.5, 0.0, -0.2, -1.5, 1.0, -1.9};
+    for (const double T : {4.0, 0.66}) { // 0.66: two steps, so only the check after the last step sees the NaN
+        CAPTURE(T);
+        const IntegratorSettings checked = quality_preset("standard");
+        REQUIRE(checked.step_tolerance > 0.0);
+        const AdvectResult r = advect_points(dyn, x0, y0, 0.0, T, checked, true);
+        CHECK(r.stats.rejected_steps == 0);
+        std::uint64_t expected = 0;
+        for (std::size_t k = 0; k < x0.size(); ++k) {
+            CAPTURE(k);
+            // x(t) = x0 cos t + y0 sin t reaches 2 before T when the radius exceeds 2 and the phase allows.
+            bool reaches = x0[k] >= 2.0;
+            for (double t = 0.0; t <= T && !reaches; t += 1e-3)
+                reaches = x0[k] * std::cos(t) + y0[k] * std::sin(t) >= 2.0;
+            if (reaches) {
+                ++expected;
+                CHECK(r.mask[k] == mask_non_finite);
+            } else {
+                CHECK(r.mask[k] == 0);
+                const double c = std::cos(T), s = std::sin(T);
+                CHECK(std::abs(r.dF[4 * k + 0] - c) <= 1e-6);
+                CHECK(std::abs(r.dF[4 * k + 1] - s) <= 1e-6);
+                CHECK(std::abs(r.dF[4 * k + 2] + s) <= 1e-6);
+                CHECK(std::abs(r.dF[4 * k + 3] - c) <= 1e-6);
+            }
+        }
+        CHECK(expected > 0);
+        CHECK(r.stats.masked_non_finite == expected);
+    }
+}
 TEST_CASE("an exception inside the parallel batches reaches the caller") {
     const System saddle = make_system("linear-saddle");
     const Dynamics dyn{&saddle, nullptr};

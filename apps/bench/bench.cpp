@@ -202,6 +202,8 @@ json with(json a, const json &b) {
 const json variational = {{"cauchy_green", {{"method", "variational"}}}};
 json aux(double offset) { return {{"cauchy_green", {{"method", "auxiliary-grid"}, {"offset", offset}}}}; }
 
+const char *const unchecked_config = "default, unchecked steps";
+
 // The headline configurations: the defaults, the presets, and the paper's settings.
 std::vector<Config> headline_configs() {
     return {
@@ -209,6 +211,9 @@ std::vector<Config> headline_configs() {
         {"quality draft", {{"quality", "draft"}}, 2},
         {"quality standard", {{"quality", "standard"}}, 2},
         {"quality publication", {{"quality", "publication"}}, 2},
+        {"default, adaptive steps", {{"integrator", {{"adaptive", true}}}}, 2},
+        // What the step check costs where every step passes (W): the default with the check off.
+        {unchecked_config, {{"integrator", {{"step_tolerance", 0}}}}, 2},
         {"paper tolerances, aux 1e-4", with(integrator("dopri5", 1e-6, 1e-4), aux(1e-4)), 2},
         {"paper tolerances, variational", with(integrator("dopri5", 1e-6, 1e-4), variational), 2},
     };
@@ -931,7 +936,7 @@ struct BenchResults {
     std::vector<double> exact; // W's exact FTLE at N
     Row base;                  // the naive Boost.Odeint baseline at N
     std::vector<Row> headline, scipy, threads, widths, scaling, extraction, sweep, gyre;
-    std::optional<Row> default_row, memory;
+    std::optional<Row> default_row, unchecked_row, memory;
     std::string suite_md, ndim_md;
     std::optional<EquationsTiming> equations;
 };
@@ -944,10 +949,14 @@ void headline_section(Bench &bench, const BenchOptions &o, BenchResults &res) {
     res.headline = {res.base};
     if (o.wants("headline")) {
         for (const Config &c : headline_configs()) {
-            Row r = bench.run("headline", "W", workload_w(o.n), c, res.exact, res.base.wall, o.best_of(1));
+            // The default and its unchecked twin are compared with each other (the step check's cost, a few
+            // percent): the fastest of 3 runs each, where one run's noise would swamp the difference.
+            const bool pair = c.name == "default" || c.name == unchecked_config;
+            Row r = bench.run("headline", "W", workload_w(o.n), c, res.exact, res.base.wall, o.best_of(pair ? 3 : 1));
             bench.add(r);
             res.headline.push_back(r);
             if (c.name == "default") res.default_row = r;
+            if (c.name == unchecked_config) res.unchecked_row = r;
         }
     }
     for (const std::string &t : o.tries) {
@@ -1088,6 +1097,10 @@ void report_headline(std::ostream &md, const BenchOptions &o, const BenchResults
            << " s, same run; target ≥ 30×: " << (fast ? "met" : "NOT met") << "); FTLE error mean " << sci(d.err.mean)
            << ", interior max " << sci(d.err.interior_max)
            << " (targets ≤ 1e-4 and ≤ 0.05: " << (accurate ? "met" : "NOT met") << ").";
+        if (res.unchecked_row)
+            md << " The step check (the default's error control) costs "
+               << fixed(100.0 * (d.wall / res.unchecked_row->wall - 1.0), 1) << "% against the same steps unchecked (`"
+               << unchecked_config << "`, " << fixed(res.unchecked_row->wall, 2) << " s; fastest of 3 runs each).";
         if (memory_row)
             md << " The " << o.memory_n << " × " << o.memory_n << " grid: peak resident memory "
                << fixed(memory_row->peak_mib, 0) << " MiB (target < 2048 MiB: "

@@ -109,14 +109,6 @@ bool any_non_finite(const double *v, std::size_t size) {
     return (carries >> 63) != 0;
 }
 
-// Whether any of e[0 .. size) exceeds `limit` or is NaN.
-bool any_above(const double *e, std::size_t size, double limit) {
-    int above = 0;
-#pragma omp simd reduction(| : above)
-    for (std::size_t i = 0; i < size; ++i) above |= !(e[i] <= limit);
-    return above != 0;
-}
-
 enum class Method { dopri5, rkf78, rk4, rosenbrock4, dop853 };
 
 Method parse_method(const std::string &name) {
@@ -652,29 +644,38 @@ template <unsigned N> class BatchIntegrator {
     // After an accepted step: a lane whose largest |DF| entry left [1/2, 2^256] has its DF block (and, since
     // DF' = Dv DF is linear in DF, the DF block of its derivative) multiplied by an exact power of 2, and the
     // exponent is carried. Nothing is rounded, so the integration is exactly the unscaled one, minus the overflow.
-    // One vectorisable pass finds whether any lane needs it; lanes are visited only then.
-    void renormalise(State *dxdt) {
-        if (++m_since_renormalise < renormalise_every) return;
+    // One vectorisable pass finds whether any lane needs it; lanes are visited only then. The same pass freezes lanes
+    // whose DF became NaN or Inf under a finite state (the checked steps screen only the state: such a DF is no
+    // failure of the step); `now` runs it whatever the count, for the last step of a run.
+    void renormalise(State *dxdt, bool now = false) {
+        if (++m_since_renormalise < renormalise_every && !now) return;
         m_since_renormalise = 0;
         const std::size_t n = m_ctx.n;
         const double *f = m_x.data() + comp_f11 * n;
-        const auto lane_max = [&](std::size_t k) {
+        const auto lane_max = [&](std::size_t k) { // NaN when an entry is NaN (a comparison with NaN is false)
             double big = std::abs(f[k]);
 #pragma GCC unroll 8
-            for (std::size_t c = 1; c < N * N; ++c) big = std::max(big, std::abs(f[c * n + k]));
+            for (std::size_t c = 1; c < N * N; ++c) {
+                const double a = std::abs(f[c * n + k]);
+                big = (a > big || a != a) ? a : big;
+            }
             return big;
         };
         const double high = std::ldexp(1.0, renormalise_exponent), low = renormalise_low;
         int any = 0;
         for (std::size_t k = 0; k < n; ++k) {
             const double big = lane_max(k);
-            any |= (big > high) | ((big < low) & (big > 0.0));
+            any |= static_cast<int>(!(big <= high)) | ((big < low) & (big > 0.0));
         }
         if (!any) return;
         for (std::size_t k = 0; k < n; ++k) {
             const double big = lane_max(k);
-            if (m_ctx.mask[k] != 0 || !(big > high || (big < low && big > 0.0))) continue;
-            if (!std::isfinite(big)) continue; // left to the non-finite screening
+            if (m_ctx.mask[k] != 0 || (big <= high && !(big < low && big > 0.0))) continue;
+            if (!(big <= std::numeric_limits<double>::max())) {
+                freeze(k, mask_non_finite);
+                if (dxdt) zero_lane(*dxdt, k);
+                continue;
+            }
             const int e = std::ilogb(big);
             for (std::size_t c = comp_f11; c < comp_f11 + N * N; ++c) {
                 m_x[c * n + k] = std::ldexp(m_x[c * n + k], -e);
@@ -1126,9 +1127,9 @@ template <unsigned N> class BatchIntegrator {
                     new_state<Tab>(m_x_new.data(), m_x.data(), m_k.data(), stride, h);
                 lane_errors<Tab>(); // frozen lanes: zero derivatives, so zero error
             }
-            scale_lane_errors(h);
+            const bool any_over = scale_lane_errors(h);
             ++attempts;
-            const double err = batch_error(has_non_finite(m_x_new), !whole);
+            const double err = batch_error(any_over, !whole);
             const bool at_floor = std::abs(h) <= h_min * (1.0 + 1e-9);
             if (err > 1.0 && !at_floor) {
                 ++m_rejected;
@@ -1159,6 +1160,7 @@ template <unsigned N> class BatchIntegrator {
                        : std::min(h_full,
                                   std::abs(h) * std::clamp(err > 0.0 ? 0.9 * std::pow(err, exponent) : 5.0, 0.2, 5.0));
         }
+        if (m_ctx.variational) renormalise(nullptr, true); // DF of the last steps: NaN or Inf is masked
         return true;
     }
 
@@ -1175,15 +1177,19 @@ template <unsigned N> class BatchIntegrator {
     }
 
     // Lane error estimates to ratios: times |h|, over the lane's scale step_tolerance (1 + max(|x|, |x_new|)) over
-    // its state components (a norm-wise error of the state, relative where it is large). One vectorisable pass.
-    void scale_lane_errors(double h) {
+    // its state components (a norm-wise error of the state, relative where it is large). A lane whose new state is
+    // NaN or Inf gets a NaN ratio (x - x is 0 for a finite x, NaN otherwise), so that this one vectorisable pass also
+    // does the non-finite screening of the trial step; a non-finite DF under a finite state is no failure of the
+    // step (check_after_step freezes such lanes). Returns whether any ratio exceeds 1 or is NaN.
+    bool scale_lane_errors(double h) {
         const std::size_t n = m_ctx.n;
         const double factor = std::abs(h) / m_settings.step_tolerance;
         const double *__restrict x = m_x.data(), *__restrict xn = m_x_new.data();
         double *__restrict e = m_lane_error.data();
         // By value (std::max returns a reference, which keeps GCC 12 from vectorising this loop).
         const auto larger = [](double a, double b) { return a < b ? b : a; };
-#pragma omp simd
+        int over = 0;
+#pragma omp simd reduction(| : over)
         for (std::size_t k = 0; k < n; ++k) {
             // One expression per lane (a loop over the components here kept GCC 12 from vectorising the lane loop).
             const auto largest = [&](auto... i) {
@@ -1191,26 +1197,32 @@ template <unsigned N> class BatchIntegrator {
                 ((big = larger(big, larger(std::abs(x[i * n + k]), std::abs(xn[i * n + k])))), ...);
                 return big;
             };
-            double big;
-            if constexpr (N == 2)
+            const auto non_finite_probe = [&](auto... i) { return ((xn[i * n + k] - xn[i * n + k]) + ...); };
+            double big, probe;
+            if constexpr (N == 2) {
                 big = larger(larger(std::abs(x[k]), std::abs(x[n + k])), larger(std::abs(xn[k]), std::abs(xn[n + k])));
-            else
+                probe = (xn[k] - xn[k]) + (xn[n + k] - xn[n + k]);
+            } else {
                 big = std::apply(largest, component_indices());
-            e[k] = factor * e[k] / (1.0 + big);
+                probe = std::apply(non_finite_probe, component_indices());
+            }
+            e[k] = factor * e[k] / (1.0 + big) + probe;
+            over |= !(e[k] <= 1.0);
         }
+        return over != 0;
     }
 
     // The batch's error of a trial step: the largest lane error of the active lanes; +Inf when a lane's new state or
-    // error is NaN or Inf (`suspect`: the whole-batch probe found one) or the plugin refused one of its stage
-    // states. Such lanes get an infinite lane error, for mask_failing_lanes. One vectorisable pass when all is well.
-    // A whole step of the fixed grid that every lane passes needs no more than that (the next step is whole again),
-    // so without `exact` such a step gets 0 after one cheap pass and the largest lane error is left unsearched.
-    double batch_error(bool suspect, bool exact) {
+    // error is NaN or Inf or the plugin refused one of its stage states. Such lanes get an infinite lane error, for
+    // mask_failing_lanes. A whole step of the fixed grid that every lane passes (`any_over` false: scale_lane_errors
+    // found no ratio above 1 and no NaN) needs no more (the next step is whole again), so without `exact` such a step
+    // gets 0 and the largest lane error is left unsearched.
+    double batch_error(bool any_over, bool exact) {
         const std::size_t n = m_ctx.n;
         const double *e = m_lane_error.data();
         double err = 0.0;
-        if (!suspect && !m_ctx.any_invalid) {
-            if (!exact && !any_above(e, n, 1.0)) return 0.0; // the common case: one vectorised pass
+        if (!m_ctx.any_invalid) {
+            if (!exact && !any_over) return 0.0; // the common case
             if (!any_non_finite(e, n)) {
                 for (std::size_t k = 0; k < n; ++k) err = e[k] > err ? e[k] : err;
                 return err;

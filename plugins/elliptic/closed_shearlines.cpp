@@ -304,124 +304,163 @@ std::vector<double> extrapolated_path(const std::vector<double> &fine, const std
     return out;
 }
 
-} // namespace
-
-ReturnMap closed_shearlines(const LineField &eta, int sign, const Section &section, const ReturnMapSettings &settings,
-                            const LineField *coarse) {
+// The return map's samples: launch points sigma_k = (k + 1) / n on (0, 1], their images still unknown.
+ReturnMap return_map_at_launch_points(std::size_t n) {
     ReturnMap map;
-    const std::size_t n = std::max<std::size_t>(settings.launch_points, 2);
-    const double len = section.length();
-    const double h = grid_spacing(eta.grid());
-    const double tol = settings.closure_tolerance > 0.0 ? settings.closure_tolerance : 1e-3 * h;
     map.sigma.resize(n);
     map.image.assign(n, nan_value);
     map.stop.assign(n, StopReason::max_length);
     map.extrapolated.assign(n, nan_value);
     for (std::size_t k = 0; k < n; ++k) map.sigma[k] = static_cast<double>(k + 1) / static_cast<double>(n);
-    const std::size_t keep_every = settings.keep_lines ? std::max<std::size_t>(n / settings.keep_lines, 1) : 0;
-    std::vector<std::vector<double>> paths(n);        // kept for pictures and for shearlines closed within resolution
-    std::vector<std::vector<double>> coarse_paths(n); // the same on the coarse field, where it returned
+    return map;
+}
 
-    // Every launch at once, in lockstep lanes.
-    std::vector<Shot> shots = shoot_all(eta, section, map.sigma, settings, true);
-    std::vector<double> gaps(n, nan_value);
-    // Richardson: P_h = P + C h^2, P_2h = P + 4 C h^2, so P = (4 P_h - P_2h) / 3 to higher order; only where the gap
-    // on the grid is below a grid spacing: beyond, the two shearlines cross different cells and the O(h^2) expansion
-    // no longer describes their difference.
+// Paths of launched shearlines kept after sampling the return map: every few for pictures, and those closed within
+// resolution_gap (closed shearlines themselves) with their paths on the coarse field where it gave a return.
+struct LaunchPaths {
+    std::vector<std::vector<double>> fine, coarse;
+};
+
+// Richardson: P_h = P + C h^2, P_2h = P + 4 C h^2, so P = (4 P_h - P_2h) / 3 to higher order. Shot again on the
+// coarse field only where the gap on the grid is below a grid spacing h: beyond, the two shearlines cross different
+// cells and the O(h^2) expansion no longer describes their difference. Where it applies, the gap becomes the
+// extrapolated one and the coarse path is kept.
+void extrapolate_gaps(const LineField &coarse, const Section &section, const ReturnMapSettings &settings, double h,
+                      const std::vector<Shot> &shots, ReturnMap &map, std::vector<double> &gaps,
+                      std::vector<std::vector<double>> &coarse_paths) {
     std::vector<double> coarse_sigma;
     std::vector<std::size_t> coarse_of;
+    for (std::size_t k = 0; k < shots.size(); ++k)
+        if (shots[k].returned && gaps[k] <= h) {
+            coarse_sigma.push_back(map.sigma[k]);
+            coarse_of.push_back(k);
+        }
+    if (coarse_sigma.empty()) return;
+    std::vector<Shot> coarse_shots = shoot_all(coarse, section, coarse_sigma, settings, true);
+    const double len = section.length();
+    for (std::size_t m = 0; m < coarse_of.size(); ++m) {
+        const std::size_t k = coarse_of[m];
+        Shot &c = coarse_shots[m];
+        if (c.returned && c.xy.size() >= 8) {
+            map.extrapolated[k] = (4.0 * shots[k].image - c.image) / 3.0;
+            gaps[k] = std::abs(map.extrapolated[k] - map.sigma[k]) * len;
+            coarse_paths[k] = std::move(c.xy);
+        }
+    }
+}
+
+// Samples the return map P at every launch point at once, in lockstep lanes (Alg. 2 step 3), with the Richardson
+// gaps when a coarse field is given; keeps the launched shearlines for pictures in map.lines and returns the paths
+// the closed shearlines need.
+LaunchPaths sample_return_map(const LineField &eta, const LineField *coarse, const Section &section,
+                              const ReturnMapSettings &settings, ReturnMap &map) {
+    const std::size_t n = map.sigma.size();
+    const double len = section.length();
+    const double h = grid_spacing(eta.grid());
+    std::vector<Shot> shots = shoot_all(eta, section, map.sigma, settings, true);
+    std::vector<double> gaps(n, nan_value);
     for (std::size_t k = 0; k < n; ++k) {
         const Shot &s = shots[k];
         if (s.returned) map.image[k] = s.image;
         map.stop[k] = s.stop;
         gaps[k] = s.returned ? std::abs(s.image - map.sigma[k]) * len : nan_value;
-        if (s.returned && coarse && settings.resolution_gap > 0.0 && gaps[k] <= h) {
-            coarse_sigma.push_back(map.sigma[k]);
-            coarse_of.push_back(k);
-        }
     }
-    if (!coarse_sigma.empty()) {
-        std::vector<Shot> coarse_shots = shoot_all(*coarse, section, coarse_sigma, settings, true);
-        for (std::size_t m = 0; m < coarse_of.size(); ++m) {
-            const std::size_t k = coarse_of[m];
-            Shot &c = coarse_shots[m];
-            if (c.returned && c.xy.size() >= 8) {
-                map.extrapolated[k] = (4.0 * shots[k].image - c.image) / 3.0;
-                gaps[k] = std::abs(map.extrapolated[k] - map.sigma[k]) * len;
-                coarse_paths[k] = std::move(c.xy);
-            }
-        }
-    }
+    LaunchPaths paths{std::vector<std::vector<double>>(n), std::vector<std::vector<double>>(n)};
+    if (coarse && settings.resolution_gap > 0.0)
+        extrapolate_gaps(*coarse, section, settings, h, shots, map, gaps, paths.coarse);
+    const std::size_t keep_every = settings.keep_lines ? std::max<std::size_t>(n / settings.keep_lines, 1) : 0;
     for (std::size_t k = 0; k < n; ++k) {
         const bool picture = keep_every && k % keep_every == keep_every / 2;
         const bool near = shots[k].returned && settings.resolution_gap > 0.0 && gaps[k] <= settings.resolution_gap;
-        if (picture || near) paths[k] = std::move(shots[k].xy);
-        if (!near) coarse_paths[k].clear();
+        if (picture || near) paths.fine[k] = std::move(shots[k].xy);
+        if (!near) paths.coarse[k].clear();
     }
     for (std::size_t k = 0; k < n; ++k)
-        if (keep_every && k % keep_every == keep_every / 2 && paths[k].size() >= 4) map.lines.push_back(paths[k]);
+        if (keep_every && k % keep_every == keep_every / 2 && paths.fine[k].size() >= 4)
+            map.lines.push_back(paths.fine[k]);
     for (double v : map.image) map.returned += std::isfinite(v) ? 1 : 0;
+    return paths;
+}
 
-    // Brackets of the displacement d(sigma) = P(sigma) - sigma between neighbouring launch points.
-    struct Bracket {
-        double a, fa, b, fb;
-    };
+// A sign change of the displacement d(sigma) = P(sigma) - sigma between neighbouring launch points (or a zero at
+// a): a fixed point of P lies in [a, b].
+struct Bracket {
+    double a, fa, b, fb;
+};
+
+std::vector<Bracket> sign_change_brackets(const ReturnMap &map) {
     std::vector<Bracket> brackets;
-    for (std::size_t k = 0; k + 1 < n; ++k) {
+    for (std::size_t k = 0; k + 1 < map.sigma.size(); ++k) {
         if (!std::isfinite(map.image[k]) || !std::isfinite(map.image[k + 1])) continue;
         const double fa = map.image[k] - map.sigma[k], fb = map.image[k + 1] - map.sigma[k + 1];
         if ((fa < 0.0 && fb > 0.0) || (fa > 0.0 && fb < 0.0) || fa == 0.0)
             brackets.push_back({map.sigma[k], fa, map.sigma[k + 1], fb});
     }
+    return brackets;
+}
+
+// The fixed point in a bracket by secant steps kept inside it (the Illinois variant of regula falsi: a stale end's
+// value is halved, so convergence stays superlinear even when one end never moves). Converged when
+// |P(root) - root| * length <= tol; `iterations` counts the shearlines shot.
+bool secant_fixed_point(const LineField &eta, const Section &section, const ReturnMapSettings &settings, Bracket br,
+                        double tol, double &root, std::size_t &iterations) {
+    const double len = section.length();
+    root = br.a;
+    iterations = 0;
+    if (std::abs(br.fa) * len <= tol) return true;
+    int side = 0;
+    while (iterations < settings.max_secant_iterations) {
+        ++iterations;
+        const double c = (br.a * br.fb - br.b * br.fa) / (br.fb - br.fa);
+        const Shot s = shoot(eta, section, c, settings, false);
+        if (!s.returned) return false;
+        const double fc = s.image - c;
+        root = c;
+        if (std::abs(fc) * len <= tol) return true;
+        if ((fc > 0.0) == (br.fb > 0.0)) {
+            br.b = c;
+            br.fb = fc;
+            if (side == -1) br.fa *= 0.5;
+            side = -1;
+        } else {
+            br.a = c;
+            br.fa = fc;
+            if (side == +1) br.fb *= 0.5;
+            side = +1;
+        }
+        if (std::abs(br.b - br.a) * len < 1e-12 * std::max(len, 1.0)) return false;
+    }
+    return false;
+}
+
+// Alg. 2 step 3: the closed shearline through each fixed point of P, brackets in parallel; a bracket whose secant
+// fails counts in map.failed_brackets.
+void closed_at_fixed_points(const LineField &eta, int sign, const Section &section, const ReturnMapSettings &settings,
+                            ReturnMap &map) {
+    const std::vector<Bracket> brackets = sign_change_brackets(map);
     map.brackets = brackets.size();
+    const double len = section.length();
+    const double h = grid_spacing(eta.grid());
+    const double tol = settings.closure_tolerance > 0.0 ? settings.closure_tolerance : 1e-3 * h;
     std::vector<ClosedShearline> found(brackets.size());
     std::vector<std::uint8_t> ok(brackets.size(), 0);
-
 #pragma omp parallel for schedule(dynamic, 1)
     for (long long bb = 0; bb < static_cast<long long>(brackets.size()); ++bb) {
-        Bracket br = brackets[static_cast<std::size_t>(bb)];
-        // Secant steps kept inside the bracket (the Illinois variant of regula falsi: a stale end's value is
-        // halved, so convergence stays superlinear even when one end never moves).
-        double root = br.a;
-        std::size_t it = 0;
-        int side = 0;
-        bool converged = std::abs(br.fa) * len <= tol;
-        while (!converged && it < settings.max_secant_iterations) {
-            ++it;
-            const double c = (br.a * br.fb - br.b * br.fa) / (br.fb - br.fa);
-            const Shot s = shoot(eta, section, c, settings, false);
-            if (!s.returned) break;
-            const double fc = s.image - c;
-            root = c;
-            if (std::abs(fc) * len <= tol) {
-                converged = true;
-                break;
-            }
-            if ((fc > 0.0) == (br.fb > 0.0)) {
-                br.b = c;
-                br.fb = fc;
-                if (side == -1) br.fa *= 0.5;
-                side = -1;
-            } else {
-                br.a = c;
-                br.fa = fc;
-                if (side == +1) br.fb *= 0.5;
-                side = +1;
-            }
-            if (std::abs(br.b - br.a) * len < 1e-12 * std::max(len, 1.0)) break;
-        }
-        if (!converged) continue;
+        const std::size_t b = static_cast<std::size_t>(bb);
+        double root = 0.0;
+        std::size_t iterations = 0;
+        if (!secant_fixed_point(eta, section, settings, brackets[b], tol, root, iterations)) continue;
         Shot s = shoot(eta, section, root, settings, true);
         if (!s.returned || s.xy.size() < 8) continue;
         ClosedShearline c;
         c.sign = sign;
         c.sigma = root;
         c.closure_error = std::abs(s.image - root) * len;
-        c.secant_iterations = it;
+        c.secant_iterations = iterations;
         s.xy.resize(s.xy.size() - 2); // the return crossing duplicates the launch point to within the tolerance
         c.xy = std::move(s.xy);
-        found[static_cast<std::size_t>(bb)] = std::move(c);
-        ok[static_cast<std::size_t>(bb)] = 1;
+        found[b] = std::move(c);
+        ok[b] = 1;
     }
     for (std::size_t b = 0; b < found.size(); ++b) {
         if (ok[b])
@@ -429,35 +468,51 @@ ReturnMap closed_shearlines(const LineField &eta, int sign, const Section &secti
         else
             ++map.failed_brackets;
     }
-    // Launched shearlines that close to within the field's resolution (not already a bracket's end).
-    if (settings.resolution_gap > 0.0) {
-        std::vector<std::uint8_t> close(n, 0);
-        for (std::size_t k = 0; k < n; ++k) {
-            const double p = std::isfinite(map.extrapolated[k]) ? map.extrapolated[k] : map.image[k];
-            close[k] = std::isfinite(p) && std::abs(p - map.sigma[k]) * len <= settings.resolution_gap;
-        }
-        std::vector<std::size_t> near;
-        for (std::size_t k = 0; k < n;) {
-            std::size_t end = k;
-            while (end < n && close[end]) ++end;
-            if (end - k >= std::max<std::size_t>(settings.min_run, 1))
-                for (std::size_t q = k; q < end; ++q) near.push_back(q);
-            k = std::max(end, k + 1);
-        }
-        map.within_resolution = near.size();
-        for (std::size_t k : near) {
-            if (paths[k].size() < 8) continue;
-            ClosedShearline c;
-            c.sign = sign;
-            c.sigma = map.sigma[k];
-            c.closure_error = std::abs(map.image[k] - map.sigma[k]) * len;
-            c.fixed_point = false;
-            c.extrapolated_gap = std::abs(map.extrapolated[k] - map.sigma[k]) * len; // NaN without a coarse field
-            c.xy = coarse_paths[k].empty() ? std::move(paths[k]) : extrapolated_path(paths[k], coarse_paths[k]);
-            c.xy.resize(c.xy.size() - 2); // the return crossing: within resolution_gap of the launch point
-            map.closed.push_back(std::move(c));
-        }
+}
+
+// Launched shearlines that close to within the field's resolution, inside a run of at least min_run consecutive
+// launch points that all do (the band of nested closed shearlines of a twist region, where the sign of P - id is
+// noise); with coarse paths, the Richardson-extrapolated path is the closed shearline.
+void closed_within_resolution(int sign, const Section &section, const ReturnMapSettings &settings, LaunchPaths &paths,
+                              ReturnMap &map) {
+    const std::size_t n = map.sigma.size();
+    const double len = section.length();
+    std::vector<std::uint8_t> close(n, 0);
+    for (std::size_t k = 0; k < n; ++k) {
+        const double p = std::isfinite(map.extrapolated[k]) ? map.extrapolated[k] : map.image[k];
+        close[k] = std::isfinite(p) && std::abs(p - map.sigma[k]) * len <= settings.resolution_gap;
     }
+    std::vector<std::size_t> near;
+    for (std::size_t k = 0; k < n;) {
+        std::size_t end = k;
+        while (end < n && close[end]) ++end;
+        if (end - k >= std::max<std::size_t>(settings.min_run, 1))
+            for (std::size_t q = k; q < end; ++q) near.push_back(q);
+        k = std::max(end, k + 1);
+    }
+    map.within_resolution = near.size();
+    for (std::size_t k : near) {
+        if (paths.fine[k].size() < 8) continue;
+        ClosedShearline c;
+        c.sign = sign;
+        c.sigma = map.sigma[k];
+        c.closure_error = std::abs(map.image[k] - map.sigma[k]) * len;
+        c.fixed_point = false;
+        c.extrapolated_gap = std::abs(map.extrapolated[k] - map.sigma[k]) * len; // NaN without a coarse field
+        c.xy = paths.coarse[k].empty() ? std::move(paths.fine[k]) : extrapolated_path(paths.fine[k], paths.coarse[k]);
+        c.xy.resize(c.xy.size() - 2); // the return crossing: within resolution_gap of the launch point
+        map.closed.push_back(std::move(c));
+    }
+}
+
+} // namespace
+
+ReturnMap closed_shearlines(const LineField &eta, int sign, const Section &section, const ReturnMapSettings &settings,
+                            const LineField *coarse) {
+    ReturnMap map = return_map_at_launch_points(std::max<std::size_t>(settings.launch_points, 2));
+    LaunchPaths paths = sample_return_map(eta, coarse, section, settings, map);
+    closed_at_fixed_points(eta, sign, section, settings, map);
+    if (settings.resolution_gap > 0.0) closed_within_resolution(sign, section, settings, paths, map);
     std::sort(map.closed.begin(), map.closed.end(),
               [](const ClosedShearline &a, const ClosedShearline &b) { return a.sigma < b.sigma; });
     return map;

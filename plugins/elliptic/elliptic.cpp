@@ -108,6 +108,8 @@ double exact_mean_deviation(const sdk::Host &host, const gb_extract_input &in, c
     return st.finite_points ? st.mean : std::numeric_limits<double>::quiet_NaN();
 }
 
+json finite_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
+
 // One closed shearline found, with what is measured on it.
 struct Found {
     std::size_t candidate = 0;
@@ -119,6 +121,174 @@ struct Found {
     bool outermost = false;
     double centroid_x = 0.0, centroid_y = 0.0;
 };
+
+// What Alg. 2's steps 2-3 produced over every region and family.
+struct Search {
+    std::vector<Found> found;                       // every closed shearline, kept or not
+    std::vector<std::vector<double>> picture_lines; // launched shearlines kept for the picture
+    json regions = json::array();                   // elliptic-sections.json: one entry per region and family
+    std::size_t dropped_ftle = 0;                   // passed the <d_g> test but lie on the chaotic side
+};
+
+// What every region's search uses besides its own section and family.
+struct SearchInputs {
+    const CauchyGreenField &cg;
+    const ReturnMapSettings &return_map;
+    double island_threshold; // FTLE above which an island ends (step 6)
+    bool lambda_lines;       // generalized lambda-lines: no <d_g> test
+};
+
+using Metrics = std::vector<std::pair<std::string, double>>;
+
+// A closed shearline's geometry and the grid's fields along it: length, enclosed area, <d_g^eta> (arclength mean
+// of the grid's pointwise deviation of the family, with the fraction of the length where it is finite), FTLE
+// along it, centroid.
+Found measure_closed_shearline(const CauchyGreenField &cg, const std::vector<double> &deviation, std::size_t candidate,
+                               ClosedShearline &&orbit) {
+    const Grid &grid = cg.grid;
+    Found f;
+    f.candidate = candidate;
+    f.length = polyline_length(orbit.xy, true);
+    f.area = std::abs(shoelace_area(orbit.xy));
+    const std::vector<double> values = sample_along(grid, deviation, cg.mask, orbit.xy, mask_trajectory_bits);
+    const CurveStats st = curve_statistics(orbit.xy, values, true);
+    f.mean_deviation = st.finite_points ? st.mean : std::numeric_limits<double>::quiet_NaN();
+    f.max_deviation = st.max;
+    f.coverage = f.length > 0.0 ? st.covered_length / f.length : 0.0;
+    const CurveStats ft =
+        curve_statistics(orbit.xy, sample_along(grid, cg.ftle, cg.mask, orbit.xy, mask_trajectory_bits), true);
+    f.max_ftle = ft.max;
+    f.mean_ftle = ft.mean;
+    double cx = 0.0, cy = 0.0;
+    const std::size_t np = orbit.xy.size() / 2;
+    for (std::size_t k = 0; k < np; ++k) {
+        cx += orbit.xy[2 * k];
+        cy += orbit.xy[2 * k + 1];
+    }
+    f.centroid_x = cx / static_cast<double>(np);
+    f.centroid_y = cy / static_cast<double>(np);
+    f.orbit = std::move(orbit);
+    return f;
+}
+
+json closed_shearline_json(const Found &f) {
+    return {{"sigma", f.orbit.sigma},
+            {"fixed_point", f.orbit.fixed_point},
+            {"closure_error", f.orbit.closure_error},
+            {"extrapolated_gap", finite_or_null(f.orbit.extrapolated_gap)},
+            {"length", f.length},
+            {"enclosed_area", f.area},
+            {"mean_geodesic_deviation", finite_or_null(f.mean_deviation)},
+            {"mean_ftle", finite_or_null(f.mean_ftle)},
+            {"kept", f.kept}};
+}
+
+// One region and family in elliptic-sections.json: the section, the return map's samples (sigma, P(sigma), its
+// Richardson extrapolation) and the closed shearlines found on it.
+json region_json(std::size_t region, const Candidate &cand, int sign, const ReturnMap &map, std::size_t kept,
+                 json closed) {
+    json samples = json::array();
+    for (std::size_t k = 0; k < map.sigma.size(); ++k)
+        samples.push_back({map.sigma[k], finite_or_null(map.image[k]), finite_or_null(map.extrapolated[k])});
+    return {{"region", region},
+            {"family", sign > 0 ? "+" : "-"},
+            {"origin", cand.origin},
+            {"centre", {cand.x, cand.y}},
+            {"section", {{cand.section.x0, cand.section.y0}, {cand.section.x1, cand.section.y1}}},
+            {"returned", map.returned},
+            {"brackets", map.brackets},
+            {"failed_brackets", map.failed_brackets},
+            {"closed", map.closed.size()},
+            {"kept", kept},
+            {"closed_shearlines", std::move(closed)},
+            {"return_map", std::move(samples)}};
+}
+
+// The log line of one region and family: how many launched shearlines returned, why the others did not, how many
+// closed and passed.
+std::string region_summary(std::size_t region, const Candidate &cand, int sign, const ReturnMap &map, std::size_t kept,
+                           double max_mean_deviation) {
+    std::size_t stops[7] = {0, 0, 0, 0, 0, 0, 0}; // by StopReason
+    for (std::size_t k = 0; k < map.sigma.size(); ++k)
+        if (!std::isfinite(map.image[k])) ++stops[static_cast<int>(map.stop[k])];
+    return "region " + std::to_string(region) + " (" + cand.origin + " at " + fmt(cand.x) + ", " + fmt(cand.y) +
+           "), eta" + (sign > 0 ? "+" : "-") + ": " + std::to_string(map.returned) + "/" +
+           std::to_string(map.sigma.size()) + " shearlines returned (not: " + std::to_string(stops[0]) + " edge, " +
+           std::to_string(stops[1]) + " masked, " + std::to_string(stops[2]) + " singular, " +
+           std::to_string(stops[3] + stops[5]) + " too long); " + std::to_string(map.closed.size()) + " closed, " +
+           std::to_string(kept) + " with <d_g> < " + fmt(max_mean_deviation) +
+           (map.failed_brackets ? "; " + std::to_string(map.failed_brackets) + " secant failure(s)" : "");
+}
+
+// Near-identical curves (same family, within half a grid spacing everywhere, e.g. from two regions of one island)
+// are one: the first of them is kept.
+std::vector<std::size_t> drop_near_identical(const std::vector<Found> &found, const std::vector<std::size_t> &order,
+                                             double h) {
+    std::vector<std::size_t> kept;
+    for (std::size_t i : order) {
+        bool duplicate = false;
+        for (std::size_t j : kept) {
+            const Found &a = found[i], &b = found[j];
+            if (a.orbit.sign != b.orbit.sign || std::abs(a.area - b.area) > 0.05 * std::max(a.area, b.area) ||
+                std::hypot(a.centroid_x - b.centroid_x, a.centroid_y - b.centroid_y) > h)
+                continue;
+            if (curve_distance(a.orbit.xy, b.orbit.xy, 8) < 0.5 * h) {
+                duplicate = true;
+                break;
+            }
+        }
+        if (!duplicate) kept.push_back(i);
+    }
+    return kept;
+}
+
+// Islands: a region whose centre lies inside a barrier of another region belongs to the same island (union-find
+// over the regions). Islands are numbered in the order their first kept barrier appears; each barrier gets its
+// region's island.
+void assign_islands(std::vector<Found> &found, const std::vector<std::size_t> &kept,
+                    const std::vector<Candidate> &candidates) {
+    std::vector<std::size_t> parent(candidates.size());
+    std::iota(parent.begin(), parent.end(), 0);
+    auto root = [&](std::size_t a) {
+        while (parent[a] != a) a = parent[a] = parent[parent[a]];
+        return a;
+    };
+    for (std::size_t i : kept)
+        for (std::size_t c = 0; c < candidates.size(); ++c)
+            if (root(c) != root(found[i].candidate) && encloses(found[i].orbit.xy, candidates[c].x, candidates[c].y))
+                parent[root(c)] = root(found[i].candidate);
+    std::vector<std::size_t> label(candidates.size(), SIZE_MAX);
+    std::size_t next = 0;
+    for (std::size_t i : kept) {
+        const std::size_t r = root(found[i].candidate);
+        if (label[r] == SIZE_MAX) label[r] = next++;
+    }
+    for (std::size_t i : kept) found[i].island = label[root(found[i].candidate)];
+}
+
+// The outermost barrier of each island: the largest enclosed area (the first found on a tie).
+void mark_outermost(std::vector<Found> &found, const std::vector<std::size_t> &kept) {
+    for (std::size_t i : kept) {
+        bool largest = true;
+        for (std::size_t j : kept)
+            if (j != i && found[j].island == found[i].island &&
+                (found[j].area > found[i].area || (found[j].area == found[i].area && j < i)))
+                largest = false;
+        found[i].outermost = largest;
+    }
+}
+
+// Eq. rel_def: the barrier advected to t1 keeps its arclength and enclosed area when the flow is conservative.
+void add_advection_metrics(const sdk::Host &host, const Found &f, std::size_t index, const AdvectPointsFn &advect_to_t1,
+                           Metrics &metrics) {
+    const AdvectedCurve a = advect_curve(f.orbit.xy, true, advect_to_t1);
+    metrics.emplace_back("relative_length_change", (a.length1 - a.length0) / a.length0);
+    metrics.emplace_back("relative_area_change", (std::abs(a.area1) - std::abs(a.area0)) / std::abs(a.area0));
+    metrics.emplace_back("advected_points", static_cast<double>(a.xy1.size() / 2));
+    if (!a.converged)
+        host.warn("barrier " + std::to_string(index) + ": the advected curve is not fully resolved (" +
+                  std::to_string(a.masked) + " masked points, largest gap " + fmt(a.max_gap) + ")");
+}
 
 struct Elliptic {
     static constexpr const char *name = "elliptic";
@@ -207,6 +377,35 @@ struct Elliptic {
 
     void extract(const sdk::Host &host, const gb_extract_input &in) const;
 
+    // The stages of extract, in the order they run (paper Alg. 2, then the theory's checks).
+    ShearDeviationForm deviation_form() const;
+    ShearFields search_fields(const sdk::Host &host, const CauchyGreenField &cg) const;
+    bool conservation_expected(const sdk::Host &host, const AreaPreservation &area) const;
+    std::vector<Candidate> candidate_regions(const sdk::Host &host, const CauchyGreenField &cg,
+                                             CandidateReport &report) const;
+    std::vector<int> families() const;
+    ReturnMapSettings return_map_settings(const gb_extract_input &in, double h) const;
+    Search search_closed_shearlines(const sdk::Host &host, const SearchInputs &inputs, const ShearFields &shear,
+                                    const std::vector<Candidate> &candidates, const std::vector<int> &signs) const;
+    void search_region(const sdk::Host &host, const SearchInputs &inputs, const LineField &eta, const LineField *coarse,
+                       const std::vector<double> &deviation, int sign, std::size_t region, const Candidate &cand,
+                       Search &search) const;
+    bool decide_kept(Found &f, double island_threshold, bool lambda_lines) const;
+    std::vector<std::size_t> select_barriers(std::vector<Found> &found, const std::vector<Candidate> &candidates,
+                                             const std::vector<int> &signs, double h) const;
+    std::vector<std::size_t> thin_nested(const std::vector<Found> &found, std::size_t regions,
+                                         const std::vector<int> &signs) const;
+    Metrics barrier_metrics(const sdk::Host &host, const gb_extract_input &in, const Found &f, double h,
+                            bool lambda_lines) const;
+    double exact_mean_deviation_of(const sdk::Host &host, const gb_extract_input &in, const Found &f, double h) const;
+    void add_poincare_drift_metrics(const sdk::Host &host, const gb_extract_input &in, const Found &f,
+                                    Metrics &metrics) const;
+    void report_barriers(const sdk::Host &host, const gb_extract_input &in, const std::vector<Found> &found,
+                         const std::vector<std::size_t> &kept, double h, bool conservative, bool lambda_lines) const;
+    void draw_shearlines_picture(const std::filesystem::path &out_dir, const CauchyGreenField &cg,
+                                 const gb_extract_input &in, const Search &search,
+                                 const std::vector<Candidate> &candidates, const std::vector<std::size_t> &kept) const;
+
     double m_max_mean_deviation;
     std::size_t m_launch_points;
     std::string m_families;
@@ -230,21 +429,69 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
     auto seconds_since = [](clock::time_point t) { return std::chrono::duration<double>(clock::now() - t).count(); };
 
     const CauchyGreenField cg = cauchy_green_from_input(in);
-    const Grid &grid = cg.grid;
-    const double h = std::min(grid.dx(), grid.dy());
-    // Shearlines (eq. shrvec) with their geodesic deviation, or generalized lambda-lines, which need none.
+    const double h = std::min(cg.grid.dx(), cg.grid.dy());
     const bool lambda_lines = m_lambda > 0.0;
-    const ShearFields shear = lambda_lines ? lambda_line_fields(cg, m_lambda)
-                                           : shear_fields(cg, strain_derivatives(cg),
-                                                          m_area_preserving ? ShearDeviationForm::area_preserving
-                                                                            : ShearDeviationForm::general);
-    if (lambda_lines)
-        host.info("closed lambda-lines with lambda = " + fmt(m_lambda) +
-                  " (|DF e| = lambda |e|), kept without a d_g test");
-
-    // Is the flow map area-preserving (paper section 2.1, "conservative": div v = 0)? Only then does the theory
-    // say that barriers keep their arclength and enclosed area; otherwise both are still measured, as information.
+    const ShearFields shear = search_fields(host, cg);
     const AreaPreservation area = area_preservation(cg);
+    const bool conservative = conservation_expected(host, area);
+
+    // Step 2: candidate regions and their Poincaré sections.
+    CandidateReport report;
+    const std::vector<Candidate> candidates = candidate_regions(host, cg, report);
+    const double t_candidates = seconds_since(t_start);
+    // The island threshold also bounds the barriers (step 6): the one the search used, or the same rule's value.
+    const double island_threshold =
+        m_sections.empty() ? report.ftle_threshold : island_ftle_threshold(cg, m_ftle_threshold);
+
+    // Steps 2-3: return maps, fixed points, closed shearlines and their <d_g>.
+    const std::vector<int> signs = families();
+    const ReturnMapSettings return_map = return_map_settings(in, h);
+    Search search =
+        search_closed_shearlines(host, {cg, return_map, island_threshold, lambda_lines}, shear, candidates, signs);
+    const double t_search = seconds_since(t_start) - t_candidates;
+
+    // Step 4, then the theory's checks on each barrier.
+    const std::vector<std::size_t> kept = select_barriers(search.found, candidates, signs, h);
+    report_barriers(host, in, search.found, kept, h, conservative, lambda_lines);
+    std::size_t islands = 0;
+    for (std::size_t i : kept) islands = std::max(islands, search.found[i].island + 1);
+    host.info(std::to_string(kept.size()) + " elliptic barrier(s) in " + std::to_string(islands) + " island(s) from " +
+              std::to_string(search.found.size()) + " closed shearline(s); regions " + fmt(t_candidates, 3) +
+              " s, shearlines " + fmt(t_search, 3) + " s, checks " +
+              fmt(seconds_since(t_start) - t_candidates - t_search, 3) + " s");
+
+    const std::filesystem::path out_dir =
+        in.output_dir ? std::filesystem::path(in.output_dir) : std::filesystem::path();
+    if (out_dir.empty()) return;
+    json doc = {{"regions", search.regions},
+                {"ftle_threshold", island_threshold},
+                {"ftle_filter", m_ftle_filter},
+                {"area_preserving", conservative},
+                {"log_det_dF", {{"median", area.median}, {"q99", area.q99}, {"max", area.max}}}};
+    json singularities = json::array();
+    for (const auto &s : report.singularities)
+        if (s.anisotropy < m_max_anisotropy) singularities.push_back({s.x, s.y, 0.5 * s.twice_index, s.anisotropy});
+    doc["resolved_singularities"] = singularities;
+    write_text_file(out_dir / "elliptic-sections.json", doc.dump(1) + "\n");
+    if (in.plots) draw_shearlines_picture(out_dir, cg, in, search, candidates, kept);
+}
+
+ShearDeviationForm Elliptic::deviation_form() const {
+    return m_area_preserving ? ShearDeviationForm::area_preserving : ShearDeviationForm::general;
+}
+
+// The line fields whose closed lines are searched: shearlines (eq. shrvec) with their geodesic deviation d_g
+// (eq. dg_shr), or generalized lambda-lines, which need none.
+ShearFields Elliptic::search_fields(const sdk::Host &host, const CauchyGreenField &cg) const {
+    if (!(m_lambda > 0.0)) return shear_fields(cg, strain_derivatives(cg), deviation_form());
+    ShearFields fields = lambda_line_fields(cg, m_lambda);
+    host.info("closed lambda-lines with lambda = " + fmt(m_lambda) + " (|DF e| = lambda |e|), kept without a d_g test");
+    return fields;
+}
+
+// Is the flow map area-preserving (paper section 2.1, "conservative": div v = 0)? Only then does the theory say
+// that barriers keep their arclength and enclosed area; otherwise both are still measured, as information.
+bool Elliptic::conservation_expected(const sdk::Host &host, const AreaPreservation &area) const {
     const bool conservative =
         m_conservative == "auto" ? area.points > 0 && area.q99 <= max_log_det_conservative : m_conservative == "yes";
     host.info(std::string("flow map ") + (conservative ? "" : "not ") + "area-preserving (|ln det DF| median " +
@@ -253,40 +500,45 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
               (m_conservative == "auto" ? "" : "; set by the \"conservative\" parameter") + ")" +
               (conservative ? ": barriers must keep arclength and area"
                             : ": the arclength and area changes of barriers are reported, not expected to vanish"));
+    return conservative;
+}
 
-    // Step 2 of Alg. 2 without looking: candidate regions and their sections.
+// Step 2 of Alg. 2 without looking: candidate regions and their sections, given by hand or found around resolved
+// CG singularities in low-FTLE islands (closed_shearlines.hpp, find_candidates).
+std::vector<Candidate> Elliptic::candidate_regions(const sdk::Host &host, const CauchyGreenField &cg,
+                                                   CandidateReport &report) const {
     std::vector<Candidate> candidates;
-    CandidateReport report;
     if (!m_sections.empty()) {
         for (const Section &s : m_sections) candidates.push_back({s.x0, s.y0, "section given", s.length(), s});
         host.info(std::to_string(candidates.size()) + " section(s) given; no regions searched");
-    } else {
-        CandidateSettings cs;
-        cs.max_anisotropy = m_max_anisotropy;
-        cs.ftle_threshold = m_ftle_threshold;
-        cs.section_margin = m_section_margin;
-        candidates = find_candidates(cg, cs, &report);
-        host.info(std::to_string(report.singularities.size()) + " CG singularities, " +
-                  std::to_string(report.resolved) + " resolved (anisotropy < " + fmt(m_max_anisotropy) +
-                  "); FTLE island threshold " + fmt(report.ftle_threshold) + "; " + std::to_string(candidates.size()) +
-                  " candidate region(s)" +
-                  (report.rejected_high_ftle
-                       ? ", " + std::to_string(report.rejected_high_ftle) + " centre(s) outside low-FTLE islands"
-                       : std::string()));
-        if (candidates.empty())
-            host.warn("no candidate elliptic region (no resolved index +1 singularity or wedge pair in a "
-                      "low-FTLE island); give sections by hand with the \"sections\" parameter, or refine the grid");
+        return candidates;
     }
-    const double t_candidates = seconds_since(t_start);
-    // The island threshold also bounds the barriers (step 6): the one the search used, or the same rule's value.
-    const double island_threshold =
-        m_sections.empty() ? report.ftle_threshold : island_ftle_threshold(cg, m_ftle_threshold);
-    std::size_t dropped_ftle = 0;
+    CandidateSettings cs;
+    cs.max_anisotropy = m_max_anisotropy;
+    cs.ftle_threshold = m_ftle_threshold;
+    cs.section_margin = m_section_margin;
+    candidates = find_candidates(cg, cs, &report);
+    host.info(std::to_string(report.singularities.size()) + " CG singularities, " + std::to_string(report.resolved) +
+              " resolved (anisotropy < " + fmt(m_max_anisotropy) + "); FTLE island threshold " +
+              fmt(report.ftle_threshold) + "; " + std::to_string(candidates.size()) + " candidate region(s)" +
+              (report.rejected_high_ftle
+                   ? ", " + std::to_string(report.rejected_high_ftle) + " centre(s) outside low-FTLE islands"
+                   : std::string()));
+    if (candidates.empty())
+        host.warn("no candidate elliptic region (no resolved index +1 singularity or wedge pair in a "
+                  "low-FTLE island); give sections by hand with the \"sections\" parameter, or refine the grid");
+    return candidates;
+}
 
-    // Step 2-3: return maps, fixed points, closed shearlines.
+// The shearline families searched, eta+ (sign +1) before eta- (eq. shrvec).
+std::vector<int> Elliptic::families() const {
     std::vector<int> signs;
     if (m_families != "minus") signs.push_back(+1);
     if (m_families != "plus") signs.push_back(-1);
+    return signs;
+}
+
+ReturnMapSettings Elliptic::return_map_settings(const gb_extract_input &in, double h) const {
     ReturnMapSettings rs;
     rs.launch_points = m_launch_points;
     rs.max_turns = m_max_turns;
@@ -295,110 +547,89 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
     rs.line.rtol = m_line_rtol;
     rs.line.atol = 1e-5 * h;
     rs.resolution_gap = m_resolution_gap * h;
-    std::vector<Found> found;
-    std::vector<std::vector<double>> picture_lines;
-    json sections_json = json::array();
+    return rs;
+}
+
+// Steps 2-3 of Alg. 2 over every family and region (the first 70% of the progress).
+Search Elliptic::search_closed_shearlines(const sdk::Host &host, const SearchInputs &inputs, const ShearFields &shear,
+                                          const std::vector<Candidate> &candidates,
+                                          const std::vector<int> &signs) const {
+    Search search;
+    const bool richardson_gap = m_extrapolate_gap && m_resolution_gap > 0.0;
     const std::size_t total_maps = candidates.size() * signs.size();
     std::size_t maps_done = 0;
     for (int sign : signs) {
-        const LineField eta = shear_line_field(cg, shear, sign, m_singular_gap);
-        const LineField coarse = m_extrapolate_gap && m_resolution_gap > 0.0 ? coarsened(eta) : LineField();
+        const LineField eta = shear_line_field(inputs.cg, shear, sign, m_singular_gap);
+        const LineField coarse = richardson_gap ? coarsened(eta) : LineField();
         const std::vector<double> &deviation = sign > 0 ? shear.deviation_plus : shear.deviation_minus;
         for (std::size_t c = 0; c < candidates.size(); ++c) {
-            const Candidate &cand = candidates[c];
-            ReturnMap map = closed_shearlines(eta, sign, cand.section, rs,
-                                              m_extrapolate_gap && m_resolution_gap > 0.0 ? &coarse : nullptr);
-            std::size_t stops[7] = {0, 0, 0, 0, 0, 0, 0};
-            for (std::size_t k = 0; k < map.sigma.size(); ++k)
-                if (!std::isfinite(map.image[k])) ++stops[static_cast<int>(map.stop[k])];
-            std::size_t kept_here = 0;
-            json closed_json = json::array();
-            for (ClosedShearline &orbit : map.closed) {
-                Found f;
-                f.candidate = c;
-                f.length = polyline_length(orbit.xy, true);
-                f.area = std::abs(shoelace_area(orbit.xy));
-                const std::vector<double> values =
-                    sample_along(grid, deviation, cg.mask, orbit.xy, mask_trajectory_bits);
-                const CurveStats st = curve_statistics(orbit.xy, values, true);
-                f.mean_deviation = st.finite_points ? st.mean : std::numeric_limits<double>::quiet_NaN();
-                f.max_deviation = st.max;
-                f.coverage = f.length > 0.0 ? st.covered_length / f.length : 0.0;
-                const CurveStats ft = curve_statistics(
-                    orbit.xy, sample_along(grid, cg.ftle, cg.mask, orbit.xy, mask_trajectory_bits), true);
-                f.max_ftle = ft.max;
-                f.mean_ftle = ft.mean;
-                f.kept =
-                    lambda_lines || (f.coverage >= min_deviation_coverage && f.mean_deviation < m_max_mean_deviation);
-                // On the chaotic side of the island threshold on average: past the regular region's edge (step 6).
-                const bool chaotic_side = m_ftle_filter && !(f.mean_ftle < island_threshold);
-                dropped_ftle += f.kept && chaotic_side ? 1 : 0;
-                f.kept = f.kept && !chaotic_side;
-                kept_here += f.kept ? 1 : 0;
-                double cx = 0.0, cy = 0.0;
-                const std::size_t np = orbit.xy.size() / 2;
-                for (std::size_t k = 0; k < np; ++k) {
-                    cx += orbit.xy[2 * k];
-                    cy += orbit.xy[2 * k + 1];
-                }
-                f.centroid_x = cx / static_cast<double>(np);
-                f.centroid_y = cy / static_cast<double>(np);
-                closed_json.push_back(
-                    {{"sigma", orbit.sigma},
-                     {"fixed_point", orbit.fixed_point},
-                     {"closure_error", orbit.closure_error},
-                     {"extrapolated_gap",
-                      std::isfinite(orbit.extrapolated_gap) ? json(orbit.extrapolated_gap) : json(nullptr)},
-                     {"length", f.length},
-                     {"enclosed_area", f.area},
-                     {"mean_geodesic_deviation",
-                      std::isfinite(f.mean_deviation) ? json(f.mean_deviation) : json(nullptr)},
-                     {"mean_ftle", std::isfinite(f.mean_ftle) ? json(f.mean_ftle) : json(nullptr)},
-                     {"kept", f.kept}});
-                f.orbit = std::move(orbit);
-                found.push_back(std::move(f));
-            }
-            host.info("region " + std::to_string(c) + " (" + cand.origin + " at " + fmt(cand.x) + ", " + fmt(cand.y) +
-                      "), eta" + (sign > 0 ? "+" : "-") + ": " + std::to_string(map.returned) + "/" +
-                      std::to_string(map.sigma.size()) + " shearlines returned (not: " + std::to_string(stops[0]) +
-                      " edge, " + std::to_string(stops[1]) + " masked, " + std::to_string(stops[2]) + " singular, " +
-                      std::to_string(stops[3] + stops[5]) + " too long); " + std::to_string(map.closed.size()) +
-                      " closed, " + std::to_string(kept_here) + " with <d_g> < " + fmt(m_max_mean_deviation) +
-                      (map.failed_brackets ? "; " + std::to_string(map.failed_brackets) + " secant failure(s)" : ""));
-            json samples = json::array();
-            for (std::size_t k = 0; k < map.sigma.size(); ++k)
-                samples.push_back({map.sigma[k], std::isfinite(map.image[k]) ? json(map.image[k]) : json(nullptr),
-                                   std::isfinite(map.extrapolated[k]) ? json(map.extrapolated[k]) : json(nullptr)});
-            sections_json.push_back(
-                {{"region", c},
-                 {"family", sign > 0 ? "+" : "-"},
-                 {"origin", cand.origin},
-                 {"centre", {cand.x, cand.y}},
-                 {"section", {{cand.section.x0, cand.section.y0}, {cand.section.x1, cand.section.y1}}},
-                 {"returned", map.returned},
-                 {"brackets", map.brackets},
-                 {"failed_brackets", map.failed_brackets},
-                 {"closed", map.closed.size()},
-                 {"kept", kept_here},
-                 {"closed_shearlines", closed_json},
-                 {"return_map", samples}});
-            for (auto &line : map.lines) picture_lines.push_back(std::move(line));
+            search_region(host, inputs, eta, richardson_gap ? &coarse : nullptr, deviation, sign, c, candidates[c],
+                          search);
             ++maps_done;
             if (host.progress(0.7 * static_cast<double>(maps_done) /
                               static_cast<double>(std::max<std::size_t>(total_maps, 1))))
                 throw std::runtime_error("elliptic: stopped on request");
         }
     }
-    const double t_search = seconds_since(t_start) - t_candidates;
-    if (dropped_ftle)
-        host.info(std::to_string(dropped_ftle) + " closed shearline(s) with <d_g> < " + fmt(m_max_mean_deviation) +
-                  " dropped: arclength-mean FTLE above the island threshold " + fmt(island_threshold));
+    if (search.dropped_ftle)
+        host.info(std::to_string(search.dropped_ftle) + " closed shearline(s) with <d_g> < " +
+                  fmt(m_max_mean_deviation) + " dropped: arclength-mean FTLE above the island threshold " +
+                  fmt(inputs.island_threshold));
+    return search;
+}
 
-    // Step 4: selection. Closed shearlines of one region and family are nested; walking outwards-in, one is
-    // reported when its equivalent radius sqrt(area / pi) lies barrier_spacing * (the outermost's) inside the last
-    // one reported, so the outermost is always among them.
+// One region and family: the return map on its section, its fixed points and the closed shearlines through them
+// (closed_shearlines), each measured and tested.
+void Elliptic::search_region(const sdk::Host &host, const SearchInputs &inputs, const LineField &eta,
+                             const LineField *coarse, const std::vector<double> &deviation, int sign,
+                             std::size_t region, const Candidate &cand, Search &search) const {
+    ReturnMap map = closed_shearlines(eta, sign, cand.section, inputs.return_map, coarse);
+    std::size_t kept_here = 0;
+    json closed = json::array();
+    for (ClosedShearline &orbit : map.closed) {
+        Found f = measure_closed_shearline(inputs.cg, deviation, region, std::move(orbit));
+        search.dropped_ftle += decide_kept(f, inputs.island_threshold, inputs.lambda_lines) ? 1 : 0;
+        kept_here += f.kept ? 1 : 0;
+        closed.push_back(closed_shearline_json(f));
+        search.found.push_back(std::move(f));
+    }
+    host.info(region_summary(region, cand, sign, map, kept_here, m_max_mean_deviation));
+    search.regions.push_back(region_json(region, cand, sign, map, kept_here, std::move(closed)));
+    for (auto &line : map.lines) search.picture_lines.push_back(std::move(line));
+}
+
+// Alg. 2's test, <d_g> below max_mean_deviation over at least min_deviation_coverage of the curve (lambda-lines
+// have none), then step 6's bound: not on the chaotic side of the island threshold on average (past the regular
+// region's edge). Returns whether that bound dropped a curve the <d_g> test kept.
+bool Elliptic::decide_kept(Found &f, double island_threshold, bool lambda_lines) const {
+    const bool passes_deviation =
+        lambda_lines || (f.coverage >= min_deviation_coverage && f.mean_deviation < m_max_mean_deviation);
+    const bool chaotic_side = m_ftle_filter && !(f.mean_ftle < island_threshold);
+    f.kept = passes_deviation && !chaotic_side;
+    return passes_deviation && chaotic_side;
+}
+
+// Step 4: the barriers reported, out of the kept closed shearlines: thinned, near-identical ones merged, grouped
+// into islands with the outermost of each marked; in report order (by island, inner barriers first).
+std::vector<std::size_t> Elliptic::select_barriers(std::vector<Found> &found, const std::vector<Candidate> &candidates,
+                                                   const std::vector<int> &signs, double h) const {
+    std::vector<std::size_t> kept = drop_near_identical(found, thin_nested(found, candidates.size(), signs), h);
+    assign_islands(found, kept, candidates);
+    mark_outermost(found, kept);
+    std::sort(kept.begin(), kept.end(), [&](std::size_t a, std::size_t b) {
+        if (found[a].island != found[b].island) return found[a].island < found[b].island;
+        return found[a].area < found[b].area;
+    });
+    return kept;
+}
+
+// Closed shearlines of one region and family are nested; walking outwards-in, one is reported when its equivalent
+// radius sqrt(area / pi) lies barrier_spacing * (the outermost's) inside the last one reported, so the outermost
+// is always among them.
+std::vector<std::size_t> Elliptic::thin_nested(const std::vector<Found> &found, std::size_t regions,
+                                               const std::vector<int> &signs) const {
     std::vector<std::size_t> thinned;
-    for (std::size_t c = 0; c < candidates.size(); ++c)
+    for (std::size_t c = 0; c < regions; ++c)
         for (int sign : signs) {
             std::vector<std::size_t> group;
             for (std::size_t i = 0; i < found.size(); ++i)
@@ -415,130 +646,89 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
                 }
             }
         }
-    // Near-identical curves (same family, within half a grid spacing everywhere, e.g. from two regions of one
-    // island) are one.
-    std::vector<std::size_t> kept;
-    for (std::size_t i : thinned) {
-        bool duplicate = false;
-        for (std::size_t j : kept) {
-            const Found &a = found[i], &b = found[j];
-            if (a.orbit.sign != b.orbit.sign || std::abs(a.area - b.area) > 0.05 * std::max(a.area, b.area) ||
-                std::hypot(a.centroid_x - b.centroid_x, a.centroid_y - b.centroid_y) > h)
-                continue;
-            if (curve_distance(a.orbit.xy, b.orbit.xy, 8) < 0.5 * h) {
-                duplicate = true;
-                break;
-            }
-        }
-        if (!duplicate) kept.push_back(i);
-    }
-    // Islands: a region whose centre lies inside a barrier of another region belongs to the same island.
-    std::vector<std::size_t> parent(candidates.size());
-    std::iota(parent.begin(), parent.end(), 0);
-    auto root = [&](std::size_t a) {
-        while (parent[a] != a) a = parent[a] = parent[parent[a]];
-        return a;
-    };
-    for (std::size_t i : kept)
-        for (std::size_t c = 0; c < candidates.size(); ++c)
-            if (root(c) != root(found[i].candidate) && encloses(found[i].orbit.xy, candidates[c].x, candidates[c].y))
-                parent[root(c)] = root(found[i].candidate);
-    std::vector<std::size_t> island_of(candidates.size());
-    {
-        std::vector<std::size_t> label(candidates.size(), SIZE_MAX);
-        std::size_t next = 0;
-        // Number islands in the order their first kept barrier appears.
-        for (std::size_t i : kept) {
-            const std::size_t r = root(found[i].candidate);
-            if (label[r] == SIZE_MAX) label[r] = next++;
-        }
-        for (std::size_t c = 0; c < candidates.size(); ++c) island_of[c] = label[root(c)];
-    }
-    for (std::size_t i : kept) found[i].island = island_of[found[i].candidate];
-    for (std::size_t i : kept) {
-        bool largest = true;
-        for (std::size_t j : kept)
-            if (j != i && found[j].island == found[i].island &&
-                (found[j].area > found[i].area || (found[j].area == found[i].area && j < i)))
-                largest = false;
-        found[i].outermost = largest;
-    }
-    // Report islands in order, inner barriers first, outermost last.
-    std::sort(kept.begin(), kept.end(), [&](std::size_t a, std::size_t b) {
-        if (found[a].island != found[b].island) return found[a].island < found[b].island;
-        return found[a].area < found[b].area;
-    });
+    return thinned;
+}
 
-    // The theory's checks: advected length and area (eq. rel_def) and Poincaré iterates.
+// What barriers.json says of a barrier before the checks: geometry, island, where it crossed its section, its
+// <d_g> (grid and, when asked, exact) or lambda, its closure and FTLE.
+Metrics Elliptic::barrier_metrics(const sdk::Host &host, const gb_extract_input &in, const Found &f, double h,
+                                  bool lambda_lines) const {
+    Metrics metrics = {
+        {"length", f.length},
+        {"enclosed_area", f.area},
+        {"island", static_cast<double>(f.island)},
+        {"closure_error", f.orbit.closure_error},
+        {"section_sigma", f.orbit.sigma},
+    };
+    if (lambda_lines) {
+        metrics.emplace_back("lambda", m_lambda);
+    } else {
+        metrics.emplace_back("mean_geodesic_deviation", f.mean_deviation);
+        metrics.emplace_back("max_geodesic_deviation", f.max_deviation);
+    }
+    if (std::isfinite(f.orbit.extrapolated_gap)) metrics.emplace_back("extrapolated_gap", f.orbit.extrapolated_gap);
+    if (!lambda_lines && m_exact_deviation_spacing > 0.0)
+        metrics.emplace_back("mean_geodesic_deviation_exact", exact_mean_deviation_of(host, in, f, h));
+    if (std::isfinite(f.max_ftle)) metrics.emplace_back("max_ftle", f.max_ftle);
+    if (std::isfinite(f.mean_ftle)) metrics.emplace_back("mean_ftle", f.mean_ftle);
+    return metrics;
+}
+
+// <d_g> of the closed shearline from exact Cauchy–Green tensors, at exact_deviation_points points evenly spaced in
+// arclength (every vertex when 0 or when the curve has fewer).
+double Elliptic::exact_mean_deviation_of(const sdk::Host &host, const gb_extract_input &in, const Found &f,
+                                         double h) const {
+    const bool resample = m_exact_deviation_points > 0 && m_exact_deviation_points < f.orbit.xy.size() / 2;
+    return exact_mean_deviation(
+        host, in, resample ? resample_polyline(f.orbit.xy, f.length / m_exact_deviation_points, true) : f.orbit.xy,
+        f.orbit.sign, m_exact_deviation_spacing * h, deviation_form());
+}
+
+// Periodic forcing: points of the barrier iterated by the Poincaré map P = F_t0^(t0 + period) stay on it if it is
+// a KAM curve. The drift of a point is its largest distance from the barrier over the iterates, relative to the
+// barrier's diameter.
+void Elliptic::add_poincare_drift_metrics(const sdk::Host &host, const gb_extract_input &in, const Found &f,
+                                          Metrics &metrics) const {
+    const std::vector<double> pts = resample_polyline(f.orbit.xy, f.length / m_poincare_points, true);
+    const double diameter = curve_diameter(pts);
+    std::vector<double> cur = pts, next;
+    std::vector<std::uint8_t> mask;
+    std::vector<double> drift(pts.size() / 2, 0.0);
+    for (std::size_t it = 0; it < m_poincare_iterates; ++it) {
+        host.advect(cur, in.t0, in.t0 + m_poincare_period, next, mask);
+        cur.swap(next);
+        // Points x curve vertices per iterate: the check's largest serial cost before it ran in parallel.
+#pragma omp parallel for schedule(static)
+        for (long long kk = 0; kk < static_cast<long long>(drift.size()); ++kk) {
+            const std::size_t k = static_cast<std::size_t>(kk);
+            drift[k] = mask[k] ? std::numeric_limits<double>::infinity()
+                               : std::max(drift[k], distance_to_curve(f.orbit.xy, cur[2 * k], cur[2 * k + 1]));
+        }
+    }
+    std::vector<double> sorted = drift;
+    std::sort(sorted.begin(), sorted.end());
+    const double median = sorted[sorted.size() / 2], worst = sorted.back();
+    metrics.emplace_back("poincare_drift_median", median / diameter);
+    if (std::isfinite(worst)) metrics.emplace_back("poincare_drift_max", worst / diameter);
+    metrics.emplace_back("diameter", diameter);
+}
+
+// Each barrier into barriers.json with the theory's checks: advected length and area (eq. rel_def) and Poincaré
+// iterates (the last 30% of the progress).
+void Elliptic::report_barriers(const sdk::Host &host, const gb_extract_input &in, const std::vector<Found> &found,
+                               const std::vector<std::size_t> &kept, double h, bool conservative,
+                               bool lambda_lines) const {
     const AdvectPointsFn advect_to_t1 = [&](const std::vector<double> &xy, std::vector<double> &out,
                                             std::vector<std::uint8_t> &mask) {
         host.advect(xy, in.t0, in.t1, out, mask);
     };
     std::size_t checked = 0;
     for (std::size_t i : kept) {
-        Found &f = found[i];
-        std::vector<std::pair<std::string, double>> metrics = {
-            {"length", f.length},
-            {"enclosed_area", f.area},
-            {"island", static_cast<double>(f.island)},
-            {"closure_error", f.orbit.closure_error},
-            {"section_sigma", f.orbit.sigma},
-        };
-        if (lambda_lines) {
-            metrics.emplace_back("lambda", m_lambda);
-        } else {
-            metrics.emplace_back("mean_geodesic_deviation", f.mean_deviation);
-            metrics.emplace_back("max_geodesic_deviation", f.max_deviation);
-        }
-        if (std::isfinite(f.orbit.extrapolated_gap)) metrics.emplace_back("extrapolated_gap", f.orbit.extrapolated_gap);
-        if (!lambda_lines && m_exact_deviation_spacing > 0.0)
-            metrics.emplace_back(
-                "mean_geodesic_deviation_exact",
-                exact_mean_deviation(host, in,
-                                     m_exact_deviation_points > 0 && m_exact_deviation_points < f.orbit.xy.size() / 2
-                                         ? resample_polyline(f.orbit.xy, f.length / m_exact_deviation_points, true)
-                                         : f.orbit.xy,
-                                     f.orbit.sign, m_exact_deviation_spacing * std::min(grid.dx(), grid.dy()),
-                                     m_area_preserving ? ShearDeviationForm::area_preserving
-                                                       : ShearDeviationForm::general));
-        if (std::isfinite(f.max_ftle)) metrics.emplace_back("max_ftle", f.max_ftle);
-        if (std::isfinite(f.mean_ftle)) metrics.emplace_back("mean_ftle", f.mean_ftle);
-        const bool advect = m_advect == "all" || (m_advect == "outermost" && f.outermost);
-        if (advect) {
-            const AdvectedCurve a = advect_curve(f.orbit.xy, true, advect_to_t1);
-            metrics.emplace_back("relative_length_change", (a.length1 - a.length0) / a.length0);
-            metrics.emplace_back("relative_area_change", (std::abs(a.area1) - std::abs(a.area0)) / std::abs(a.area0));
-            metrics.emplace_back("advected_points", static_cast<double>(a.xy1.size() / 2));
-            if (!a.converged)
-                host.warn("barrier " + std::to_string(i) + ": the advected curve is not fully resolved (" +
-                          std::to_string(a.masked) + " masked points, largest gap " + fmt(a.max_gap) + ")");
-        }
-        if (m_poincare_period > 0.0) {
-            // Points of the barrier iterated by P = F_t0^(t0 + period); the drift of a point is its largest distance
-            // from the barrier over the iterates, relative to the barrier's diameter.
-            const std::vector<double> pts = resample_polyline(f.orbit.xy, f.length / m_poincare_points, true);
-            const double diameter = curve_diameter(pts);
-            std::vector<double> cur = pts, next;
-            std::vector<std::uint8_t> mask;
-            std::vector<double> drift(pts.size() / 2, 0.0);
-            for (std::size_t it = 0; it < m_poincare_iterates; ++it) {
-                host.advect(cur, in.t0, in.t0 + m_poincare_period, next, mask);
-                cur.swap(next);
-                // Points x curve vertices per iterate: the check's largest serial cost before it ran in parallel.
-#pragma omp parallel for schedule(static)
-                for (long long kk = 0; kk < static_cast<long long>(drift.size()); ++kk) {
-                    const std::size_t k = static_cast<std::size_t>(kk);
-                    drift[k] = mask[k] ? std::numeric_limits<double>::infinity()
-                                       : std::max(drift[k], distance_to_curve(f.orbit.xy, cur[2 * k], cur[2 * k + 1]));
-                }
-            }
-            std::vector<double> sorted = drift;
-            std::sort(sorted.begin(), sorted.end());
-            const double median = sorted[sorted.size() / 2], worst = sorted.back();
-            metrics.emplace_back("poincare_drift_median", median / diameter);
-            if (std::isfinite(worst)) metrics.emplace_back("poincare_drift_max", worst / diameter);
-            metrics.emplace_back("diameter", diameter);
-        }
+        const Found &f = found[i];
+        Metrics metrics = barrier_metrics(host, in, f, h, lambda_lines);
+        if (m_advect == "all" || (m_advect == "outermost" && f.outermost))
+            add_advection_metrics(host, f, i, advect_to_t1, metrics);
+        if (m_poincare_period > 0.0) add_poincare_drift_metrics(host, in, f, metrics);
         host.add_barrier("elliptic", true, f.orbit.xy, metrics);
         host.set_barrier_attributes({{"family", f.orbit.sign > 0 ? "\"+\"" : "\"-\""},
                                      {"outermost", f.outermost ? "true" : "false"},
@@ -548,41 +738,24 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
         if (host.progress(0.7 + 0.3 * static_cast<double>(checked) / static_cast<double>(kept.size())))
             throw std::runtime_error("elliptic: stopped on request");
     }
-    std::size_t islands = 0;
-    for (std::size_t i : kept) islands = std::max(islands, found[i].island + 1);
-    host.info(std::to_string(kept.size()) + " elliptic barrier(s) in " + std::to_string(islands) + " island(s) from " +
-              std::to_string(found.size()) + " closed shearline(s); regions " + fmt(t_candidates, 3) +
-              " s, shearlines " + fmt(t_search, 3) + " s, checks " +
-              fmt(seconds_since(t_start) - t_candidates - t_search, 3) + " s");
+}
 
-    const std::filesystem::path out_dir =
-        in.output_dir ? std::filesystem::path(in.output_dir) : std::filesystem::path();
-    if (!out_dir.empty()) {
-        json doc = {{"regions", sections_json},
-                    {"ftle_threshold", island_threshold},
-                    {"ftle_filter", m_ftle_filter},
-                    {"area_preserving", conservative},
-                    {"log_det_dF", {{"median", area.median}, {"q99", area.q99}, {"max", area.max}}}};
-        json sing = json::array();
-        for (const auto &s : report.singularities)
-            if (s.anisotropy < m_max_anisotropy) sing.push_back({s.x, s.y, 0.5 * s.twice_index, s.anisotropy});
-        doc["resolved_singularities"] = sing;
-        write_text_file(out_dir / "elliptic-sections.json", doc.dump(1) + "\n");
-    }
-    if (in.plots && !out_dir.empty()) {
-        // The paper's figure "shearlines-ex1": shearlines in black, closed ones in red, over the FTLE.
-        FieldPlot plot;
-        plot.title = "Shearlines; closed with <d_g> < " + fmt(m_max_mean_deviation) + " red (outermost thick)";
-        plot.colorbar_label = "FTLE";
-        plot.x_label = sdk::axis_label(in, 0); // "name [unit]" of the system's states (ABI 1.2)
-        plot.y_label = sdk::axis_label(in, 1);
-        for (auto &line : picture_lines) plot.curves.push_back({line, "black", 0.6, false});
-        for (const Candidate &c : candidates)
-            plot.curves.push_back({{c.section.x0, c.section.y0, c.section.x1, c.section.y1}, "white", 0.8, false});
-        for (std::size_t i : kept)
-            plot.curves.push_back({found[i].orbit.xy, "red", found[i].outermost ? 2.6 : 1.2, true});
-        plot_field_png(out_dir / "elliptic-shearlines.png", grid, cg.ftle, cg.mask, plot);
-    }
+// The paper's figure "shearlines-ex1": shearlines in black, closed ones in red, over the FTLE.
+void Elliptic::draw_shearlines_picture(const std::filesystem::path &out_dir, const CauchyGreenField &cg,
+                                       const gb_extract_input &in, const Search &search,
+                                       const std::vector<Candidate> &candidates,
+                                       const std::vector<std::size_t> &kept) const {
+    FieldPlot plot;
+    plot.title = "Shearlines; closed with <d_g> < " + fmt(m_max_mean_deviation) + " red (outermost thick)";
+    plot.colorbar_label = "FTLE";
+    plot.x_label = sdk::axis_label(in, 0); // "name [unit]" of the system's states (ABI 1.2)
+    plot.y_label = sdk::axis_label(in, 1);
+    for (const auto &line : search.picture_lines) plot.curves.push_back({line, "black", 0.6, false});
+    for (const Candidate &c : candidates)
+        plot.curves.push_back({{c.section.x0, c.section.y0, c.section.x1, c.section.y1}, "white", 0.8, false});
+    for (std::size_t i : kept)
+        plot.curves.push_back({search.found[i].orbit.xy, "red", search.found[i].outermost ? 2.6 : 1.2, true});
+    plot_field_png(out_dir / "elliptic-shearlines.png", cg.grid, cg.ftle, cg.mask, plot);
 }
 
 } // namespace

@@ -14,7 +14,8 @@ using geobarrier::sdk::Params;
 using geobarrier::sdk::real_param;
 
 // A harmonic oscillator x' = y, y' = -k x + f, whose parts the faulty variants below spoil one at a time
-// (faulty-nan: NaN only at x >= 2, i.e. on the default box's edge, which only the finite-values sweep visits).
+// (faulty-nan: NaN only at x >= 2, i.e. on the default box's edge, which only the finite-values sweep visits;
+// faulty-nan-jacobian: a finite field whose Jacobian is NaN at x >= 2, so that only DF goes bad).
 template <class Fault> struct Oscillator {
     static constexpr unsigned dimension = 2;
     static constexpr gb_param_spec params[] = {real_param("k", 1.0, 0.0, 10.0, "1/time^2", "stiffness")};
@@ -38,6 +39,7 @@ template <class Fault> struct Oscillator {
             jac[b.ld + k] = 1.0;
             jac[2 * b.ld + k] = Fault::wrong_jacobian ? -1.01 * m_k : -m_k;
             jac[3 * b.ld + k] = 0.0;
+            if (Fault::nan_jacobian_outside && b.x[k] >= 2.0) jac[k] = std::numeric_limits<double>::quiet_NaN();
         }
     }
     void divergence(const Batch &b, double *div) const {
@@ -51,7 +53,8 @@ template <class Fault> struct Oscillator {
 
 struct NoFault {
     static constexpr bool batch_dependent = false, nan_outside = false, instance_dependent = false,
-                          writes_padding = false, wrong_jacobian = false, wrong_divergence = false;
+                          writes_padding = false, wrong_jacobian = false, wrong_divergence = false,
+                          nan_jacobian_outside = false;
 };
 #define GB_FAULT(type, field)                                                                                          \
     struct type : NoFault {                                                                                            \
@@ -63,6 +66,7 @@ GB_FAULT(InstanceFault, instance_dependent)
 GB_FAULT(PaddingFault, writes_padding)
 GB_FAULT(JacobianFault, wrong_jacobian)
 GB_FAULT(DivergenceFault, wrong_divergence)
+GB_FAULT(NanJacobianFault, nan_jacobian_outside)
 #undef GB_FAULT
 
 #define GB_FAULTY_SYSTEM(type, fault, plugin_name)                                                                     \
@@ -77,6 +81,7 @@ GB_FAULTY_SYSTEM(FaultyInstance, InstanceFault, "faulty-determinism")
 GB_FAULTY_SYSTEM(FaultyPadding, PaddingFault, "faulty-padding")
 GB_FAULTY_SYSTEM(FaultyJacobian, JacobianFault, "faulty-jacobian")
 GB_FAULTY_SYSTEM(FaultyDivergence, DivergenceFault, "faulty-divergence")
+GB_FAULTY_SYSTEM(FaultyNanJacobian, NanJacobianFault, "faulty-nan-jacobian")
 #undef GB_FAULTY_SYSTEM
 
 // A forcing whose values depend on the batch size and on the instance.
@@ -115,6 +120,6 @@ template <bool OffGrid> struct FaultyExtractor {
 GEOBARRIER_PLUGINS(geobarrier::sdk::system<Good>(), geobarrier::sdk::system<FaultyBatch>(),
                    geobarrier::sdk::system<FaultyNan>(), geobarrier::sdk::system<FaultyInstance>(),
                    geobarrier::sdk::system<FaultyPadding>(), geobarrier::sdk::system<FaultyJacobian>(),
-                   geobarrier::sdk::system<FaultyDivergence>(), geobarrier::sdk::forcing<FaultyForcing>(),
-                   geobarrier::sdk::extractor<FaultyExtractor<true>>(),
+                   geobarrier::sdk::system<FaultyDivergence>(), geobarrier::sdk::system<FaultyNanJacobian>(),
+                   geobarrier::sdk::forcing<FaultyForcing>(), geobarrier::sdk::extractor<FaultyExtractor<true>>(),
                    geobarrier::sdk::extractor<FaultyExtractor<false>>())

@@ -56,8 +56,12 @@ StrainDerivatives strain_derivatives(const CauchyGreenField &cg) {
         const double sign = ax[p] * ax[c] + ay[p] * ay[c] < 0.0 ? -1.0 : 1.0;
         return sign * (comp == 0 ? ax[p] : ay[p]);
     };
-    for (std::size_t i = 0; i < g.ny; ++i)
+    // Rows are independent (each point reads its neighbours, writes only itself): in parallel, since the elliptic
+    // extractor and the runner's shear-deviation stage take these derivatives of the whole grid.
+#pragma omp parallel for schedule(static)
+    for (long long row = 0; row < static_cast<long long>(g.ny); ++row)
         for (std::size_t j = 0; j < g.nx; ++j) {
+            const std::size_t i = static_cast<std::size_t>(row);
             const std::size_t c = i * g.nx + j;
             if (!usable(c)) continue;
             auto lam1 = [&](std::size_t p, std::size_t) { return cg.lambda1[p]; };

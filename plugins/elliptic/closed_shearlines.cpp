@@ -528,16 +528,105 @@ bool encloses(const std::vector<double> &c, double x, double y) {
     return in;
 }
 
+namespace {
+
+// Squared distance from (x, y) to segment i (vertex i to the next, cyclically) of the closed polyline c.
+double segment_distance2(const std::vector<double> &c, std::size_t i, double x, double y) {
+    const std::size_t j = (i + 1) % (c.size() / 2);
+    const double ax = c[2 * i], ay = c[2 * i + 1], bx = c[2 * j], by = c[2 * j + 1];
+    const double ux = bx - ax, uy = by - ay, uu = ux * ux + uy * uy;
+    const double t = uu > 0.0 ? std::clamp(((x - ax) * ux + (y - ay) * uy) / uu, 0.0, 1.0) : 0.0;
+    const double ex = x - ax - t * ux, ey = y - ay - t * uy;
+    return ex * ex + ey * ey;
+}
+
+} // namespace
+
 double distance_to_curve(const std::vector<double> &c, double x, double y) {
     const std::size_t n = c.size() / 2;
     double best = std::numeric_limits<double>::infinity();
-    for (std::size_t i = 0; i < n; ++i) {
-        const std::size_t j = (i + 1) % n;
-        const double ax = c[2 * i], ay = c[2 * i + 1], bx = c[2 * j], by = c[2 * j + 1];
-        const double ux = bx - ax, uy = by - ay, uu = ux * ux + uy * uy;
-        const double t = uu > 0.0 ? std::clamp(((x - ax) * ux + (y - ay) * uy) / uu, 0.0, 1.0) : 0.0;
-        const double ex = x - ax - t * ux, ey = y - ay - t * uy;
-        best = std::min(best, ex * ex + ey * ey); // squared: one sqrt at the end, not a hypot per segment
+    // Squared: one sqrt at the end, not a hypot per segment.
+    for (std::size_t i = 0; i < n; ++i) best = std::min(best, segment_distance2(c, i, x, y));
+    return std::sqrt(best);
+}
+
+CurveDistance::CurveDistance(const std::vector<double> &c) : m_xy(c) {
+    const std::size_t n = c.size() / 2;
+    if (n == 0) return;
+    double x1 = c[0], y1 = c[1];
+    m_x0 = c[0];
+    m_y0 = c[1];
+    for (std::size_t k = 0; k < n; ++k) {
+        m_x0 = std::min(m_x0, c[2 * k]);
+        x1 = std::max(x1, c[2 * k]);
+        m_y0 = std::min(m_y0, c[2 * k + 1]);
+        y1 = std::max(y1, c[2 * k + 1]);
+    }
+    const double side = static_cast<double>(
+        std::clamp<std::size_t>(static_cast<std::size_t>(std::sqrt(static_cast<double>(n))), 1, 256));
+    m_cell = std::max(std::max(x1 - m_x0, y1 - m_y0) / side, std::numeric_limits<double>::min());
+    m_nx = std::min<std::size_t>(static_cast<std::size_t>((x1 - m_x0) / m_cell) + 1, 257);
+    m_ny = std::min<std::size_t>(static_cast<std::size_t>((y1 - m_y0) / m_cell) + 1, 257);
+    // Each segment goes into every cell its bounding box meets: counted, then placed (compressed rows).
+    auto cell_range = [&](std::size_t i, std::size_t &i0, std::size_t &i1, std::size_t &j0, std::size_t &j1) {
+        const std::size_t k = (i + 1) % n;
+        auto column = [&](double x) { return std::min(static_cast<std::size_t>((x - m_x0) / m_cell), m_nx - 1); };
+        auto row = [&](double y) { return std::min(static_cast<std::size_t>((y - m_y0) / m_cell), m_ny - 1); };
+        j0 = column(std::min(c[2 * i], c[2 * k]));
+        j1 = column(std::max(c[2 * i], c[2 * k]));
+        i0 = row(std::min(c[2 * i + 1], c[2 * k + 1]));
+        i1 = row(std::max(c[2 * i + 1], c[2 * k + 1]));
+    };
+    m_first.assign(m_nx * m_ny + 1, 0);
+    std::size_t i0, i1, j0, j1;
+    for (std::size_t s = 0; s < n; ++s) {
+        cell_range(s, i0, i1, j0, j1);
+        for (std::size_t i = i0; i <= i1; ++i)
+            for (std::size_t j = j0; j <= j1; ++j) ++m_first[i * m_nx + j + 1];
+    }
+    for (std::size_t q = 0; q < m_nx * m_ny; ++q) m_first[q + 1] += m_first[q];
+    m_segments.resize(m_first.back());
+    std::vector<std::size_t> fill(m_first.begin(), m_first.end() - 1);
+    for (std::size_t s = 0; s < n; ++s) {
+        cell_range(s, i0, i1, j0, j1);
+        for (std::size_t i = i0; i <= i1; ++i)
+            for (std::size_t j = j0; j <= j1; ++j) m_segments[fill[i * m_nx + j]++] = s;
+    }
+}
+
+double CurveDistance::operator()(double x, double y) const {
+    if (m_first.empty() || !std::isfinite(x) || !std::isfinite(y)) return distance_to_curve(m_xy, x, y);
+    // The point's cell, or the nearest cell when it lies outside the box: then every cell r rings away is at least
+    // (r - 1) cells from it along the axis of that ring.
+    auto clamp_index = [&](double v, std::size_t count) {
+        return v <= 0.0 ? std::size_t{0} : std::min(static_cast<std::size_t>(v), count - 1);
+    };
+    const std::size_t ci = clamp_index((y - m_y0) / m_cell, m_ny), cj = clamp_index((x - m_x0) / m_cell, m_nx);
+    double best = std::numeric_limits<double>::infinity();
+    auto visit = [&](std::size_t i, std::size_t j) {
+        const std::size_t q = i * m_nx + j;
+        for (std::size_t s = m_first[q]; s < m_first[q + 1]; ++s)
+            best = std::min(best, segment_distance2(m_xy, m_segments[s], x, y));
+    };
+    const std::size_t rings = std::max(m_nx, m_ny);
+    for (std::size_t r = 0; r <= rings; ++r) {
+        // Rings r and beyond lie (r - 1) cells away or more; half a cell of margin against rounding.
+        const double bound = (static_cast<double>(r) - 1.5) * m_cell;
+        if (r >= 2 && best < bound * bound) break;
+        const long long lo_i = static_cast<long long>(ci) - static_cast<long long>(r),
+                        hi_i = static_cast<long long>(ci) + static_cast<long long>(r),
+                        lo_j = static_cast<long long>(cj) - static_cast<long long>(r),
+                        hi_j = static_cast<long long>(cj) + static_cast<long long>(r);
+        const long long nx = static_cast<long long>(m_nx), ny = static_cast<long long>(m_ny);
+        for (long long i = std::max(lo_i, 0LL); i <= std::min(hi_i, ny - 1); ++i) {
+            if (i == lo_i || i == hi_i) { // the ring's bottom and top rows, whole
+                for (long long j = std::max(lo_j, 0LL); j <= std::min(hi_j, nx - 1); ++j)
+                    visit(static_cast<std::size_t>(i), static_cast<std::size_t>(j));
+                continue;
+            }
+            if (lo_j >= 0) visit(static_cast<std::size_t>(i), static_cast<std::size_t>(lo_j)); // its sides
+            if (hi_j < nx) visit(static_cast<std::size_t>(i), static_cast<std::size_t>(hi_j));
+        }
     }
     return std::sqrt(best);
 }

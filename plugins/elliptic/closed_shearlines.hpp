@@ -136,6 +136,22 @@ std::vector<Shot> shoot_all(const LineField &eta, const Section &section, const 
 bool encloses(const std::vector<double> &closed_xy, double x, double y);
 // Distance from (x, y) to the closed polyline.
 double distance_to_curve(const std::vector<double> &closed_xy, double x, double y);
+// The same for many points against one curve: its segments binned in square cells (about sqrt(n) per side over the
+// curve's bounding box), so that a query visits the cells around the point ring by ring until no cell left can
+// hold a nearer segment, instead of every segment. The value is distance_to_curve's (the same squared distance per
+// segment, minimised over a set that holds the nearest). Keeps a reference to the curve.
+class CurveDistance {
+  public:
+    explicit CurveDistance(const std::vector<double> &closed_xy);
+    double operator()(double x, double y) const;
+
+  private:
+    const std::vector<double> &m_xy;
+    double m_x0 = 0.0, m_y0 = 0.0, m_cell = 1.0;
+    std::size_t m_nx = 1, m_ny = 1;
+    std::vector<std::size_t> m_first;    // cell c holds segments m_segments[m_first[c] .. m_first[c + 1])
+    std::vector<std::size_t> m_segments; // segment i: vertex i to vertex i + 1 (the last closes the curve)
+};
 // Symmetric Hausdorff distance between two closed polylines, measured from every `stride`-th vertex of each.
 double curve_distance(const std::vector<double> &a, const std::vector<double> &b, std::size_t stride = 1);
 // Largest distance between two vertices (the curve's diameter), from every `stride`-th vertex.

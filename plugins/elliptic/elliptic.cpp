@@ -72,40 +72,69 @@ std::string fmt(double v, int digits = 4) {
     return s.str();
 }
 
-// <d_g^eta±> along a closed curve from exact Cauchy–Green tensors instead of the grid's: at every vertex, DF on a
-// 3 x 3 patch `spacing` apart (host advection with the experiment's integrator), the patch's tensor and shear fields
-// (the grid's own formulas: shear_fields, centred differences), d_g at the centre; arclength-weighted mean. Removes
-// the grid's O(h^2) derivative error and the bilinear interpolation, which grow with T next to the chaotic layer.
-double exact_mean_deviation(const sdk::Host &host, const gb_extract_input &in, const std::vector<double> &xy, int sign,
-                            double spacing, ShearDeviationForm form) {
-    const std::size_t n = xy.size() / 2;
+// d_g^eta± at (x, y) from exact Cauchy–Green tensors: the 3 x 3 patch of DF `spacing` apart around it (dF, mask:
+// the patch's 9 points), the patch's tensor and shear fields (the grid's own formulas: shear_fields, centred
+// differences), the deviation at the centre.
+double patch_centre_deviation(const double *dF, const std::uint8_t *mask, double x, double y, double spacing,
+                              double duration, int sign, ShearDeviationForm form) {
     constexpr std::size_t side = 3, per_vertex = side * side;
-    std::vector<double> patch_points(2 * per_vertex * n);
-    for (std::size_t k = 0; k < n; ++k)
+    Grid patch;
+    patch.nx = patch.ny = side;
+    patch.x_min = x - spacing;
+    patch.x_max = x + spacing;
+    patch.y_min = y - spacing;
+    patch.y_max = y + spacing;
+    const std::vector<double> patch_dF(dF, dF + 4 * per_vertex);
+    const std::vector<std::uint8_t> patch_mask(mask, mask + per_vertex);
+    const CauchyGreenField cg = cauchy_green_field(patch, patch_dF, patch_mask, duration);
+    const ShearFields shear = shear_fields(cg, form);
+    return (sign > 0 ? shear.deviation_plus : shear.deviation_minus)[per_vertex / 2];
+}
+
+// <d_g^eta±> along closed curves (each with its family's sign) from exact Cauchy–Green tensors instead of the
+// grid's: at every vertex, DF on a 3 x 3 patch `spacing` apart (host advection with the experiment's integrator)
+// and d_g at its centre (patch_centre_deviation); arclength-weighted mean per curve. Removes the grid's O(h^2)
+// derivative error and the bilinear interpolation, which grow with T next to the chaotic layer. Every curve's
+// patches go in one advection and one parallel loop: the engine sees one large batch, and the threads meet once
+// instead of at every vertex's small tensor fields.
+std::vector<double> exact_mean_deviations(const sdk::Host &host, const gb_extract_input &in,
+                                          const std::vector<std::vector<double>> &curves, const std::vector<int> &signs,
+                                          double spacing, ShearDeviationForm form) {
+    constexpr std::size_t side = 3, per_vertex = side * side;
+    std::vector<std::size_t> first(curves.size() + 1, 0); // each curve's first vertex in the batch
+    for (std::size_t c = 0; c < curves.size(); ++c) first[c + 1] = first[c] + curves[c].size() / 2;
+    const std::size_t total = first.back();
+    std::vector<double> centres, patch_points(2 * per_vertex * total);
+    std::vector<int> vertex_sign(total);
+    centres.reserve(2 * total);
+    for (std::size_t c = 0; c < curves.size(); ++c) {
+        centres.insert(centres.end(), curves[c].begin(), curves[c].end());
+        std::fill(vertex_sign.begin() + first[c], vertex_sign.begin() + first[c + 1], signs[c]);
+    }
+    for (std::size_t k = 0; k < total; ++k)
         for (std::size_t q = 0; q < per_vertex; ++q) {
-            patch_points[2 * (k * per_vertex + q)] = xy[2 * k] + spacing * (static_cast<double>(q % side) - 1.0);
+            patch_points[2 * (k * per_vertex + q)] = centres[2 * k] + spacing * (static_cast<double>(q % side) - 1.0);
             patch_points[2 * (k * per_vertex + q) + 1] =
-                xy[2 * k + 1] + spacing * (static_cast<double>(q / side) - 1.0);
+                centres[2 * k + 1] + spacing * (static_cast<double>(q / side) - 1.0);
         }
     std::vector<double> moved, dF;
     std::vector<std::uint8_t> mask;
     host.advect(patch_points, in.t0, in.t1, moved, mask, &dF);
-    std::vector<double> values(n, std::numeric_limits<double>::quiet_NaN());
-    for (std::size_t k = 0; k < n; ++k) {
-        Grid patch;
-        patch.nx = patch.ny = side;
-        patch.x_min = xy[2 * k] - spacing;
-        patch.x_max = xy[2 * k] + spacing;
-        patch.y_min = xy[2 * k + 1] - spacing;
-        patch.y_max = xy[2 * k + 1] + spacing;
-        const std::vector<double> patch_dF(dF.begin() + 4 * k * per_vertex, dF.begin() + 4 * (k + 1) * per_vertex);
-        const std::vector<std::uint8_t> patch_mask(mask.begin() + k * per_vertex, mask.begin() + (k + 1) * per_vertex);
-        const CauchyGreenField cg = cauchy_green_field(patch, patch_dF, patch_mask, std::abs(in.t1 - in.t0));
-        const ShearFields shear = shear_fields(cg, form);
-        values[k] = (sign > 0 ? shear.deviation_plus : shear.deviation_minus)[per_vertex / 2];
+    std::vector<double> values(total);
+    const double duration = std::abs(in.t1 - in.t0);
+#pragma omp parallel for schedule(static)
+    for (long long kk = 0; kk < static_cast<long long>(total); ++kk) {
+        const std::size_t k = static_cast<std::size_t>(kk);
+        values[k] = patch_centre_deviation(dF.data() + 4 * k * per_vertex, mask.data() + k * per_vertex, centres[2 * k],
+                                           centres[2 * k + 1], spacing, duration, vertex_sign[k], form);
     }
-    const CurveStats st = curve_statistics(xy, values, true);
-    return st.finite_points ? st.mean : std::numeric_limits<double>::quiet_NaN();
+    std::vector<double> means(curves.size());
+    for (std::size_t c = 0; c < curves.size(); ++c) {
+        const std::vector<double> curve_values(values.begin() + first[c], values.begin() + first[c + 1]);
+        const CurveStats st = curve_statistics(curves[c], curve_values, true);
+        means[c] = st.finite_points ? st.mean : std::numeric_limits<double>::quiet_NaN();
+    }
+    return means;
 }
 
 json finite_or_null(double v) { return std::isfinite(v) ? json(v) : json(nullptr); }
@@ -278,10 +307,9 @@ void mark_outermost(std::vector<Found> &found, const std::vector<std::size_t> &k
     }
 }
 
-// Eq. rel_def: the barrier advected to t1 keeps its arclength and enclosed area when the flow is conservative.
-void add_advection_metrics(const sdk::Host &host, const Found &f, std::size_t index, const AdvectPointsFn &advect_to_t1,
-                           Metrics &metrics) {
-    const AdvectedCurve a = advect_curve(f.orbit.xy, true, advect_to_t1);
+// Eq. rel_def: the barrier advected to t1 (a, from advect_curves) keeps its arclength and enclosed area when the
+// flow is conservative.
+void add_advection_metrics(const sdk::Host &host, const AdvectedCurve &a, std::size_t index, Metrics &metrics) {
     metrics.emplace_back("relative_length_change", (a.length1 - a.length0) / a.length0);
     metrics.emplace_back("relative_area_change", (std::abs(a.area1) - std::abs(a.area0)) / std::abs(a.area0));
     metrics.emplace_back("advected_points", static_cast<double>(a.xy1.size() / 2));
@@ -289,6 +317,11 @@ void add_advection_metrics(const sdk::Host &host, const Found &f, std::size_t in
         host.warn("barrier " + std::to_string(index) + ": the advected curve is not fully resolved (" +
                   std::to_string(a.masked) + " masked points, largest gap " + fmt(a.max_gap) + ")");
 }
+
+// The Poincaré check's figures of one barrier (drifts relative to its diameter).
+struct PoincareDrift {
+    double median = 0.0, worst = 0.0, diameter = 0.0;
+};
 
 struct Elliptic {
     static constexpr const char *name = "elliptic";
@@ -395,11 +428,11 @@ struct Elliptic {
                                              const std::vector<int> &signs, double h) const;
     std::vector<std::size_t> thin_nested(const std::vector<Found> &found, std::size_t regions,
                                          const std::vector<int> &signs) const;
-    Metrics barrier_metrics(const sdk::Host &host, const gb_extract_input &in, const Found &f, double h,
-                            bool lambda_lines) const;
-    double exact_mean_deviation_of(const sdk::Host &host, const gb_extract_input &in, const Found &f, double h) const;
-    void add_poincare_drift_metrics(const sdk::Host &host, const gb_extract_input &in, const Found &f,
-                                    Metrics &metrics) const;
+    Metrics barrier_metrics(const Found &f, bool lambda_lines, const double *exact_deviation) const;
+    std::vector<double> exact_deviations(const sdk::Host &host, const gb_extract_input &in,
+                                         const std::vector<const Found *> &curves, double h) const;
+    std::vector<PoincareDrift> poincare_drifts(const sdk::Host &host, const gb_extract_input &in,
+                                               const std::vector<const Found *> &barriers) const;
     void report_barriers(const sdk::Host &host, const gb_extract_input &in, const std::vector<Found> &found,
                          const std::vector<std::size_t> &kept, double h, bool conservative, bool lambda_lines) const;
     void draw_shearlines_picture(const std::filesystem::path &out_dir, const CauchyGreenField &cg,
@@ -650,9 +683,8 @@ std::vector<std::size_t> Elliptic::thin_nested(const std::vector<Found> &found, 
 }
 
 // What barriers.json says of a barrier before the checks: geometry, island, where it crossed its section, its
-// <d_g> (grid and, when asked, exact) or lambda, its closure and FTLE.
-Metrics Elliptic::barrier_metrics(const sdk::Host &host, const gb_extract_input &in, const Found &f, double h,
-                                  bool lambda_lines) const {
+// <d_g> (grid and, when computed, exact) or lambda, its closure and FTLE.
+Metrics Elliptic::barrier_metrics(const Found &f, bool lambda_lines, const double *exact_deviation) const {
     Metrics metrics = {
         {"length", f.length},
         {"enclosed_area", f.area},
@@ -667,77 +699,136 @@ Metrics Elliptic::barrier_metrics(const sdk::Host &host, const gb_extract_input 
         metrics.emplace_back("max_geodesic_deviation", f.max_deviation);
     }
     if (std::isfinite(f.orbit.extrapolated_gap)) metrics.emplace_back("extrapolated_gap", f.orbit.extrapolated_gap);
-    if (!lambda_lines && m_exact_deviation_spacing > 0.0)
-        metrics.emplace_back("mean_geodesic_deviation_exact", exact_mean_deviation_of(host, in, f, h));
+    if (exact_deviation) metrics.emplace_back("mean_geodesic_deviation_exact", *exact_deviation);
     if (std::isfinite(f.max_ftle)) metrics.emplace_back("max_ftle", f.max_ftle);
     if (std::isfinite(f.mean_ftle)) metrics.emplace_back("mean_ftle", f.mean_ftle);
     return metrics;
 }
 
-// <d_g> of the closed shearline from exact Cauchy–Green tensors, at exact_deviation_points points evenly spaced in
-// arclength (every vertex when 0 or when the curve has fewer).
-double Elliptic::exact_mean_deviation_of(const sdk::Host &host, const gb_extract_input &in, const Found &f,
-                                         double h) const {
-    const bool resample = m_exact_deviation_points > 0 && m_exact_deviation_points < f.orbit.xy.size() / 2;
-    return exact_mean_deviation(
-        host, in, resample ? resample_polyline(f.orbit.xy, f.length / m_exact_deviation_points, true) : f.orbit.xy,
-        f.orbit.sign, m_exact_deviation_spacing * h, deviation_form());
+// <d_g> of closed shearlines from exact Cauchy–Green tensors (exact_mean_deviations), at exact_deviation_points
+// points per curve evenly spaced in arclength (every vertex when 0 or when the curve has fewer).
+std::vector<double> Elliptic::exact_deviations(const sdk::Host &host, const gb_extract_input &in,
+                                               const std::vector<const Found *> &curves, double h) const {
+    std::vector<std::vector<double>> points;
+    std::vector<int> signs;
+    for (const Found *f : curves) {
+        const bool resample = m_exact_deviation_points > 0 && m_exact_deviation_points < f->orbit.xy.size() / 2;
+        points.push_back(resample ? resample_polyline(f->orbit.xy, f->length / m_exact_deviation_points, true)
+                                  : f->orbit.xy);
+        signs.push_back(f->orbit.sign);
+    }
+    return exact_mean_deviations(host, in, points, signs, m_exact_deviation_spacing * h, deviation_form());
 }
 
-// Periodic forcing: points of the barrier iterated by the Poincaré map P = F_t0^(t0 + period) stay on it if it is
-// a KAM curve. The drift of a point is its largest distance from the barrier over the iterates, relative to the
-// barrier's diameter.
-void Elliptic::add_poincare_drift_metrics(const sdk::Host &host, const gb_extract_input &in, const Found &f,
-                                          Metrics &metrics) const {
-    const std::vector<double> pts = resample_polyline(f.orbit.xy, f.length / m_poincare_points, true);
-    const double diameter = curve_diameter(pts);
-    std::vector<double> cur = pts, next;
-    std::vector<std::uint8_t> mask;
-    std::vector<double> drift(pts.size() / 2, 0.0);
+// Periodic forcing: points of a barrier iterated by the Poincaré map P = F_t0^(t0 + period) stay on it if it is a
+// KAM curve. The drift of a point is its largest distance from the barrier over the iterates (infinite once its
+// trajectory is masked). Every barrier's points are iterated together (one advection per iterate) and the
+// distances, points x iterates x curve vertices (the check's largest cost), are taken at the end in one parallel
+// loop.
+std::vector<PoincareDrift> Elliptic::poincare_drifts(const sdk::Host &host, const gb_extract_input &in,
+                                                     const std::vector<const Found *> &barriers) const {
+    std::vector<PoincareDrift> out(barriers.size());
+    std::vector<std::size_t> first(barriers.size() + 1, 0), barrier_of;
+    std::vector<double> cur;
+    for (std::size_t b = 0; b < barriers.size(); ++b) {
+        const Found &f = *barriers[b];
+        const std::vector<double> pts = resample_polyline(f.orbit.xy, f.length / m_poincare_points, true);
+        out[b].diameter = curve_diameter(pts);
+        cur.insert(cur.end(), pts.begin(), pts.end());
+        first[b + 1] = first[b] + pts.size() / 2;
+        barrier_of.insert(barrier_of.end(), pts.size() / 2, b);
+    }
+    const std::size_t total = first.back();
+    std::vector<double> iterates, next;
+    iterates.reserve(2 * total * m_poincare_iterates);
+    std::vector<std::uint8_t> mask, masked(total, 0);
     for (std::size_t it = 0; it < m_poincare_iterates; ++it) {
         host.advect(cur, in.t0, in.t0 + m_poincare_period, next, mask);
         cur.swap(next);
-        // Points x curve vertices per iterate: the check's largest serial cost before it ran in parallel.
-#pragma omp parallel for schedule(static)
-        for (long long kk = 0; kk < static_cast<long long>(drift.size()); ++kk) {
-            const std::size_t k = static_cast<std::size_t>(kk);
-            drift[k] = mask[k] ? std::numeric_limits<double>::infinity()
-                               : std::max(drift[k], distance_to_curve(f.orbit.xy, cur[2 * k], cur[2 * k + 1]));
+        iterates.insert(iterates.end(), cur.begin(), cur.end());
+        for (std::size_t k = 0; k < total; ++k) masked[k] |= mask[k] ? 1 : 0;
+    }
+    std::vector<CurveDistance> distance_to;
+    for (const Found *f : barriers) distance_to.emplace_back(f->orbit.xy);
+    std::vector<double> drift(total, 0.0);
+#pragma omp parallel for schedule(dynamic, 16)
+    for (long long kk = 0; kk < static_cast<long long>(total); ++kk) {
+        const std::size_t k = static_cast<std::size_t>(kk);
+        const CurveDistance &distance = distance_to[barrier_of[k]];
+        if (masked[k]) {
+            drift[k] = std::numeric_limits<double>::infinity();
+            continue;
+        }
+        for (std::size_t it = 0; it < m_poincare_iterates; ++it) {
+            const double *p = iterates.data() + 2 * (it * total + k);
+            drift[k] = std::max(drift[k], distance(p[0], p[1]));
         }
     }
-    std::vector<double> sorted = drift;
-    std::sort(sorted.begin(), sorted.end());
-    const double median = sorted[sorted.size() / 2], worst = sorted.back();
-    metrics.emplace_back("poincare_drift_median", median / diameter);
-    if (std::isfinite(worst)) metrics.emplace_back("poincare_drift_max", worst / diameter);
-    metrics.emplace_back("diameter", diameter);
+    for (std::size_t b = 0; b < barriers.size(); ++b) {
+        std::vector<double> sorted(drift.begin() + first[b], drift.begin() + first[b + 1]);
+        std::sort(sorted.begin(), sorted.end());
+        out[b].median = sorted[sorted.size() / 2];
+        out[b].worst = sorted.back();
+    }
+    return out;
 }
 
 // Each barrier into barriers.json with the theory's checks: advected length and area (eq. rel_def) and Poincaré
-// iterates (the last 30% of the progress).
+// iterates (the last 30% of the progress). Each check runs on every barrier at once, so that the host's advection
+// sees a few large batches rather than many small ones.
 void Elliptic::report_barriers(const sdk::Host &host, const gb_extract_input &in, const std::vector<Found> &found,
                                const std::vector<std::size_t> &kept, double h, bool conservative,
                                bool lambda_lines) const {
+    auto progress = [&](double fraction) {
+        if (host.progress(0.7 + 0.3 * fraction)) throw std::runtime_error("elliptic: stopped on request");
+    };
+    if (kept.empty()) return;
+    std::vector<const Found *> barriers;
+    for (std::size_t i : kept) barriers.push_back(&found[i]);
+    const bool exact_wanted = !lambda_lines && m_exact_deviation_spacing > 0.0;
+    const std::vector<double> exact = exact_wanted ? exact_deviations(host, in, barriers, h) : std::vector<double>();
+    std::vector<Metrics> metrics;
+    for (std::size_t b = 0; b < barriers.size(); ++b)
+        metrics.push_back(barrier_metrics(*barriers[b], lambda_lines, exact_wanted ? &exact[b] : nullptr));
+    progress(0.25);
+
+    std::vector<std::size_t> advected;
+    std::vector<std::vector<double>> curves;
+    for (std::size_t b = 0; b < barriers.size(); ++b)
+        if (m_advect == "all" || (m_advect == "outermost" && barriers[b]->outermost)) {
+            advected.push_back(b);
+            curves.push_back(barriers[b]->orbit.xy);
+        }
     const AdvectPointsFn advect_to_t1 = [&](const std::vector<double> &xy, std::vector<double> &out,
                                             std::vector<std::uint8_t> &mask) {
         host.advect(xy, in.t0, in.t1, out, mask);
     };
-    std::size_t checked = 0;
-    for (std::size_t i : kept) {
-        const Found &f = found[i];
-        Metrics metrics = barrier_metrics(host, in, f, h, lambda_lines);
-        if (m_advect == "all" || (m_advect == "outermost" && f.outermost))
-            add_advection_metrics(host, f, i, advect_to_t1, metrics);
-        if (m_poincare_period > 0.0) add_poincare_drift_metrics(host, in, f, metrics);
-        host.add_barrier("elliptic", true, f.orbit.xy, metrics);
+    const std::vector<AdvectedCurve> images =
+        advect_curves(curves, std::vector<bool>(curves.size(), true), advect_to_t1);
+    for (std::size_t a = 0; a < advected.size(); ++a)
+        add_advection_metrics(host, images[a], kept[advected[a]], metrics[advected[a]]);
+    progress(0.5);
+
+    if (m_poincare_period > 0.0) {
+        const std::vector<PoincareDrift> drifts = poincare_drifts(host, in, barriers);
+        for (std::size_t b = 0; b < barriers.size(); ++b) {
+            metrics[b].emplace_back("poincare_drift_median", drifts[b].median / drifts[b].diameter);
+            if (std::isfinite(drifts[b].worst))
+                metrics[b].emplace_back("poincare_drift_max", drifts[b].worst / drifts[b].diameter);
+            metrics[b].emplace_back("diameter", drifts[b].diameter);
+        }
+    }
+    progress(0.9);
+
+    for (std::size_t b = 0; b < barriers.size(); ++b) {
+        const Found &f = *barriers[b];
+        host.add_barrier("elliptic", true, f.orbit.xy, metrics[b]);
         host.set_barrier_attributes({{"family", f.orbit.sign > 0 ? "\"+\"" : "\"-\""},
                                      {"outermost", f.outermost ? "true" : "false"},
                                      {"conservation_expected", conservative ? "true" : "false"},
                                      {"fixed_point", f.orbit.fixed_point ? "true" : "false"}});
-        ++checked;
-        if (host.progress(0.7 + 0.3 * static_cast<double>(checked) / static_cast<double>(kept.size())))
-            throw std::runtime_error("elliptic: stopped on request");
     }
+    progress(1.0);
 }
 
 // The paper's figure "shearlines-ex1": shearlines in black, closed ones in red, over the FTLE.

@@ -148,6 +148,26 @@ TEST_CASE("exact circular shear field: the region is found and its closed shearl
     CHECK(circles > 50);
 }
 
+TEST_CASE("CurveDistance: the binned distance to a closed curve is distance_to_curve's, inside, outside and far") {
+    // A wavy closed curve (radius 1 + 0.2 sin 7 theta, 3000 vertices, irregular spacing) and points on a lattice
+    // that reaches three radii beyond it: the ring search must find the nearest segment every time, bit for bit.
+    std::vector<double> curve;
+    for (int k = 0; k < 3000; ++k) {
+        const double theta = 2.0 * M_PI * (k + 0.3 * std::sin(0.01 * k)) / 3000.0;
+        const double r = 1.0 + 0.2 * std::sin(7.0 * theta);
+        curve.push_back(r * std::cos(theta) + 0.5);
+        curve.push_back(0.6 * r * std::sin(theta) - 0.25);
+    }
+    const CurveDistance distance(curve);
+    std::size_t checked = 0, mismatches = 0;
+    for (double x = -4.0; x <= 4.0; x += 0.0731)
+        for (double y = -3.0; y <= 3.0; y += 0.0517, ++checked)
+            mismatches += distance(x, y) == distance_to_curve(curve, x, y) ? 0 : 1;
+    CHECK(checked > 10000);
+    CHECK(mismatches == 0);
+    CHECK(distance(curve[0], curve[1]) == 0.0); // on a vertex
+}
+
 TEST_CASE("exact circular shear field: the coarsened field and the Richardson-extrapolated closed shearlines") {
     // The field at 2h is the field's own grid values at every other point. Extrapolated from h and 2h, the closed
     // shearlines of the exact field (circles, P(sigma) = sigma) must stay circles to the bound of the grid's own

@@ -237,8 +237,8 @@ struct Walls {
 };
 
 // Distance from every grid point to the nearest masked point (8-neighbour chamfer transform: exact along grid lines
-// and diagonals, within 8% elsewhere, which is plenty for "within the neighbour distance of the mask"); HUGE_VAL
-// everywhere when nothing is masked.
+// and diagonals, within 8% elsewhere, which is plenty for "within the neighbour distance of the mask"); empty when
+// nothing is masked (no mask wall: the wall filter then looks up no point).
 std::vector<double> distance_to_mask(const Grid &g, const std::vector<std::uint8_t> &mask) {
     std::vector<double> d(g.size(), HUGE_VAL);
     bool any = false;
@@ -247,7 +247,7 @@ std::vector<double> distance_to_mask(const Grid &g, const std::vector<std::uint8
             d[p] = 0.0;
             any = true;
         }
-    if (!any) return d;
+    if (!any) return {};
     const double dx = g.dx(), dy = g.dy(), dd = std::hypot(dx, dy);
     const auto relax = [&](std::size_t i, std::size_t j, long di, long dj, double w) {
         const long ii = static_cast<long>(i) + di, jj = static_cast<long>(j) + dj;
@@ -276,6 +276,7 @@ std::vector<double> distance_to_mask(const Grid &g, const std::vector<std::uint8
 double fraction_along_walls(const Grid &g, const Walls &walls, const std::vector<double> &to_mask,
                             const std::vector<double> &xy, double reach) {
     std::vector<double> near(xy.size() / 2, 0.0);
+    bool any_near = false;
     for (std::size_t k = 0; k < near.size(); ++k) {
         const double x = xy[2 * k], y = xy[2 * k + 1];
         double d = HUGE_VAL;
@@ -283,7 +284,7 @@ double fraction_along_walls(const Grid &g, const Walls &walls, const std::vector
         if (walls.right) d = std::min(d, g.x_max - x);
         if (walls.bottom) d = std::min(d, y - g.y_min);
         if (walls.top) d = std::min(d, g.y_max - y);
-        if (walls.mask) {
+        if (walls.mask && !to_mask.empty()) {
             const std::size_t j = static_cast<std::size_t>(
                                   std::clamp(std::lround((x - g.x_min) / g.dx()), 0L, static_cast<long>(g.nx) - 1)),
                               i = static_cast<std::size_t>(
@@ -291,7 +292,9 @@ double fraction_along_walls(const Grid &g, const Walls &walls, const std::vector
             d = std::min(d, to_mask[i * g.nx + j]);
         }
         near[k] = d < reach ? 1.0 : 0.0;
+        any_near = any_near || d < reach;
     }
+    if (!any_near) return 0.0; // most segments: no wall in reach, and the integral below would be 0
     const CurveStats st = curve_statistics(xy, near);
     return st.covered_length > 0.0 ? st.integral / st.covered_length : 0.0;
 }
@@ -660,6 +663,25 @@ const double *first_point(const std::vector<Strainline> &lines, const Segment &s
 // Within two grid cells (at most the neighbour distance) a point lies along another curve: it covers the point.
 double cover_distance(const Grid &g, double radius) { return std::min(radius, 2.0 * std::max(g.dx(), g.dy())); }
 
+// Which of the points (x, y interleaved) lie within `cover` of a curve in the index.
+std::vector<char> near_points(const RunIndex &index, const double *xy, std::size_t n, double cover) {
+    std::vector<char> near(n);
+    for (std::size_t k = 0; k < n; ++k) near[k] = index.any_near(xy[2 * k], xy[2 * k + 1], cover) ? 1 : 0;
+    return near;
+}
+std::vector<char> near_points(const RunIndex &index, const std::vector<double> &xy, double cover) {
+    return near_points(index, xy.data(), xy.size() / 2, cover);
+}
+
+// Marks the points not yet marked near that lie within `cover` of a curve in the index.
+void add_near_points(const RunIndex &index, const double *xy, double cover, std::vector<char> &near) {
+    for (std::size_t k = 0; k < near.size(); ++k)
+        if (!near[k] && index.any_near(xy[2 * k], xy[2 * k + 1], cover)) near[k] = 1;
+}
+void add_near_points(const RunIndex &index, const std::vector<double> &xy, double cover, std::vector<char> &near) {
+    add_near_points(index, xy.data(), cover, near);
+}
+
 // The neighbours of a segment in the selection are the other strainlines running beside it, not the same curve found
 // again from another seed and cut elsewhere by d_g or by where its strainline left the curve: comparing such pieces
 // by q would favour the shortest piece where sqrt(lambda1) is least (along a homoclinic loop, the branch entering the
@@ -674,17 +696,37 @@ std::vector<char> pieces_of_longer(const Grid &g, const std::vector<Strainline> 
     std::iota(by_length.begin(), by_length.end(), std::size_t{0});
     std::stable_sort(by_length.begin(), by_length.end(),
                      [&](std::size_t a, std::size_t b) { return candidates[a].length > candidates[b].length; });
-    RunIndex distinct(g, radius);
-    for (std::size_t c : by_length) {
-        const std::vector<double> probes = probe_points(points_of(lines, candidates[c]), radius);
-        const std::size_t count = probes.size() / 2;
-        std::size_t along = 0;
-        for (std::size_t j = 0; j < count; ++j)
-            along += distinct.any_near(probes[2 * j], probes[2 * j + 1], cover_distance(g, radius)) ? 1 : 0;
-        if (static_cast<double>(along) >= 0.9 * static_cast<double>(count))
-            piece[c] = 1;
-        else
-            distinct.add(first_point(lines, candidates[c]), candidates[c].last - candidates[c].first + 1, c);
+    std::vector<std::vector<double>> probes(candidates.size());
+#pragma omp parallel for schedule(dynamic, 16)
+    for (std::size_t c = 0; c < candidates.size(); ++c)
+        probes[c] = probe_points(points_of(lines, candidates[c]), radius);
+    const double cover = cover_distance(g, radius);
+    RunIndex distinct(g, cover);
+    // In chunks: the probes of a chunk are tested in parallel against the index as it was before the chunk, and in
+    // order only those not near it against the segments the chunk itself added (the same answers as one by one).
+    const std::size_t chunk = 256;
+    for (std::size_t start = 0; start < by_length.size(); start += chunk) {
+        const std::size_t end = std::min(by_length.size(), start + chunk);
+        std::vector<std::vector<char>> near(end - start);
+#pragma omp parallel for schedule(dynamic)
+        for (std::size_t i = start; i < end; ++i) near[i - start] = near_points(distinct, probes[by_length[i]], cover);
+        RunIndex added(g, cover);
+        bool any_added = false;
+        for (std::size_t i = start; i < end; ++i) {
+            const std::size_t c = by_length[i];
+            std::vector<char> &along = near[i - start];
+            if (any_added) add_near_points(added, probes[c], cover, along);
+            const std::size_t count = along.size();
+            const auto hits = static_cast<std::size_t>(std::count(along.begin(), along.end(), char{1}));
+            if (static_cast<double>(hits) >= 0.9 * static_cast<double>(count)) {
+                piece[c] = 1;
+                continue;
+            }
+            const std::size_t n = candidates[c].last - candidates[c].first + 1;
+            distinct.add(first_point(lines, candidates[c]), n, c);
+            added.add(first_point(lines, candidates[c]), n, c);
+            any_added = true;
+        }
     }
     return piece;
 }
@@ -701,6 +743,59 @@ std::vector<std::size_t> selection_order(const std::vector<Segment> &candidates,
         return a < b;
     });
     return order;
+}
+
+// Whether the candidate's points are all covered at a stride that leaves no uncovered run min_length long unseen:
+// with steps of at most h between points, a run of m = min_length / h points or more holds a point whose index
+// is a multiple of m, and a shorter run is shorter than min_length (the margin 1e-9 outweighs rounding). When all
+// those points are covered, the selection takes nothing from the candidate, and the barriers kept later only
+// cover more. Where candidates crowd along barriers already chosen (an attractor) this tests one point in ~100.
+bool covered_at_stride(const RunIndex &kept, const double *xy, std::size_t n, double cover, double min_length) {
+    double longest_step2 = 0.0;
+    for (std::size_t k = 1; k < n; ++k) {
+        const double ex = xy[2 * k] - xy[2 * k - 2], ey = xy[2 * k + 1] - xy[2 * k - 1];
+        longest_step2 = std::max(longest_step2, ex * ex + ey * ey);
+    }
+    const double stride = std::floor(min_length / (std::sqrt(longest_step2) * (1.0 + 1e-9)));
+    if (!(stride >= 2.0)) return false;
+    const auto m = static_cast<std::size_t>(std::min(stride, static_cast<double>(n)));
+    for (std::size_t k = 0; k < n; k += m)
+        if (!kept.any_near(xy[2 * k], xy[2 * k + 1], cover)) return false;
+    return true;
+}
+
+// The runs of candidate c's points not covered by a barrier of smaller q (at least two points) that pass the
+// selection rule of local_minima, appended to `selected`. `index` holds the segments that are no pieces, its buckets
+// sorted by q.
+void select_uncovered(const std::vector<Strainline> &lines, const std::vector<Segment> &candidates, std::size_t c,
+                      const std::vector<char> &covered, const RunIndex &index, const SegmentMeter &meter,
+                      const Scales &scale, std::vector<Selected> &selected) {
+    const auto q_of = [&](std::size_t d) { return candidates[d].q; };
+    const Segment &cand = candidates[c];
+    const std::size_t n = covered.size();
+    std::size_t k = 0;
+    while (k < n) {
+        while (k < n && covered[k]) ++k;
+        const std::size_t begin = k;
+        while (k < n && !covered[k]) ++k;
+        if (k - begin < 2) continue;
+        Selected pick;
+        pick.candidate = c;
+        pick.piece = cand;
+        pick.piece.first = cand.first + begin;
+        pick.piece.last = cand.first + k - 1;
+        pick.remainder = begin > 0 || k < n;
+        const std::vector<double> piece_xy = points_of(lines, pick.piece);
+        pick.piece.length = polyline_length(piece_xy);
+        if (pick.piece.length < scale.min_length || (pick.remainder && 3.0 * pick.piece.length < cand.length)) continue;
+        const std::vector<double> probes = probe_points(piece_xy, scale.radius);
+        pick.probes = probes.size() / 2;
+        for (std::size_t j = 0; j < pick.probes; ++j)
+            if (index.any_near_below(probes[2 * j], probes[2 * j + 1], cand.q, c, q_of)) ++pick.dominated;
+        if (2 * pick.dominated > pick.probes) continue;
+        if (pick.remainder && !meter.measure(lines, pick.piece)) continue;
+        selected.push_back(pick);
+    }
 }
 
 // Alg. 1, step 3: the local minima of q, disjoint. Visited in order of increasing q (selection_order), a segment's
@@ -726,40 +821,41 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
     const auto q_of = [&](std::size_t c) { return candidates[c].q; };
     index.sort_buckets(q_of);
     const double cover = cover_distance(g, scale.radius);
+    const std::vector<std::size_t> order = selection_order(candidates, along_wall);
     std::vector<Selected> selected;
-    RunIndex kept(g, scale.radius);
-    for (std::size_t c : selection_order(candidates, along_wall)) {
+    RunIndex kept(g, cover);
+    // In chunks of the order, as in pieces_of_longer: each candidate's points are tested in parallel against the
+    // barriers kept before its chunk, and in order the rest against those its chunk added.
+    const std::size_t chunk = 128;
+    for (std::size_t start = 0; start < order.size(); start += chunk) {
         if (m_max_barriers > 0 && selected.size() >= m_max_barriers) break;
-        const Segment &cand = candidates[c];
-        const std::size_t n = cand.last - cand.first + 1;
-        const double *xy = first_point(lines, cand);
-        std::size_t k = 0;
-        while (k < n) {
-            while (k < n && kept.any_near(xy[2 * k], xy[2 * k + 1], cover)) ++k;
-            const std::size_t begin = k;
-            while (k < n && !kept.any_near(xy[2 * k], xy[2 * k + 1], cover)) ++k;
-            if (k - begin < 2) continue;
-            Selected pick;
-            pick.candidate = c;
-            pick.piece = cand;
-            pick.piece.first = cand.first + begin;
-            pick.piece.last = cand.first + k - 1;
-            pick.remainder = begin > 0 || k < n;
-            const std::vector<double> piece_xy = points_of(lines, pick.piece);
-            pick.piece.length = polyline_length(piece_xy);
-            if (pick.piece.length < scale.min_length || (pick.remainder && 3.0 * pick.piece.length < cand.length))
-                continue;
-            const std::vector<double> probes = probe_points(piece_xy, scale.radius);
-            pick.probes = probes.size() / 2;
-            for (std::size_t j = 0; j < pick.probes; ++j)
-                if (index.any_near_below(probes[2 * j], probes[2 * j + 1], cand.q, c, q_of)) ++pick.dominated;
-            if (2 * pick.dominated > pick.probes) continue;
-            if (pick.remainder && !meter.measure(lines, pick.piece)) continue;
-            selected.push_back(pick);
+        const std::size_t end = std::min(order.size(), start + chunk);
+        std::vector<std::vector<char>> covered(end - start);
+#pragma omp parallel for schedule(dynamic)
+        for (std::size_t i = start; i < end; ++i) {
+            const Segment &cand = candidates[order[i]];
+            const double *xy = first_point(lines, cand);
+            const std::size_t n = cand.last - cand.first + 1;
+            if (!covered_at_stride(kept, xy, n, cover, scale.min_length))
+                covered[i - start] = near_points(kept, xy, n, cover);
         }
-        // This candidate's pieces cover only from now on, not the rest of the same candidate.
-        for (std::size_t b = selected.size(); b-- > 0 && selected[b].candidate == c;)
-            kept.add(first_point(lines, selected[b].piece), selected[b].piece.last - selected[b].piece.first + 1, b);
+        RunIndex added(g, cover);
+        const std::size_t kept_before = selected.size();
+        for (std::size_t i = start; i < end; ++i) {
+            if (m_max_barriers > 0 && selected.size() >= m_max_barriers) break;
+            const std::size_t c = order[i];
+            if (covered[i - start].empty()) continue; // no uncovered run min_length long: nothing to select
+            if (selected.size() > kept_before)
+                add_near_points(added, first_point(lines, candidates[c]), cover, covered[i - start]);
+            const std::size_t first_new = selected.size();
+            select_uncovered(lines, candidates, c, covered[i - start], index, meter, scale, selected);
+            // This candidate's pieces cover only from now on, not the rest of the same candidate.
+            for (std::size_t b = first_new; b < selected.size(); ++b) {
+                const std::size_t n = selected[b].piece.last - selected[b].piece.first + 1;
+                kept.add(first_point(lines, selected[b].piece), n, b);
+                added.add(first_point(lines, selected[b].piece), n, b);
+            }
+        }
     }
     std::stable_sort(selected.begin(), selected.end(),
                      [](const Selected &a, const Selected &b) { return a.piece.q < b.piece.q; });

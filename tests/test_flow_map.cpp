@@ -36,6 +36,17 @@ IntegratorSettings settings_for(const std::string &method, double tol, std::size
 // Classic RK4 applied to x' = a x multiplies by this per step of size h.
 double rk4_factor(double z) { return 1.0 + z + z * z / 2.0 + z * z * z / 6.0 + z * z * z * z / 24.0; }
 
+// A system of the faulty test plugins (tests/plugins/faulty.cpp), stiffness k = 1.
+System faulty_system(const std::string &name) {
+    const std::vector<PluginHandle> handles =
+        load_plugin_library(geobarrier::test::test_plugin_dir() / "faulty" / "geobarrier-faulty.so");
+    const auto it = std::find_if(handles.begin(), handles.end(), [&](const PluginHandle &h) {
+        return h.info.kind == PluginKind::system && h.info.name == name;
+    });
+    REQUIRE(it != handles.end());
+    return System(*it, validate_params(it->info, {{"k", 1.0}}, "/system/params"));
+}
+
 } // namespace
 
 TEST_CASE("linear saddle: flow map = (x0 e^{aT}, y0 e^{-aT}) for every stepper, both time directions, any batch") {
@@ -365,13 +376,7 @@ TEST_CASE("blow-up: lanes of x'' = x + x^3 from large states are masked non-fini
 TEST_CASE("a plugin returning NaN: those lanes are masked non-finite, the others are exact") {
     // faulty-nan is x' = y, y' = -k x + f with x' = NaN wherever x >= 2 (a test plugin built for the conformance
     // checks). Lanes on circles of radius > 2 reach x = 2 and must be masked; the others are x0 cos t + y0 sin t.
-    std::vector<PluginHandle> handles =
-        load_plugin_library(geobarrier::test::test_plugin_dir() / "faulty" / "geobarrier-faulty.so");
-    const auto it = std::find_if(handles.begin(), handles.end(), [](const PluginHandle &h) {
-        return h.info.kind == PluginKind::system && h.info.name == "faulty-nan";
-    });
-    REQUIRE(it != handles.end());
-    const System faulty(*it, validate_params(it->info, {{"k", 1.0}}, "/system/params"));
+    const System faulty = faulty_system("faulty-nan");
     const Dynamics dyn{&faulty, nullptr};
     const std::vector<double> x0 = {0.5, 0.0, -1.0, 2.5, 0.3, -2.2, 1.0, 0.0};
     const std::vector<double> y0 = {0.0, 3.0, 0.5, 0.0, -0.2, -1.5, 1.0, -1.9};
@@ -405,13 +410,7 @@ TEST_CASE("checked steps: a DF that turns NaN under a finite state is masked non
     // Jacobian entry at x >= 2: the state stays exact, DF goes NaN on the circles of radius > 2. The checked steps
     // screen the state through the error test and DF where it is renormalised (every few steps, and after the
     // last): such lanes end masked non-finite with no rejected step; the others have the rotation's exact DF.
-    std::vector<PluginHandle> handles =
-        load_plugin_library(geobarrier::test::test_plugin_dir() / "faulty" / "geobarrier-faulty.so");
-    const auto it = std::find_if(handles.begin(), handles.end(), [](const PluginHandle &h) {
-        return h.info.kind == PluginKind::system && h.info.name == "faulty-nan-jacobian";
-    });
-    REQUIRE(it != handles.end());
-    const System faulty(*it, validate_params(it->info, {{"k", 1.0}}, "/system/params"));
+    const System faulty = faulty_system("faulty-nan-jacobian");
     const Dynamics dyn{&faulty, nullptr};
     const std::vector<double> x0 = {0.5, 0.0, -1.0, 2.5, 0.3, -2.2, 1.0, 0.0};
     const std::vector<double> y0 = {0.0, 3.0, 0.5, 0.0, -0.2, -1.5, 1.0, -1.9};

@@ -547,37 +547,17 @@ template <unsigned N> class BatchIntegrator {
             // The plugin's fused step took every step (checked: dop853 only, the method the SDK fuses).
             const bool fused = !adaptive && (checked ? try_fused_checked() : try_fused());
             stats.fused_batches += fused ? 1 : 0;
-            if (checked && !fused) switch (m_method) {
-                case Method::dop853:
-                    run_checked<detail::Dop853Tableau>(false);
-                    break;
-                case Method::dopri5:
-                    run_checked<detail::Dopri5Tableau>(false);
-                    break;
-                case Method::rkf78:
-                    run_checked<detail::Rkf78Tableau>(false);
-                    break;
-                case Method::rk4:
-                case Method::rosenbrock4:
-                    break;
-                }
-            else if (!fused)
-                switch (m_method) {
-                case Method::dop853:
-                    run_lockstep<detail::Dop853Tableau>(adaptive);
-                    break;
-                case Method::dopri5:
-                    run_lockstep<detail::Dopri5Tableau>(adaptive);
-                    break;
-                case Method::rkf78:
-                    run_lockstep<detail::Rkf78Tableau>(adaptive);
-                    break;
-                case Method::rk4:
-                    run_lockstep<detail::Rk4Tableau>(false);
-                    break;
-                case Method::rosenbrock4:
-                    break;
-                }
+            if (!fused)
+                with_explicit_tableau(m_method, [&](auto tableau) {
+                    using Tab = decltype(tableau);
+                    if constexpr (Tab::error != detail::RkError::none) {
+                        if (checked) {
+                            run_checked<Tab>(false);
+                            return;
+                        }
+                    }
+                    run_lockstep<Tab>(adaptive);
+                });
         } else if (m_t0 != m_t1 && m_active > 0) {
             switch (m_method) {
             case Method::dop853:
@@ -1303,6 +1283,23 @@ template <unsigned N> class BatchIntegrator {
         m_ctx.note_lane_status();
         m_ctx.rhs_calls += Tab::stages;
         return true;
+    }
+
+    // Calls f with a value of the Butcher tableau of an explicit method (the lockstep kernels' template argument);
+    // nothing for rosenbrock4, which has none.
+    template <class F> static void with_explicit_tableau(Method method, F &&f) {
+        switch (method) {
+        case Method::dop853:
+            return f(detail::Dop853Tableau{});
+        case Method::dopri5:
+            return f(detail::Dopri5Tableau{});
+        case Method::rkf78:
+            return f(detail::Rkf78Tableau{});
+        case Method::rk4:
+            return f(detail::Rk4Tableau{});
+        case Method::rosenbrock4:
+            return;
+        }
     }
 
     bool try_fused() {

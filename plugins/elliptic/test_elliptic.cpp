@@ -2,6 +2,7 @@
 // be its circles), and whole runs through the plugin: the circular shear flow, the unforced Duffing oscillator
 // (closed shearlines must be level sets of H = y^2/2 - x^2/2 + x^4/4) and the paper's forced case 1.
 #include "closed_shearlines.hpp"
+#include "elliptic_test_runs.hpp"
 
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/shear.hpp>
@@ -12,66 +13,21 @@
 #include <doctest/doctest.h>
 #include <nlohmann/json.hpp>
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
 #include <map>
 
 using namespace geobarrier;
 using namespace geobarrier::elliptic;
 using nlohmann::json;
-namespace fs = std::filesystem;
 
 namespace {
 
 using test::circular_shear_cg;
-
-struct RadiusStats {
-    double mean = 0.0, spread = 0.0; // spread: max |r - mean|
-};
-RadiusStats radius_stats(const std::vector<double> &xy, double cx = 0.0, double cy = 0.0) {
-    RadiusStats s;
-    const std::size_t n = xy.size() / 2;
-    for (std::size_t k = 0; k < n; ++k) s.mean += std::hypot(xy[2 * k] - cx, xy[2 * k + 1] - cy);
-    s.mean /= static_cast<double>(n);
-    for (std::size_t k = 0; k < n; ++k)
-        s.spread = std::max(s.spread, std::abs(std::hypot(xy[2 * k] - cx, xy[2 * k + 1] - cy) - s.mean));
-    return s;
-}
-
-fs::path fresh_dir(const std::string &name) {
-    const fs::path dir =
-        fs::temp_directory_path() / ("geobarrier-test-elliptic-" + name + "-" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    return dir;
-}
-
-// Runs an experiment with the built and test-only plugins; returns barriers.json.
-json run(json experiment, const std::string &name) {
-    experiment["plugin_paths"] = {test::plugin_dir().string(), test::test_plugin_dir().string()};
-    const ResolvedExperiment r = resolve_experiment(parse_experiment(experiment));
-    const fs::path dir = fresh_dir(name);
-    RunOptions options;
-    options.output_dir = dir;
-    options.quiet = true;
-    run_experiment(r, options);
-    json b = json::parse(std::ifstream(dir / "barriers.json"));
-    CHECK(fs::exists(dir / "elliptic-sections.json"));
-    fs::remove_all(dir);
-    return b;
-}
-
-std::vector<double> points_of(const json &barrier) {
-    std::vector<double> xy;
-    for (const auto &p : barrier["points"]) {
-        xy.push_back(p[0].get<double>());
-        xy.push_back(p[1].get<double>());
-    }
-    return xy;
-}
+using test_runs::points_of;
+using test_runs::radius_stats;
+using test_runs::RadiusStats;
+using test_runs::run;
 
 // Every barrier has the documented fields, finite numbers, and each island exactly one outermost barrier.
 void check_barrier_fields(const json &barriers) {

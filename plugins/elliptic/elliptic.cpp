@@ -149,6 +149,8 @@ struct Found {
     std::size_t island = 0;
     bool outermost = false;
     double centroid_x = 0.0, centroid_y = 0.0;
+    double lambda = 0.0; // > 0: a closed generalized lambda-line of this lambda (no <d_g> test)
+    double stretching = std::numeric_limits<double>::quiet_NaN(); // lambda-line fallback: advected length / length
 };
 
 // What Alg. 2's steps 2-3 produced over every region and family.
@@ -157,6 +159,18 @@ struct Search {
     std::vector<std::vector<double>> picture_lines; // launched shearlines kept for the picture
     json regions = json::array();                   // elliptic-sections.json: one entry per region and family
     std::size_t dropped_ftle = 0;                   // passed the <d_g> test but lie on the chaotic side
+    json lambda_fallback = json::array();           // elliptic-sections.json: each lambda tried by the fallback
+};
+
+// One lambda tried by the lambda-line fallback in one region and family: how many closed lambda-lines its return map
+// gave, the median return displacement P(sigma) - sigma (its sign says which way the lambda-lines spiral), and the
+// closed lambda-lines kept (the FTLE bound of step 6 only).
+struct LambdaTrial {
+    double lambda = 0.0;
+    int sign = +1;
+    std::size_t region = 0, closed = 0;
+    double displacement = std::numeric_limits<double>::quiet_NaN();
+    std::vector<Found> kept;
 };
 
 // What every region's search uses besides its own section and family.
@@ -371,6 +385,16 @@ struct Elliptic {
             "lambda", 0.0, 0.0, HUGE_VAL, "",
             "0: shearlines (eq. shrvec); > 0: closed generalized lambda-lines, |DF e| = lambda |e| (Haller & "
             "Beron-Vera 2013; lambda = 1 gives the shearlines of a conservative system), kept without a d_g test"),
+        bool_param("lambda_fallback", true,
+                   "in a region where no closed shearline passes the <d_g> test, report the outermost closed "
+                   "lambda-line over lambda_min..lambda_max instead (Haller & Beron-Vera 2013); off: report nothing"),
+        real_param("lambda_min", 0.9, 0.01, 1.0, "", "smallest lambda the fallback tries (the range holds 1)"),
+        real_param("lambda_max", 1.1, 1.0, 100.0, "", "largest lambda the fallback tries"),
+        real_param("lambda_step", 0.02, 1e-4, 1.0, "",
+                   "the fallback tries lambda = 1, 1 +- step, 1 +- 2 step, ... within [lambda_min, lambda_max]"),
+        integer_param("lambda_bisections", 8, 0, 60,
+                      "where no tried lambda closes a lambda-line but the lambda-lines turn from spiralling in to "
+                      "spiralling out between two neighbouring lambdas, halve that interval up to this many times"),
         string_param("conservative", "auto", "auto|yes|no",
                      "whether arclength and area conservation is expected: auto = decided from det DF = "
                      "sqrt(lambda1 lambda2) on the grid (Liouville: the system's divergence over [t0, t1])"),
@@ -406,7 +430,9 @@ struct Elliptic {
           m_conservative(p.string("conservative")), m_lambda(p.real("lambda")),
           m_exact_deviation_spacing(p.real("exact_deviation_spacing")),
           m_exact_deviation_points(static_cast<std::size_t>(p.integer("exact_deviation_points"))),
-          m_line_method(tensor_line_method(p.string("line_method"))) {}
+          m_line_method(tensor_line_method(p.string("line_method"))), m_lambda_fallback(p.flag("lambda_fallback")),
+          m_lambda_min(p.real("lambda_min")), m_lambda_max(p.real("lambda_max")), m_lambda_step(p.real("lambda_step")),
+          m_lambda_bisections(static_cast<std::size_t>(p.integer("lambda_bisections"))) {}
 
     void extract(const sdk::Host &host, const gb_extract_input &in) const;
 
@@ -424,17 +450,31 @@ struct Elliptic {
                        const std::vector<double> &deviation, int sign, std::size_t region, const Candidate &cand,
                        Search &search) const;
     bool decide_kept(Found &f, double island_threshold, bool lambda_lines) const;
+    void lambda_fallback(const sdk::Host &host, const gb_extract_input &in, const SearchInputs &inputs,
+                         const std::vector<Candidate> &candidates, const std::vector<int> &signs, Search &search) const;
+    const Found *outermost_lambda_line(const sdk::Host &host, const gb_extract_input &in,
+                                       std::vector<LambdaTrial> &trials, std::size_t region,
+                                       std::size_t &rejected) const;
+    std::vector<double> lambda_scan_values() const;
+    std::vector<LambdaTrial> lambda_trials(const SearchInputs &inputs, double lambda,
+                                           const std::vector<std::size_t> &regions,
+                                           const std::vector<Candidate> &candidates,
+                                           const std::vector<int> &signs) const;
+    std::vector<LambdaTrial> lambda_bisection(const SearchInputs &inputs, std::size_t region, int sign,
+                                              const std::vector<LambdaTrial> &scan,
+                                              const std::vector<Candidate> &candidates) const;
+    std::string selection(const Found &f) const;
     std::vector<std::size_t> select_barriers(std::vector<Found> &found, const std::vector<Candidate> &candidates,
                                              const std::vector<int> &signs, double h) const;
     std::vector<std::size_t> thin_nested(const std::vector<Found> &found, std::size_t regions,
                                          const std::vector<int> &signs) const;
-    Metrics barrier_metrics(const Found &f, bool lambda_lines, const double *exact_deviation) const;
+    Metrics barrier_metrics(const Found &f, const double *exact_deviation) const;
     std::vector<double> exact_deviations(const sdk::Host &host, const gb_extract_input &in,
                                          const std::vector<const Found *> &curves, double h) const;
     std::vector<PoincareDrift> poincare_drifts(const sdk::Host &host, const gb_extract_input &in,
                                                const std::vector<const Found *> &barriers) const;
     void report_barriers(const sdk::Host &host, const gb_extract_input &in, const std::vector<Found> &found,
-                         const std::vector<std::size_t> &kept, double h, bool conservative, bool lambda_lines) const;
+                         const std::vector<std::size_t> &kept, double h, bool conservative) const;
     void draw_shearlines_picture(const std::filesystem::path &out_dir, const CauchyGreenField &cg,
                                  const gb_extract_input &in, const Search &search,
                                  const std::vector<Candidate> &candidates, const std::vector<std::size_t> &kept) const;
@@ -454,6 +494,9 @@ struct Elliptic {
     double m_lambda, m_exact_deviation_spacing;
     std::size_t m_exact_deviation_points;
     TensorLineMethod m_line_method;
+    bool m_lambda_fallback;
+    double m_lambda_min, m_lambda_max, m_lambda_step;
+    std::size_t m_lambda_bisections;
 };
 
 void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const {
@@ -479,24 +522,30 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
     // Steps 2-3: return maps, fixed points, closed shearlines and their <d_g>.
     const std::vector<int> signs = families();
     const ReturnMapSettings return_map = return_map_settings(in, h);
-    Search search =
-        search_closed_shearlines(host, {cg, return_map, island_threshold, lambda_lines}, shear, candidates, signs);
+    const SearchInputs inputs{cg, return_map, island_threshold, lambda_lines};
+    Search search = search_closed_shearlines(host, inputs, shear, candidates, signs);
     const double t_search = seconds_since(t_start) - t_candidates;
+    // Where the eta-lines gave no barrier: the outermost closed lambda-line (step 8).
+    if (m_lambda_fallback && !lambda_lines) lambda_fallback(host, in, inputs, candidates, signs, search);
+    const double t_fallback = seconds_since(t_start) - t_candidates - t_search;
 
     // Step 4, then the theory's checks on each barrier.
     const std::vector<std::size_t> kept = select_barriers(search.found, candidates, signs, h);
-    report_barriers(host, in, search.found, kept, h, conservative, lambda_lines);
+    report_barriers(host, in, search.found, kept, h, conservative);
     std::size_t islands = 0;
     for (std::size_t i : kept) islands = std::max(islands, search.found[i].island + 1);
-    host.info(std::to_string(kept.size()) + " elliptic barrier(s) in " + std::to_string(islands) + " island(s) from " +
-              std::to_string(search.found.size()) + " closed shearline(s); regions " + fmt(t_candidates, 3) +
-              " s, shearlines " + fmt(t_search, 3) + " s, checks " +
-              fmt(seconds_since(t_start) - t_candidates - t_search, 3) + " s");
+    host.info(
+        std::to_string(kept.size()) + " elliptic barrier(s) in " + std::to_string(islands) + " island(s) from " +
+        std::to_string(search.found.size()) + " closed shearline(s); regions " + fmt(t_candidates, 3) +
+        " s, shearlines " + fmt(t_search, 3) + " s, " +
+        (!search.lambda_fallback.empty() ? "lambda-line fallback " + fmt(t_fallback, 3) + " s, " : std::string()) +
+        "checks " + fmt(seconds_since(t_start) - t_candidates - t_search - t_fallback, 3) + " s");
 
     const std::filesystem::path out_dir =
         in.output_dir ? std::filesystem::path(in.output_dir) : std::filesystem::path();
     if (out_dir.empty()) return;
     json doc = {{"regions", search.regions},
+                {"lambda_fallback", search.lambda_fallback},
                 {"ftle_threshold", island_threshold},
                 {"ftle_filter", m_ftle_filter},
                 {"area_preserving", conservative},
@@ -621,6 +670,7 @@ void Elliptic::search_region(const sdk::Host &host, const SearchInputs &inputs, 
     json closed = json::array();
     for (ClosedShearline &orbit : map.closed) {
         Found f = measure_closed_shearline(inputs.cg, deviation, region, std::move(orbit));
+        if (inputs.lambda_lines) f.lambda = m_lambda;
         search.dropped_ftle += decide_kept(f, inputs.island_threshold, inputs.lambda_lines) ? 1 : 0;
         kept_here += f.kept ? 1 : 0;
         closed.push_back(closed_shearline_json(f));
@@ -640,6 +690,217 @@ bool Elliptic::decide_kept(Found &f, double island_threshold, bool lambda_lines)
     const bool chaotic_side = m_ftle_filter && !(f.mean_ftle < island_threshold);
     f.kept = passes_deviation && !chaotic_side;
     return passes_deviation && chaotic_side;
+}
+
+// How a barrier was selected (barriers.json's "selection", as the hyperbolic extractor's).
+std::string Elliptic::selection(const Found &f) const {
+    if (!(f.lambda > 0.0)) return "eta-line, <d_g> < " + fmt(m_max_mean_deviation);
+    if (m_lambda > 0.0) return "lambda-line, lambda = " + fmt(m_lambda) + " (the lambda parameter)";
+    return "lambda-line fallback (no eta-line barrier in region " + std::to_string(f.candidate) +
+           "): the outermost closed lambda-line, lambda = " + fmt(f.lambda, 6);
+}
+
+// The lambdas the fallback tries first: 1 (the shearlines of a conservative system), then 1 -+ k lambda_step
+// outwards, within [lambda_min, lambda_max]; in increasing order.
+std::vector<double> Elliptic::lambda_scan_values() const {
+    std::vector<double> values{1.0};
+    for (std::size_t k = 1;; ++k) {
+        const double below = 1.0 - static_cast<double>(k) * m_lambda_step,
+                     above = 1.0 + static_cast<double>(k) * m_lambda_step;
+        const bool any = below >= m_lambda_min || above <= m_lambda_max;
+        if (below >= m_lambda_min) values.push_back(below);
+        if (above <= m_lambda_max) values.push_back(above);
+        if (!any) break;
+    }
+    std::sort(values.begin(), values.end());
+    return values;
+}
+
+// The median of P(sigma) - sigma over the launch points that returned (NaN when none did): its sign says whether
+// the lines of the field spiral inwards or outwards across the section.
+double median_displacement(const ReturnMap &map) {
+    std::vector<double> d;
+    for (std::size_t k = 0; k < map.sigma.size(); ++k)
+        if (std::isfinite(map.image[k])) d.push_back(map.image[k] - map.sigma[k]);
+    if (d.empty()) return std::numeric_limits<double>::quiet_NaN();
+    std::nth_element(d.begin(), d.begin() + static_cast<std::ptrdiff_t>(d.size() / 2), d.end());
+    return d[d.size() / 2];
+}
+
+// One lambda in the given regions and every family: the lambda-line fields eta_lambda± (step 8), the return map on
+// each region's section as for the shearlines (closed_shearlines: all launches of a section in one batch of
+// lockstep lanes), and the closed lambda-lines kept by the FTLE bound of step 6.
+std::vector<LambdaTrial> Elliptic::lambda_trials(const SearchInputs &inputs, double lambda,
+                                                 const std::vector<std::size_t> &regions,
+                                                 const std::vector<Candidate> &candidates,
+                                                 const std::vector<int> &signs) const {
+    const ShearFields fields = lambda_line_fields(inputs.cg, lambda);
+    const bool richardson_gap = m_extrapolate_gap && m_resolution_gap > 0.0;
+    std::vector<LambdaTrial> trials;
+    for (int sign : signs) {
+        const LineField eta = shear_line_field(inputs.cg, fields, sign, m_singular_gap);
+        const LineField coarse = richardson_gap ? coarsened(eta) : LineField();
+        for (std::size_t region : regions) {
+            ReturnMap map = closed_shearlines(eta, sign, candidates[region].section, inputs.return_map,
+                                              richardson_gap ? &coarse : nullptr);
+            LambdaTrial trial;
+            trial.lambda = lambda;
+            trial.sign = sign;
+            trial.region = region;
+            trial.closed = map.closed.size();
+            trial.displacement = median_displacement(map);
+            for (ClosedShearline &orbit : map.closed) {
+                Found f = measure_closed_shearline(inputs.cg, fields.deviation_plus, region, std::move(orbit));
+                f.lambda = lambda;
+                decide_kept(f, inputs.island_threshold, true);
+                if (f.kept) trial.kept.push_back(std::move(f));
+            }
+            trials.push_back(std::move(trial));
+        }
+    }
+    return trials;
+}
+
+// Closed lambda-lines of a single lambda are isolated when the lambda-lines elsewhere spiral (a circle shrunk
+// uniformly by e^(-cT) is a lambda-line of that lambda only): where the median return displacement changes sign
+// between two neighbouring lambdas of the scan (`scan`: one region and family, increasing lambda) and neither
+// closed a lambda-line, the interval is halved (bisection on the sign) until a closed lambda-line is kept or
+// lambda_bisections halvings are spent.
+std::vector<LambdaTrial> Elliptic::lambda_bisection(const SearchInputs &inputs, std::size_t region, int sign,
+                                                    const std::vector<LambdaTrial> &scan,
+                                                    const std::vector<Candidate> &candidates) const {
+    std::vector<LambdaTrial> out;
+    for (std::size_t k = 0; k + 1 < scan.size(); ++k) {
+        double lo = scan[k].lambda, hi = scan[k + 1].lambda, d_lo = scan[k].displacement;
+        if (!(d_lo * scan[k + 1].displacement < 0.0)) continue;
+        for (std::size_t halving = 0; halving < m_lambda_bisections; ++halving) {
+            const double mid = 0.5 * (lo + hi);
+            out.push_back(std::move(lambda_trials(inputs, mid, {region}, candidates, {sign}).front()));
+            const LambdaTrial &t = out.back();
+            if (!t.kept.empty() || !std::isfinite(t.displacement)) break;
+            if ((t.displacement < 0.0) == (d_lo < 0.0)) {
+                lo = mid;
+                d_lo = t.displacement;
+            } else {
+                hi = mid;
+            }
+        }
+    }
+    return out;
+}
+
+// The region's outermost closed lambda-line over every lambda tried that is one in fact: advected to t1 (host
+// advection with point insertion, as the checks), its length must have changed by the factor lambda to within half
+// a lambda_step (|DF e| = lambda |e| along it). Near an island's edge l2 >> 1, and a tangent error theta of the
+// integrated curve adds l2 theta^2 / 2 to its stretching, so an outer curve closed for one lambda may be stretched
+// by another (the double gyre at 201 x 101, test_lambda_fallback: closed at lambda = 0.96, enclosed area 0.214,
+// stretched by 1.0014). Candidates are checked
+// a round at a time, each lambda's and family's next outermost curve in one batch, while one may still be larger
+// than the largest that passed (at most max_rounds rounds); the stretching is recorded.
+const Found *Elliptic::outermost_lambda_line(const sdk::Host &host, const gb_extract_input &in,
+                                             std::vector<LambdaTrial> &trials, std::size_t region,
+                                             std::size_t &rejected) const {
+    constexpr std::size_t max_rounds = 8;
+    std::vector<std::vector<Found *>> by_lambda; // each trial's kept curves, outermost first
+    for (LambdaTrial &t : trials) {
+        if (t.region != region || t.kept.empty()) continue;
+        std::vector<Found *> curves;
+        for (Found &f : t.kept) curves.push_back(&f);
+        std::sort(curves.begin(), curves.end(), [](const Found *a, const Found *b) { return a->area > b->area; });
+        by_lambda.push_back(std::move(curves));
+    }
+    const AdvectPointsFn advect_to_t1 = [&](const std::vector<double> &xy, std::vector<double> &out,
+                                            std::vector<std::uint8_t> &mask) {
+        host.advect(xy, in.t0, in.t1, out, mask);
+    };
+    const Found *best = nullptr;
+    for (std::size_t round = 0; round < max_rounds; ++round) {
+        std::vector<Found *> batch;
+        std::vector<std::vector<double>> curves;
+        for (const auto &curves_of_lambda : by_lambda)
+            if (round < curves_of_lambda.size() && (!best || curves_of_lambda[round]->area > best->area)) {
+                batch.push_back(curves_of_lambda[round]);
+                curves.push_back(batch.back()->orbit.xy);
+            }
+        if (batch.empty()) break;
+        const std::vector<AdvectedCurve> images =
+            advect_curves(curves, std::vector<bool>(curves.size(), true), advect_to_t1);
+        for (std::size_t b = 0; b < batch.size(); ++b) {
+            batch[b]->stretching = images[b].length1 / images[b].length0;
+            const bool is_lambda_line = std::abs(batch[b]->stretching - batch[b]->lambda) <= 0.5 * m_lambda_step;
+            rejected += is_lambda_line ? 0 : 1;
+            if (is_lambda_line && (!best || batch[b]->area > best->area)) best = batch[b];
+        }
+    }
+    return best;
+}
+
+// Step 8 as a fallback (Haller & Beron-Vera 2013; CoherentStructures.jl): in each region where no closed shearline
+// passed the <d_g> test, closed generalized lambda-lines over lambda_min..lambda_max (scan, then bisection where
+// the scan closed none), and the outermost of them (largest enclosed area, over every lambda) is the region's
+// barrier, as the literature takes the outermost closed lambda-line for the vortex boundary. Regions with an
+// eta-line barrier are not searched again, so runs whose eta-lines succeed do not change.
+void Elliptic::lambda_fallback(const sdk::Host &host, const gb_extract_input &in, const SearchInputs &inputs,
+                               const std::vector<Candidate> &candidates, const std::vector<int> &signs,
+                               Search &search) const {
+    std::vector<std::size_t> regions;
+    for (std::size_t c = 0; c < candidates.size(); ++c) {
+        std::size_t closed = 0;
+        bool kept = false;
+        double least = HUGE_VAL;
+        for (const Found &f : search.found)
+            if (f.candidate == c) {
+                ++closed;
+                kept = kept || f.kept;
+                if (f.coverage >= min_deviation_coverage) least = std::min(least, f.mean_deviation);
+            }
+        if (kept) continue;
+        regions.push_back(c);
+        host.info("region " + std::to_string(c) + ": no eta-line barrier (" + std::to_string(closed) +
+                  " closed shearline(s)" + (closed ? ", least <d_g> " + fmt(least) : std::string()) + ", needed < " +
+                  fmt(m_max_mean_deviation) + "): lambda-line fallback over lambda in [" + fmt(m_lambda_min) + ", " +
+                  fmt(m_lambda_max) + "], step " + fmt(m_lambda_step));
+    }
+    std::vector<LambdaTrial> trials;
+    for (double lambda : regions.empty() ? std::vector<double>() : lambda_scan_values()) {
+        for (LambdaTrial &t : lambda_trials(inputs, lambda, regions, candidates, signs)) trials.push_back(std::move(t));
+        if (host.progress(0.7)) throw std::runtime_error("elliptic: stopped on request");
+    }
+    const std::size_t scanned = trials.size();
+    for (std::size_t region : regions) {
+        bool any = false;
+        for (std::size_t k = 0; k < scanned; ++k) any = any || (trials[k].region == region && !trials[k].kept.empty());
+        for (int sign : any ? std::vector<int>() : signs) {
+            std::vector<LambdaTrial> scan;
+            for (std::size_t k = 0; k < scanned; ++k)
+                if (trials[k].region == region && trials[k].sign == sign) scan.push_back(trials[k]);
+            for (LambdaTrial &t : lambda_bisection(inputs, region, sign, scan, candidates))
+                trials.push_back(std::move(t));
+        }
+    }
+    for (std::size_t region : regions) {
+        std::size_t kept = 0, tried = 0;
+        for (const LambdaTrial &t : trials) {
+            if (t.region != region) continue;
+            ++tried;
+            kept += t.kept.size();
+            search.lambda_fallback.push_back({{"region", region},
+                                              {"family", t.sign > 0 ? "+" : "-"},
+                                              {"lambda", t.lambda},
+                                              {"closed", t.closed},
+                                              {"kept", t.kept.size()},
+                                              {"median_displacement", finite_or_null(t.displacement)}});
+        }
+        std::size_t rejected = 0;
+        const Found *outermost = outermost_lambda_line(host, in, trials, region, rejected);
+        if (outermost) search.found.push_back(*outermost);
+        host.info("region " + std::to_string(region) + ": " + std::to_string(kept) + " closed lambda-line(s) over " +
+                  std::to_string(tried) + " return maps, " + std::to_string(rejected) +
+                  " outer one(s) not stretched by their lambda to lambda_step / 2 (advected); " +
+                  (outermost ? "outermost at lambda = " + fmt(outermost->lambda, 6) + ", enclosed area " +
+                                   fmt(outermost->area) + ", length " + fmt(outermost->length)
+                             : std::string("none, nothing reported")));
+    }
 }
 
 // Step 4: the barriers reported, out of the kept closed shearlines: thinned, near-identical ones merged, grouped
@@ -684,7 +945,7 @@ std::vector<std::size_t> Elliptic::thin_nested(const std::vector<Found> &found, 
 
 // What barriers.json says of a barrier before the checks: geometry, island, where it crossed its section, its
 // <d_g> (grid and, when computed, exact) or lambda, its closure and FTLE.
-Metrics Elliptic::barrier_metrics(const Found &f, bool lambda_lines, const double *exact_deviation) const {
+Metrics Elliptic::barrier_metrics(const Found &f, const double *exact_deviation) const {
     Metrics metrics = {
         {"length", f.length},
         {"enclosed_area", f.area},
@@ -692,8 +953,9 @@ Metrics Elliptic::barrier_metrics(const Found &f, bool lambda_lines, const doubl
         {"closure_error", f.orbit.closure_error},
         {"section_sigma", f.orbit.sigma},
     };
-    if (lambda_lines) {
-        metrics.emplace_back("lambda", m_lambda);
+    if (f.lambda > 0.0) {
+        metrics.emplace_back("lambda", f.lambda);
+        if (std::isfinite(f.stretching)) metrics.emplace_back("advected_stretching", f.stretching);
     } else {
         metrics.emplace_back("mean_geodesic_deviation", f.mean_deviation);
         metrics.emplace_back("max_geodesic_deviation", f.max_deviation);
@@ -777,19 +1039,22 @@ std::vector<PoincareDrift> Elliptic::poincare_drifts(const sdk::Host &host, cons
 // iterates (the last 30% of the progress). Each check runs on every barrier at once, so that the host's advection
 // sees a few large batches rather than many small ones.
 void Elliptic::report_barriers(const sdk::Host &host, const gb_extract_input &in, const std::vector<Found> &found,
-                               const std::vector<std::size_t> &kept, double h, bool conservative,
-                               bool lambda_lines) const {
+                               const std::vector<std::size_t> &kept, double h, bool conservative) const {
     auto progress = [&](double fraction) {
         if (host.progress(0.7 + 0.3 * fraction)) throw std::runtime_error("elliptic: stopped on request");
     };
     if (kept.empty()) return;
-    std::vector<const Found *> barriers;
+    std::vector<const Found *> barriers, shearlines; // shearlines: those with a <d_g> (not lambda-lines)
     for (std::size_t i : kept) barriers.push_back(&found[i]);
-    const bool exact_wanted = !lambda_lines && m_exact_deviation_spacing > 0.0;
-    const std::vector<double> exact = exact_wanted ? exact_deviations(host, in, barriers, h) : std::vector<double>();
+    for (const Found *f : barriers)
+        if (!(f->lambda > 0.0)) shearlines.push_back(f);
+    const bool exact_wanted = m_exact_deviation_spacing > 0.0 && !shearlines.empty();
+    const std::vector<double> exact = exact_wanted ? exact_deviations(host, in, shearlines, h) : std::vector<double>();
     std::vector<Metrics> metrics;
-    for (std::size_t b = 0; b < barriers.size(); ++b)
-        metrics.push_back(barrier_metrics(*barriers[b], lambda_lines, exact_wanted ? &exact[b] : nullptr));
+    for (std::size_t b = 0, s = 0; b < barriers.size(); ++b) {
+        const bool has_exact = exact_wanted && !(barriers[b]->lambda > 0.0);
+        metrics.push_back(barrier_metrics(*barriers[b], has_exact ? &exact[s++] : nullptr));
+    }
     progress(0.25);
 
     std::vector<std::size_t> advected;
@@ -826,7 +1091,8 @@ void Elliptic::report_barriers(const sdk::Host &host, const gb_extract_input &in
         host.set_barrier_attributes({{"family", f.orbit.sign > 0 ? "\"+\"" : "\"-\""},
                                      {"outermost", f.outermost ? "true" : "false"},
                                      {"conservation_expected", conservative ? "true" : "false"},
-                                     {"fixed_point", f.orbit.fixed_point ? "true" : "false"}});
+                                     {"fixed_point", f.orbit.fixed_point ? "true" : "false"},
+                                     {"selection", json(selection(f)).dump()}});
     }
     progress(1.0);
 }

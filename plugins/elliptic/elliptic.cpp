@@ -1103,7 +1103,13 @@ void Elliptic::draw_shearlines_picture(const std::filesystem::path &out_dir, con
                                        const std::vector<Candidate> &candidates,
                                        const std::vector<std::size_t> &kept) const {
     FieldPlot plot;
-    plot.title = "Shearlines; closed with <d_g> < " + fmt(m_max_mean_deviation) + " red (outermost thick)";
+    bool lambda_lines = false, shearlines = false; // lambda-lines (parameter or fallback) have no <d_g> test
+    for (std::size_t i : kept) (search.found[i].lambda > 0.0 ? lambda_lines : shearlines) = true;
+    const std::string shearline_rule = "with <d_g> < " + fmt(m_max_mean_deviation);
+    plot.title = "Shearlines; closed " +
+                 (lambda_lines ? (shearlines ? shearline_rule + " and lambda-lines" : std::string("lambda-lines"))
+                               : shearline_rule) +
+                 " red (outermost thick)";
     plot.colorbar_label = "FTLE";
     plot.x_label = sdk::axis_label(in, 0); // "name [unit]" of the system's states (ABI 1.2)
     plot.y_label = sdk::axis_label(in, 1);

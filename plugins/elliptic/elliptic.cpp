@@ -839,7 +839,8 @@ const Found *Elliptic::outermost_lambda_line(const sdk::Host &host, const gb_ext
 // passed the <d_g> test, closed generalized lambda-lines over lambda_min..lambda_max (scan, then bisection where
 // the scan closed none), and the outermost of them (largest enclosed area, over every lambda) is the region's
 // barrier, as the literature takes the outermost closed lambda-line for the vortex boundary. Regions with an
-// eta-line barrier are not searched again, so runs whose eta-lines succeed do not change.
+// eta-line barrier, or inside another region's (one island, step 6), are not searched again, so runs whose
+// eta-lines succeed do not change.
 void Elliptic::lambda_fallback(const sdk::Host &host, const gb_extract_input &in, const SearchInputs &inputs,
                                const std::vector<Candidate> &candidates, const std::vector<int> &signs,
                                Search &search) const {
@@ -855,6 +856,16 @@ void Elliptic::lambda_fallback(const sdk::Host &host, const gb_extract_input &in
                 if (f.coverage >= min_deviation_coverage) least = std::min(least, f.mean_deviation);
             }
         if (kept) continue;
+        // A region whose centre lies inside another region's eta-line barrier is in an island that has one.
+        bool inside_barrier = false;
+        for (const Found &f : search.found)
+            inside_barrier = inside_barrier || (f.kept && encloses(f.orbit.xy, candidates[c].x, candidates[c].y));
+        if (inside_barrier) {
+            host.info("region " + std::to_string(c) +
+                      ": no eta-line barrier of its own, but its centre lies inside "
+                      "another region's: no lambda-line fallback");
+            continue;
+        }
         regions.push_back(c);
         host.info("region " + std::to_string(c) + ": no eta-line barrier (" + std::to_string(closed) +
                   " closed shearline(s)" + (closed ? ", least <d_g> " + fmt(least) : std::string()) + ", needed < " +

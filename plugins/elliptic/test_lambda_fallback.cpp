@@ -96,6 +96,18 @@ TEST_CASE("lambda-line fallback off: where no shearline passes <d_g>, nothing is
     CHECK(run(double_gyre({{"lambda_fallback", false}}), "fallback-off-gyre")["barriers"].empty());
 }
 
+TEST_CASE("selection: barriers whose eta-lines pass say so, and the fallback does not run in their region") {
+    json e = contracting_circular_shear(true);
+    e["extractors"][0]["params"]["max_mean_deviation"] = 0.5; // its closed shearlines: <d_g> from 0.071 up
+    const json b = run(e, "selection-eta")["barriers"];
+    REQUIRE(!b.empty());
+    for (const json &barrier : b) {
+        CHECK(barrier["selection"] == "eta-line, <d_g> < 0.5");
+        CHECK(barrier.contains("mean_geodesic_deviation"));
+        CHECK(!barrier.contains("lambda"));
+    }
+}
+
 TEST_CASE("lambda-line fallback, double gyre: a closed lambda-line around the gyre's region, stretched by lambda") {
     json sections;
     const json b = run(double_gyre(json::object()), "fallback-gyre", &sections)["barriers"];

@@ -11,6 +11,7 @@
 #include <geobarrier/tensor_lines.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -1055,17 +1056,32 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     const bool backward = in.t1 < in.t0;
     const bool opposite = m_route == "opposite-time";
 
+    using clock = std::chrono::steady_clock;
+    clock::time_point mark = clock::now();
+    std::string timings; // the sub-stages' wall seconds, for the log: where a slow extraction spends its time
+    const auto lap = [&](const char *name) {
+        const clock::time_point now = clock::now();
+        timings += std::string(timings.empty() ? "" : ", ") + name + " " +
+                   format(std::chrono::duration<double>(now - mark).count()) + " s";
+        mark = now;
+    };
     const std::vector<Strainline> lines = opposite ? opposite_time_strainlines(host, in, deviation, scale.max_length)
                                                    : direct_strainlines(host, cg, deviation, scale.max_length);
+    lap("strainlines");
     // Directly l(gamma_t1) = int sqrt(lambda1) ds, from log lambda1 on the grid.
     std::vector<double> log_lambda1(g.size());
     for (std::size_t p = 0; p < g.size(); ++p) log_lambda1[p] = std::log(cg.lambda1[p]);
     const SegmentMeter meter{g, log_lambda1, cg.mask, opposite};
     const std::vector<Segment> candidates = truncated_segments(host, lines, meter, scale.min_length);
+    lap("segments");
     if (host.progress(0.7)) throw std::runtime_error("stopped by the user");
     const std::vector<char> along_wall = along_walls(host, cg, lines, candidates, scale.radius);
+    lap("walls");
     const std::vector<Selected> selected = local_minima(host, g, lines, candidates, along_wall, meter, scale);
+    lap("selection");
     const AdvectionCheck check = advect_barriers(host, in, cg, lines, selected);
+    lap("advection");
+    host.info("stages: " + timings);
     if (host.progress(0.9)) throw std::runtime_error("stopped by the user");
     report_barriers(host, lines, candidates, selected, check, backward);
     if (!in.plots) return;

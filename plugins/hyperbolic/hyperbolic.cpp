@@ -169,13 +169,20 @@ struct SegmentMeter {
     bool opposite; // l(gamma_t1) is the stretchline's measured length at t1 instead
 
     // Fills everything but `length` (set by the caller, which drops short pieces first); false when sqrt(lambda1) is
-    // unknown on part of the piece or q is not finite.
-    bool measure(const std::vector<Strainline> &lines, Segment &s) const {
+    // unknown on part of the piece or q is not finite. `steps`, when given, holds the lengths of the strainline's
+    // segments (steps[k] joins its points k and k + 1), so that a strainline's thousands of pieces do not measure
+    // the same points again for every statistic; the figures are the same bit for bit either way.
+    bool measure(const std::vector<Strainline> &lines, Segment &s, const double *steps = nullptr) const {
         const Strainline &line = lines[s.line];
         const std::vector<double> xy = points_of(lines, s);
-        const std::vector<double> dev(line.deviation.begin() + static_cast<std::ptrdiff_t>(s.first),
-                                      line.deviation.begin() + static_cast<std::ptrdiff_t>(s.last + 1));
-        const CurveStats ds = curve_statistics(xy, dev);
+        const std::size_t n = s.last - s.first + 1;
+        std::vector<double> own_steps;
+        if (!steps) {
+            own_steps = segment_lengths(xy);
+        } else {
+            own_steps.assign(steps + s.first, steps + s.last);
+        }
+        const CurveStats ds = curve_statistics(line.deviation.data() + s.first, n, own_steps.data(), n - 1);
         s.mean_deviation = ds.mean;
         s.max_deviation = ds.max;
         if (opposite) {
@@ -186,19 +193,28 @@ struct SegmentMeter {
             // Interpolating log(lambda1) is exact for exponential variation across a cell.
             std::vector<double> root = sample_along(grid, log_lambda1, mask, xy);
             for (double &v : root) v = std::exp(0.5 * v);
-            const CurveStats rs = curve_statistics(xy, root);
+            const CurveStats rs = curve_statistics(root.data(), n, own_steps.data(), n - 1);
             if (rs.covered_length < 0.999 * s.length) return false;
             s.stretched_length = rs.integral;
         }
         s.q = s.stretched_length / s.length;
-        const std::vector<double> c = cumulative_length(xy);
-        const std::size_t mid = std::min(
-            static_cast<std::size_t>(std::lower_bound(c.begin(), c.end(), 0.5 * s.length) - c.begin()), c.size() - 1);
+        // The point at half the arc length: the first whose running length reaches it (cumulative_length's sums).
+        std::size_t mid = 0;
+        double run = 0.0;
+        while (mid + 1 < n && run < 0.5 * s.length) run += own_steps[mid++];
         s.mid_x = xy[2 * mid];
         s.mid_y = xy[2 * mid + 1];
         return std::isfinite(s.q);
     }
 };
+
+// The length of points first..last of a strainline from its segment lengths (steps[k] joins points k and k + 1),
+// summed in order as polyline_length does.
+double length_from_steps(const std::vector<double> &steps, std::size_t first, std::size_t last) {
+    double total = 0.0;
+    for (std::size_t k = first; k < last; ++k) total += steps[k];
+    return total;
+}
 
 // The walls of the computation: the box's four edges and the edge of the mask (where trajectories left `bounds` or
 // failed). A strainline running along a wall is shaped by the wall (the field stops there, one-sided differences,
@@ -604,6 +620,7 @@ std::vector<Segment> Hyperbolic::truncated_segments(const sdk::Host &host, const
     for (std::size_t l = 0; l < lines.size(); ++l) {
         const Strainline &line = lines[l];
         const std::size_t n = line.xy.size() / 2;
+        const std::vector<double> steps = segment_lengths(line.xy);
         std::size_t k = 0;
         while (k < n) {
             while (k < n && !(line.deviation[k] < m_epsilon)) ++k;
@@ -614,12 +631,12 @@ std::vector<Segment> Hyperbolic::truncated_segments(const sdk::Host &host, const
             s.line = l;
             s.first = first;
             s.last = k - 1;
-            s.length = polyline_length(points_of(lines, s));
+            s.length = length_from_steps(steps, s.first, s.last);
             if (s.length < min_length) {
                 ++short_per_line[l];
                 continue;
             }
-            if (meter.measure(lines, s)) per_line[l].push_back(s);
+            if (meter.measure(lines, s, steps.data())) per_line[l].push_back(s);
         }
     }
     std::vector<Segment> candidates;

@@ -76,6 +76,7 @@ class RunIndex {
         m_nx = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil((box.x_max - box.x_min) / r)) + 1);
         m_ny = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil((box.y_max - box.y_min) / r)) + 1);
         m_buckets.resize(m_nx * m_ny);
+        m_occupied_around.resize(m_nx * m_ny, 0);
     }
     // The n points (x, y interleaved) at xy, which must outlive the index, as polyline `id`.
     void add(const double *xy, std::size_t n, std::size_t id) {
@@ -94,6 +95,7 @@ class RunIndex {
                     run.y_hi = std::max(run.y_hi, xy[2 * m + 1]);
                 }
                 m_buckets[b].push_back(run);
+                mark_occupied_around(b);
             }
             k = end;
         }
@@ -116,6 +118,11 @@ class RunIndex {
         const double r2 = radius * radius;
         const long bx = static_cast<long>(std::floor((x - m_x0) / m_r)),
                    by = static_cast<long>(std::floor((y - m_y0) / m_r));
+        // Most queries of the selection fall where no run is near (thousands of candidates, a few barriers): one
+        // flag answers them for the same 3 x 3 buckets the scan below would find empty.
+        if (bx >= 0 && by >= 0 && bx < static_cast<long>(m_nx) && by < static_cast<long>(m_ny) &&
+            !m_occupied_around[static_cast<std::size_t>(by) * m_nx + static_cast<std::size_t>(bx)])
+            return false;
         // The point's own bucket first: that is where a neighbour is most likely found.
         static constexpr int order[9][2] = {{0, 0},   {-1, 0}, {1, 0},  {0, -1}, {0, 1},
                                             {-1, -1}, {1, -1}, {-1, 1}, {1, 1}};
@@ -155,9 +162,17 @@ class RunIndex {
         b = static_cast<std::size_t>(fy) * m_nx + static_cast<std::size_t>(fx);
         return true;
     }
+    // Flags the buckets whose 3 x 3 neighbourhood now holds a run: b's and its eight neighbours.
+    void mark_occupied_around(std::size_t b) {
+        const std::size_t i = b % m_nx, j = b / m_nx;
+        for (std::size_t jj = j > 0 ? j - 1 : 0; jj <= std::min(j + 1, m_ny - 1); ++jj)
+            for (std::size_t ii = i > 0 ? i - 1 : 0; ii <= std::min(i + 1, m_nx - 1); ++ii)
+                m_occupied_around[jj * m_nx + ii] = 1;
+    }
     double m_r, m_x0, m_y0;
     std::size_t m_nx = 1, m_ny = 1;
     std::vector<std::vector<Run>> m_buckets;
+    std::vector<std::uint8_t> m_occupied_around; // per bucket: 1 when it or a neighbour holds a run
 };
 
 // What truncation and selection measure along a piece of a strainline: l(gamma_t0), d_g^xi1, l(gamma_t1) and q

@@ -761,23 +761,38 @@ std::vector<std::size_t> selection_order(const std::vector<Segment> &candidates,
     return order;
 }
 
-// Whether the candidate's points are all covered at a stride that leaves no uncovered run min_length long unseen:
-// with steps of at most h between points, a run of m = min_length / h points or more holds a point whose index
-// is a multiple of m, and a shorter run is shorter than min_length (the margin 1e-9 outweighs rounding). When all
-// those points are covered, the selection takes nothing from the candidate, and the barriers kept later only
-// cover more. Where candidates crowd along barriers already chosen (an attractor) this tests one point in ~100.
-bool covered_at_stride(const RunIndex &kept, const double *xy, std::size_t n, double cover, double min_length) {
+// Which of a candidate's points lie within `cover` of a barrier kept, as far as the selection can use it; empty when
+// it can select nothing from the candidate. With steps of at most h between points, a run of m = min_length / h
+// points or more holds a point whose index is a multiple of m, and a shorter run is shorter than min_length (the
+// margin 1e-9 outweighs rounding), which select_uncovered drops. So only those points are tested first, and then the
+// runs around the uncovered ones, grown point by point up to the first covered point either way: they come out exactly
+// as a test of every point gives them. The points left untested are marked covered; they lie in shorter runs only,
+// and the barriers kept later only cover more. Where candidates crowd along barriers already chosen (an attractor)
+// this tests one point in ~100.
+std::vector<char> covered_points(const RunIndex &kept, const double *xy, std::size_t n, double cover,
+                                 double min_length) {
     double longest_step2 = 0.0;
     for (std::size_t k = 1; k < n; ++k) {
         const double ex = xy[2 * k] - xy[2 * k - 2], ey = xy[2 * k + 1] - xy[2 * k - 1];
         longest_step2 = std::max(longest_step2, ex * ex + ey * ey);
     }
     const double stride = std::floor(min_length / (std::sqrt(longest_step2) * (1.0 + 1e-9)));
-    if (!(stride >= 2.0)) return false;
+    if (!(stride >= 2.0)) return near_points(kept, xy, n, cover);
     const auto m = static_cast<std::size_t>(std::min(stride, static_cast<double>(n)));
-    for (std::size_t k = 0; k < n; k += m)
-        if (!kept.any_near(xy[2 * k], xy[2 * k + 1], cover)) return false;
-    return true;
+    const auto near = [&](std::size_t k) { return kept.any_near(xy[2 * k], xy[2 * k + 1], cover); };
+    std::vector<char> covered(n, 1);
+    bool any_uncovered = false;
+    for (std::size_t k = 0; k < n; k += m) {
+        if (near(k)) continue;
+        any_uncovered = true;
+        covered[k] = 0;
+        // Back to the previous multiple of m (tested already), unless the run from there reached this point.
+        for (std::size_t j = k; j-- > (k >= m ? k - m + 1 : 0) && covered[j] && !near(j);) covered[j] = 0;
+        // On up to the next multiple of m, which the loop tests itself.
+        for (std::size_t j = k + 1; j < std::min(k + m, n) && !near(j); ++j) covered[j] = 0;
+    }
+    if (!any_uncovered) return {};
+    return covered;
 }
 
 // The runs of candidate c's points not covered by a barrier of smaller q (at least two points) that pass the
@@ -852,8 +867,7 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
             const Segment &cand = candidates[order[i]];
             const double *xy = first_point(lines, cand);
             const std::size_t n = cand.last - cand.first + 1;
-            if (!covered_at_stride(kept, xy, n, cover, scale.min_length))
-                covered[i - start] = near_points(kept, xy, n, cover);
+            covered[i - start] = covered_points(kept, xy, n, cover, scale.min_length);
         }
         RunIndex added(g, cover);
         const std::size_t kept_before = selected.size();

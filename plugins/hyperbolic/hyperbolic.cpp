@@ -60,6 +60,11 @@ std::vector<double> points_of(const std::vector<Strainline> &lines, const Segmen
                                xy.begin() + 2 * static_cast<std::ptrdiff_t>(s.last + 1));
 }
 
+// A segment's first point, where its run of points in its strainline starts.
+const double *first_point(const std::vector<Strainline> &lines, const Segment &s) {
+    return lines[s.line].xy.data() + 2 * s.first;
+}
+
 std::string format(double v) {
     std::ostringstream s;
     s.precision(4);
@@ -288,30 +293,43 @@ std::vector<double> distance_to_mask(const Grid &g, const std::vector<std::uint8
     return d;
 }
 
-// The fraction of a polyline's arc length that lies within `reach` of a wall not declared invariant.
-double fraction_along_walls(const Grid &g, const Walls &walls, const std::vector<double> &to_mask,
-                            const std::vector<double> &xy, double reach) {
-    std::vector<double> near(xy.size() / 2, 0.0);
+// Which grid points lie within `reach` of the mask (distance_to_mask); empty when nothing is masked. One byte a point
+// instead of the distance's eight: the wall filter looks up every point of thousands of strainline segments here,
+// and the lookups missed the cache of the 8 MB distance field at 1000 x 1000.
+std::vector<std::uint8_t> within_reach_of_mask(const Grid &g, const std::vector<std::uint8_t> &mask, double reach) {
+    const std::vector<double> to_mask = distance_to_mask(g, mask);
+    std::vector<std::uint8_t> within(to_mask.size());
+    for (std::size_t p = 0; p < to_mask.size(); ++p) within[p] = to_mask[p] < reach ? 1 : 0;
+    return within;
+}
+
+// The fraction of a polyline's arc length (its n points at xy) that lies within `reach` of a wall not declared
+// invariant; `near_mask` from within_reach_of_mask for the same reach.
+double fraction_along_walls(const Grid &g, const Walls &walls, const std::vector<std::uint8_t> &near_mask,
+                            const double *xy, std::size_t n, double reach) {
+    std::vector<double> near(n, 0.0);
     bool any_near = false;
-    for (std::size_t k = 0; k < near.size(); ++k) {
+    const double dx = g.dx(), dy = g.dy();
+    for (std::size_t k = 0; k < n; ++k) {
         const double x = xy[2 * k], y = xy[2 * k + 1];
         double d = HUGE_VAL;
         if (walls.left) d = std::min(d, x - g.x_min);
         if (walls.right) d = std::min(d, g.x_max - x);
         if (walls.bottom) d = std::min(d, y - g.y_min);
         if (walls.top) d = std::min(d, g.y_max - y);
-        if (walls.mask && !to_mask.empty()) {
+        bool within = d < reach;
+        if (!within && walls.mask && !near_mask.empty()) {
             const std::size_t j = static_cast<std::size_t>(
-                                  std::clamp(std::lround((x - g.x_min) / g.dx()), 0L, static_cast<long>(g.nx) - 1)),
+                                  std::clamp(std::lround((x - g.x_min) / dx), 0L, static_cast<long>(g.nx) - 1)),
                               i = static_cast<std::size_t>(
-                                  std::clamp(std::lround((y - g.y_min) / g.dy()), 0L, static_cast<long>(g.ny) - 1));
-            d = std::min(d, to_mask[i * g.nx + j]);
+                                  std::clamp(std::lround((y - g.y_min) / dy), 0L, static_cast<long>(g.ny) - 1));
+            within = near_mask[i * g.nx + j] != 0;
         }
-        near[k] = d < reach ? 1.0 : 0.0;
-        any_near = any_near || d < reach;
+        near[k] = within ? 1.0 : 0.0;
+        any_near = any_near || within;
     }
     if (!any_near) return 0.0; // most segments: no wall in reach, and the integral below would be 0
-    const CurveStats st = curve_statistics(xy, near);
+    const CurveStats st = curve_statistics(std::vector<double>(xy, xy + 2 * n), near);
     return st.covered_length > 0.0 ? st.integral / st.covered_length : 0.0;
 }
 
@@ -656,11 +674,13 @@ std::vector<char> Hyperbolic::along_walls(const sdk::Host &host, const CauchyGre
                                           const std::vector<Strainline> &lines, const std::vector<Segment> &candidates,
                                           double radius) const {
     std::vector<char> along_wall(candidates.size(), 0);
-    const std::vector<double> to_mask = m_walls.mask ? distance_to_mask(cg.grid, cg.mask) : std::vector<double>();
+    const std::vector<std::uint8_t> near_mask =
+        m_walls.mask ? within_reach_of_mask(cg.grid, cg.mask, radius) : std::vector<std::uint8_t>();
     std::size_t count = 0;
 #pragma omp parallel for schedule(dynamic) reduction(+ : count)
     for (std::size_t c = 0; c < candidates.size(); ++c)
-        if (fraction_along_walls(cg.grid, m_walls, to_mask, points_of(lines, candidates[c]), radius) > 0.5) {
+        if (fraction_along_walls(cg.grid, m_walls, near_mask, first_point(lines, candidates[c]),
+                                 candidates[c].last - candidates[c].first + 1, radius) > 0.5) {
             along_wall[c] = 1;
             ++count;
         }
@@ -669,11 +689,6 @@ std::vector<char> Hyperbolic::along_walls(const sdk::Host &host, const CauchyGre
                   " segments run along the box's edge or the mask's and are not "
                   "reported (declare invariant walls with \"invariant_walls\")");
     return along_wall;
-}
-
-// A segment's first point, where its run of points in its strainline starts.
-const double *first_point(const std::vector<Strainline> &lines, const Segment &s) {
-    return lines[s.line].xy.data() + 2 * s.first;
 }
 
 // Within two grid cells (at most the neighbour distance) a point lies along another curve: it covers the point.

@@ -704,13 +704,15 @@ std::vector<char> near_points(const RunIndex &index, const std::vector<double> &
     return near_points(index, xy.data(), xy.size() / 2, cover);
 }
 
-// Marks the points not yet marked near that lie within `cover` of a curve in the index.
-void add_near_points(const RunIndex &index, const double *xy, double cover, std::vector<char> &near) {
+// Marks the points not yet marked near that lie within `cover` of a curve in the index; whether it marked any.
+bool add_near_points(const RunIndex &index, const double *xy, double cover, std::vector<char> &near) {
+    bool marked = false;
     for (std::size_t k = 0; k < near.size(); ++k)
-        if (!near[k] && index.any_near(xy[2 * k], xy[2 * k + 1], cover)) near[k] = 1;
+        if (!near[k] && index.any_near(xy[2 * k], xy[2 * k + 1], cover)) near[k] = marked = true;
+    return marked;
 }
-void add_near_points(const RunIndex &index, const std::vector<double> &xy, double cover, std::vector<char> &near) {
-    add_near_points(index, xy.data(), cover, near);
+bool add_near_points(const RunIndex &index, const std::vector<double> &xy, double cover, std::vector<char> &near) {
+    return add_near_points(index, xy.data(), cover, near);
 }
 
 // The neighbours of a segment in the selection are the other strainlines running beside it, not the same curve found
@@ -811,11 +813,12 @@ std::vector<char> covered_points(const RunIndex &kept, const double *xy, std::si
 }
 
 // The runs of candidate c's points not covered by a barrier of smaller q (at least two points) that pass the
-// selection rule of local_minima, appended to `selected`. `index` holds the segments that are no pieces, its buckets
-// sorted by q.
-void select_uncovered(const std::vector<Strainline> &lines, const std::vector<Segment> &candidates, std::size_t c,
-                      const std::vector<char> &covered, const RunIndex &index, const SegmentMeter &meter,
-                      const Scales &scale, std::vector<Selected> &selected) {
+// selection rule of local_minima, in order along the candidate; a remainder's own q is not measured yet (the caller
+// does, for the few that are kept). `index` holds the segments that are no pieces, its buckets sorted by q.
+std::vector<Selected> uncovered_minima(const std::vector<Strainline> &lines, const std::vector<Segment> &candidates,
+                                       std::size_t c, const std::vector<char> &covered, const RunIndex &index,
+                                       const Scales &scale) {
+    std::vector<Selected> picks;
     const auto q_of = [&](std::size_t d) { return candidates[d].q; };
     const Segment &cand = candidates[c];
     const std::size_t n = covered.size();
@@ -839,9 +842,9 @@ void select_uncovered(const std::vector<Strainline> &lines, const std::vector<Se
         for (std::size_t j = 0; j < pick.probes; ++j)
             if (index.any_near_below(probes[2 * j], probes[2 * j + 1], cand.q, c, q_of)) ++pick.dominated;
         if (2 * pick.dominated > pick.probes) continue;
-        if (pick.remainder && !meter.measure(lines, pick.piece)) continue;
-        selected.push_back(pick);
+        picks.push_back(pick);
     }
+    return picks;
 }
 
 // Alg. 1, step 3: the local minima of q, disjoint. Visited in order of increasing q (selection_order), a segment's
@@ -871,18 +874,23 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
     std::vector<Selected> selected;
     RunIndex kept(g, cover);
     // In chunks of the order, as in pieces_of_longer: each candidate's points are tested in parallel against the
-    // barriers kept before its chunk, and in order the rest against those its chunk added.
+    // barriers kept before its chunk, and so is the selection rule on its uncovered runs; then in order the rest
+    // against the barriers its chunk added, the rule again only where they covered more of it (rarely: a few
+    // barriers among thousands of candidates).
     const std::size_t chunk = 128;
     for (std::size_t start = 0; start < order.size(); start += chunk) {
         if (m_max_barriers > 0 && selected.size() >= m_max_barriers) break;
         const std::size_t end = std::min(order.size(), start + chunk);
         std::vector<std::vector<char>> covered(end - start);
+        std::vector<std::vector<Selected>> picks(end - start);
 #pragma omp parallel for schedule(dynamic)
         for (std::size_t i = start; i < end; ++i) {
             const Segment &cand = candidates[order[i]];
             const double *xy = first_point(lines, cand);
             const std::size_t n = cand.last - cand.first + 1;
             covered[i - start] = covered_points(kept, xy, n, cover, scale.min_length);
+            if (!covered[i - start].empty())
+                picks[i - start] = uncovered_minima(lines, candidates, order[i], covered[i - start], index, scale);
         }
         RunIndex added(g, cover);
         const std::size_t kept_before = selected.size();
@@ -890,10 +898,12 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
             if (m_max_barriers > 0 && selected.size() >= m_max_barriers) break;
             const std::size_t c = order[i];
             if (covered[i - start].empty()) continue; // no uncovered run min_length long: nothing to select
-            if (selected.size() > kept_before)
-                add_near_points(added, first_point(lines, candidates[c]), cover, covered[i - start]);
+            if (selected.size() > kept_before &&
+                add_near_points(added, first_point(lines, candidates[c]), cover, covered[i - start]))
+                picks[i - start] = uncovered_minima(lines, candidates, c, covered[i - start], index, scale);
             const std::size_t first_new = selected.size();
-            select_uncovered(lines, candidates, c, covered[i - start], index, meter, scale, selected);
+            for (Selected &pick : picks[i - start])
+                if (!pick.remainder || meter.measure(lines, pick.piece)) selected.push_back(pick);
             // This candidate's pieces cover only from now on, not the rest of the same candidate.
             for (std::size_t b = first_new; b < selected.size(); ++b) {
                 const std::size_t n = selected[b].piece.last - selected[b].piece.first + 1;

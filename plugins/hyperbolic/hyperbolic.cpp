@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -873,14 +874,16 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
     const std::vector<std::size_t> order = selection_order(candidates, along_wall);
     std::vector<Selected> selected;
     RunIndex kept(g, cover);
+    const std::size_t min_chunk = 128, max_chunk = 8192;
     // In chunks of the order, as in pieces_of_longer: each candidate's points are tested in parallel against the
     // barriers kept before its chunk, and so is the selection rule on its uncovered runs; then in order the rest
-    // against the barriers its chunk added, the rule again only where they covered more of it (rarely: a few
-    // barriers among thousands of candidates).
-    const std::size_t chunk = 128;
-    for (std::size_t start = 0; start < order.size(); start += chunk) {
+    // against the barriers its chunk added, the rule again only where they covered more of it. Barriers are rare (a
+    // few among thousands of candidates): a chunk that adds none doubles the next one (fewer parallel regions, each
+    // with its wait at the end), one that adds some halves it (less serial work on the rest of a chunk).
+    std::size_t chunk = min_chunk;
+    for (std::size_t start = 0, end = 0; start < order.size(); start = end) {
         if (m_max_barriers > 0 && selected.size() >= m_max_barriers) break;
-        const std::size_t end = std::min(order.size(), start + chunk);
+        end = std::min(order.size(), start + chunk);
         std::vector<std::vector<char>> covered(end - start);
         std::vector<std::vector<Selected>> picks(end - start);
 #pragma omp parallel for schedule(dynamic)
@@ -892,25 +895,26 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
             if (!covered[i - start].empty())
                 picks[i - start] = uncovered_minima(lines, candidates, order[i], covered[i - start], index, scale);
         }
-        RunIndex added(g, cover);
+        std::optional<RunIndex> added; // the barriers this chunk added, made with its first
         const std::size_t kept_before = selected.size();
         for (std::size_t i = start; i < end; ++i) {
             if (m_max_barriers > 0 && selected.size() >= m_max_barriers) break;
             const std::size_t c = order[i];
             if (covered[i - start].empty()) continue; // no uncovered run min_length long: nothing to select
-            if (selected.size() > kept_before &&
-                add_near_points(added, first_point(lines, candidates[c]), cover, covered[i - start]))
+            if (added && add_near_points(*added, first_point(lines, candidates[c]), cover, covered[i - start]))
                 picks[i - start] = uncovered_minima(lines, candidates, c, covered[i - start], index, scale);
             const std::size_t first_new = selected.size();
             for (Selected &pick : picks[i - start])
                 if (!pick.remainder || meter.measure(lines, pick.piece)) selected.push_back(pick);
             // This candidate's pieces cover only from now on, not the rest of the same candidate.
+            if (selected.size() > first_new && !added) added.emplace(g, cover);
             for (std::size_t b = first_new; b < selected.size(); ++b) {
                 const std::size_t n = selected[b].piece.last - selected[b].piece.first + 1;
                 kept.add(first_point(lines, selected[b].piece), n, b);
-                added.add(first_point(lines, selected[b].piece), n, b);
+                added->add(first_point(lines, selected[b].piece), n, b);
             }
         }
+        chunk = selected.size() > kept_before ? std::max(min_chunk, chunk / 2) : std::min(max_chunk, 2 * chunk);
     }
     std::stable_sort(selected.begin(), selected.end(),
                      [](const Selected &a, const Selected &b) { return a.piece.q < b.piece.q; });

@@ -100,11 +100,21 @@ class RunIndex {
                     run.y_lo = std::min(run.y_lo, xy[2 * m + 1]);
                     run.y_hi = std::max(run.y_hi, xy[2 * m + 1]);
                 }
+                if (m_buckets[b].empty()) m_filled.push_back(b);
                 m_buckets[b].push_back(run);
                 mark_occupied_around(b);
             }
             k = end;
         }
+    }
+    // Empties the index, in time proportional to the buckets filled rather than to all of them (an index of the box
+    // at two grid cells has ~10^5 buckets, and the selection empties one per chunk of candidates).
+    void clear() {
+        for (std::size_t b : m_filled) {
+            m_buckets[b].clear();
+            clear_occupied_around(b);
+        }
+        m_filled.clear();
     }
     // Sorts every bucket by key(id), ascending (ties by id), for any_near_below.
     template <class Key> void sort_buckets(Key &&key) {
@@ -168,17 +178,20 @@ class RunIndex {
         b = static_cast<std::size_t>(fy) * m_nx + static_cast<std::size_t>(fx);
         return true;
     }
-    // Flags the buckets whose 3 x 3 neighbourhood now holds a run: b's and its eight neighbours.
-    void mark_occupied_around(std::size_t b) {
+    // Sets the flag of b's 3 x 3 neighbourhood: b and its eight neighbours now have a run in reach.
+    void mark_occupied_around(std::size_t b) { set_around(b, 1); }
+    void clear_occupied_around(std::size_t b) { set_around(b, 0); }
+    void set_around(std::size_t b, std::uint8_t flag) {
         const std::size_t i = b % m_nx, j = b / m_nx;
         for (std::size_t jj = j > 0 ? j - 1 : 0; jj <= std::min(j + 1, m_ny - 1); ++jj)
             for (std::size_t ii = i > 0 ? i - 1 : 0; ii <= std::min(i + 1, m_nx - 1); ++ii)
-                m_occupied_around[jj * m_nx + ii] = 1;
+                m_occupied_around[jj * m_nx + ii] = flag;
     }
     double m_r, m_x0, m_y0;
     std::size_t m_nx = 1, m_ny = 1;
     std::vector<std::vector<Run>> m_buckets;
     std::vector<std::uint8_t> m_occupied_around; // per bucket: 1 when it or a neighbour holds a run
+    std::vector<std::size_t> m_filled;           // the buckets that hold a run
 };
 
 // What truncation and selection measure along a piece of a strainline: l(gamma_t0), d_g^xi1, l(gamma_t1) and q
@@ -739,12 +752,13 @@ std::vector<char> pieces_of_longer(const Grid &g, const std::vector<Strainline> 
     // In chunks: the probes of a chunk are tested in parallel against the index as it was before the chunk, and in
     // order only those not near it against the segments the chunk itself added (the same answers as one by one).
     const std::size_t chunk = 256;
+    RunIndex added(g, cover); // the segments the current chunk added
     for (std::size_t start = 0; start < by_length.size(); start += chunk) {
         const std::size_t end = std::min(by_length.size(), start + chunk);
         std::vector<std::vector<char>> near(end - start);
 #pragma omp parallel for schedule(dynamic)
         for (std::size_t i = start; i < end; ++i) near[i - start] = near_points(distinct, probes[by_length[i]], cover);
-        RunIndex added(g, cover);
+        added.clear();
         bool any_added = false;
         for (std::size_t i = start; i < end; ++i) {
             const std::size_t c = by_length[i];

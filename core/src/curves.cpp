@@ -110,35 +110,49 @@ std::vector<double> sample_along(const Grid &grid, const std::vector<double> &fi
     return out;
 }
 
+std::vector<double> segment_lengths(const std::vector<double> &xy, bool closed) {
+    const std::size_t n = xy.size() / 2;
+    std::vector<double> out;
+    out.reserve(n);
+    for (std::size_t k = 1; k < n; ++k)
+        out.push_back(std::hypot(xy[2 * k] - xy[2 * k - 2], xy[2 * k + 1] - xy[2 * k - 1]));
+    if (closed && n > 2) out.push_back(std::hypot(xy[0] - xy[2 * n - 2], xy[1] - xy[2 * n - 1]));
+    return out;
+}
+
 CurveStats curve_statistics(const std::vector<double> &xy, const std::vector<double> &values, bool closed) {
     const std::size_t n = xy.size() / 2;
     if (values.size() != n) throw std::invalid_argument("curve_statistics: one value per point is needed");
+    const std::vector<double> lengths = segment_lengths(xy, closed);
+    return curve_statistics(values.data(), n, lengths.data(), lengths.size());
+}
+
+CurveStats curve_statistics(const double *values, std::size_t n, const double *segment_lengths, std::size_t segments) {
     CurveStats st;
     st.max = -std::numeric_limits<double>::infinity();
     st.min = std::numeric_limits<double>::infinity();
-    for (double v : values)
-        if (std::isfinite(v)) {
+    for (std::size_t k = 0; k < n; ++k)
+        if (std::isfinite(values[k])) {
             ++st.finite_points;
-            st.max = std::max(st.max, v);
-            st.min = std::min(st.min, v);
+            st.max = std::max(st.max, values[k]);
+            st.min = std::min(st.min, values[k]);
         }
     if (st.finite_points == 0) {
         st.max = st.min = st.mean = nan_value;
         return st;
     }
-    const std::size_t segments = closed && n > 2 ? n : (n ? n - 1 : 0);
     for (std::size_t k = 0; k < segments; ++k) {
         const std::size_t m = (k + 1) % n;
         if (!std::isfinite(values[k]) || !std::isfinite(values[m])) continue;
-        const double ds = std::hypot(xy[2 * m] - xy[2 * k], xy[2 * m + 1] - xy[2 * k + 1]);
+        const double ds = segment_lengths[k];
         st.integral += 0.5 * (values[k] + values[m]) * ds;
         st.covered_length += ds;
     }
     st.mean = st.covered_length > 0.0 ? st.integral / st.covered_length : values[0];
     if (st.covered_length == 0.0)
-        for (double v : values)
-            if (std::isfinite(v)) {
-                st.mean = v;
+        for (std::size_t k = 0; k < n; ++k)
+            if (std::isfinite(values[k])) {
+                st.mean = values[k];
                 break;
             }
     return st;

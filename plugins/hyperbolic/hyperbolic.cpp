@@ -11,10 +11,12 @@
 #include <geobarrier/tensor_lines.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <limits>
 #include <numeric>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -59,6 +61,11 @@ std::vector<double> points_of(const std::vector<Strainline> &lines, const Segmen
                                xy.begin() + 2 * static_cast<std::ptrdiff_t>(s.last + 1));
 }
 
+// A segment's first point, where its run of points in its strainline starts.
+const double *first_point(const std::vector<Strainline> &lines, const Segment &s) {
+    return lines[s.line].xy.data() + 2 * s.first;
+}
+
 std::string format(double v) {
     std::ostringstream s;
     s.precision(4);
@@ -75,6 +82,7 @@ class RunIndex {
         m_nx = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil((box.x_max - box.x_min) / r)) + 1);
         m_ny = std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil((box.y_max - box.y_min) / r)) + 1);
         m_buckets.resize(m_nx * m_ny);
+        m_occupied_around.resize(m_nx * m_ny, 0);
     }
     // The n points (x, y interleaved) at xy, which must outlive the index, as polyline `id`.
     void add(const double *xy, std::size_t n, std::size_t id) {
@@ -92,10 +100,21 @@ class RunIndex {
                     run.y_lo = std::min(run.y_lo, xy[2 * m + 1]);
                     run.y_hi = std::max(run.y_hi, xy[2 * m + 1]);
                 }
+                if (m_buckets[b].empty()) m_filled.push_back(b);
                 m_buckets[b].push_back(run);
+                mark_occupied_around(b);
             }
             k = end;
         }
+    }
+    // Empties the index, in time proportional to the buckets filled rather than to all of them (an index of the box
+    // at two grid cells has ~10^5 buckets, and the selection empties one per chunk of candidates).
+    void clear() {
+        for (std::size_t b : m_filled) {
+            m_buckets[b].clear();
+            clear_occupied_around(b);
+        }
+        m_filled.clear();
     }
     // Sorts every bucket by key(id), ascending (ties by id), for any_near_below.
     template <class Key> void sort_buckets(Key &&key) {
@@ -115,6 +134,11 @@ class RunIndex {
         const double r2 = radius * radius;
         const long bx = static_cast<long>(std::floor((x - m_x0) / m_r)),
                    by = static_cast<long>(std::floor((y - m_y0) / m_r));
+        // Most queries of the selection fall where no run is near (thousands of candidates, a few barriers): one
+        // flag answers them for the same 3 x 3 buckets the scan below would find empty.
+        if (bx >= 0 && by >= 0 && bx < static_cast<long>(m_nx) && by < static_cast<long>(m_ny) &&
+            !m_occupied_around[static_cast<std::size_t>(by) * m_nx + static_cast<std::size_t>(bx)])
+            return false;
         // The point's own bucket first: that is where a neighbour is most likely found.
         static constexpr int order[9][2] = {{0, 0},   {-1, 0}, {1, 0},  {0, -1}, {0, 1},
                                             {-1, -1}, {1, -1}, {-1, 1}, {1, 1}};
@@ -154,9 +178,20 @@ class RunIndex {
         b = static_cast<std::size_t>(fy) * m_nx + static_cast<std::size_t>(fx);
         return true;
     }
+    // Sets the flag of b's 3 x 3 neighbourhood: b and its eight neighbours now have a run in reach.
+    void mark_occupied_around(std::size_t b) { set_around(b, 1); }
+    void clear_occupied_around(std::size_t b) { set_around(b, 0); }
+    void set_around(std::size_t b, std::uint8_t flag) {
+        const std::size_t i = b % m_nx, j = b / m_nx;
+        for (std::size_t jj = j > 0 ? j - 1 : 0; jj <= std::min(j + 1, m_ny - 1); ++jj)
+            for (std::size_t ii = i > 0 ? i - 1 : 0; ii <= std::min(i + 1, m_nx - 1); ++ii)
+                m_occupied_around[jj * m_nx + ii] = flag;
+    }
     double m_r, m_x0, m_y0;
     std::size_t m_nx = 1, m_ny = 1;
     std::vector<std::vector<Run>> m_buckets;
+    std::vector<std::uint8_t> m_occupied_around; // per bucket: 1 when it or a neighbour holds a run
+    std::vector<std::size_t> m_filled;           // the buckets that hold a run
 };
 
 // What truncation and selection measure along a piece of a strainline: l(gamma_t0), d_g^xi1, l(gamma_t1) and q
@@ -168,13 +203,20 @@ struct SegmentMeter {
     bool opposite; // l(gamma_t1) is the stretchline's measured length at t1 instead
 
     // Fills everything but `length` (set by the caller, which drops short pieces first); false when sqrt(lambda1) is
-    // unknown on part of the piece or q is not finite.
-    bool measure(const std::vector<Strainline> &lines, Segment &s) const {
+    // unknown on part of the piece or q is not finite. `steps`, when given, holds the lengths of the strainline's
+    // segments (steps[k] joins its points k and k + 1), so that a strainline's thousands of pieces do not measure
+    // the same points again for every statistic; the figures are the same bit for bit either way.
+    bool measure(const std::vector<Strainline> &lines, Segment &s, const double *steps = nullptr) const {
         const Strainline &line = lines[s.line];
         const std::vector<double> xy = points_of(lines, s);
-        const std::vector<double> dev(line.deviation.begin() + static_cast<std::ptrdiff_t>(s.first),
-                                      line.deviation.begin() + static_cast<std::ptrdiff_t>(s.last + 1));
-        const CurveStats ds = curve_statistics(xy, dev);
+        const std::size_t n = s.last - s.first + 1;
+        std::vector<double> own_steps;
+        if (!steps) {
+            own_steps = segment_lengths(xy);
+        } else {
+            own_steps.assign(steps + s.first, steps + s.last);
+        }
+        const CurveStats ds = curve_statistics(line.deviation.data() + s.first, n, own_steps.data(), n - 1);
         s.mean_deviation = ds.mean;
         s.max_deviation = ds.max;
         if (opposite) {
@@ -185,19 +227,28 @@ struct SegmentMeter {
             // Interpolating log(lambda1) is exact for exponential variation across a cell.
             std::vector<double> root = sample_along(grid, log_lambda1, mask, xy);
             for (double &v : root) v = std::exp(0.5 * v);
-            const CurveStats rs = curve_statistics(xy, root);
+            const CurveStats rs = curve_statistics(root.data(), n, own_steps.data(), n - 1);
             if (rs.covered_length < 0.999 * s.length) return false;
             s.stretched_length = rs.integral;
         }
         s.q = s.stretched_length / s.length;
-        const std::vector<double> c = cumulative_length(xy);
-        const std::size_t mid = std::min(
-            static_cast<std::size_t>(std::lower_bound(c.begin(), c.end(), 0.5 * s.length) - c.begin()), c.size() - 1);
+        // The point at half the arc length: the first whose running length reaches it (cumulative_length's sums).
+        std::size_t mid = 0;
+        double run = 0.0;
+        while (mid + 1 < n && run < 0.5 * s.length) run += own_steps[mid++];
         s.mid_x = xy[2 * mid];
         s.mid_y = xy[2 * mid + 1];
         return std::isfinite(s.q);
     }
 };
+
+// The length of points first..last of a strainline from its segment lengths (steps[k] joins points k and k + 1),
+// summed in order as polyline_length does.
+double length_from_steps(const std::vector<double> &steps, std::size_t first, std::size_t last) {
+    double total = 0.0;
+    for (std::size_t k = first; k < last; ++k) total += steps[k];
+    return total;
+}
 
 // The walls of the computation: the box's four edges and the edge of the mask (where trajectories left `bounds` or
 // failed). A strainline running along a wall is shaped by the wall (the field stops there, one-sided differences,
@@ -272,30 +323,43 @@ std::vector<double> distance_to_mask(const Grid &g, const std::vector<std::uint8
     return d;
 }
 
-// The fraction of a polyline's arc length that lies within `reach` of a wall not declared invariant.
-double fraction_along_walls(const Grid &g, const Walls &walls, const std::vector<double> &to_mask,
-                            const std::vector<double> &xy, double reach) {
-    std::vector<double> near(xy.size() / 2, 0.0);
+// Which grid points lie within `reach` of the mask (distance_to_mask); empty when nothing is masked. One byte a point
+// instead of the distance's eight: the wall filter looks up every point of thousands of strainline segments here,
+// and the lookups missed the cache of the 8 MB distance field at 1000 x 1000.
+std::vector<std::uint8_t> within_reach_of_mask(const Grid &g, const std::vector<std::uint8_t> &mask, double reach) {
+    const std::vector<double> to_mask = distance_to_mask(g, mask);
+    std::vector<std::uint8_t> within(to_mask.size());
+    for (std::size_t p = 0; p < to_mask.size(); ++p) within[p] = to_mask[p] < reach ? 1 : 0;
+    return within;
+}
+
+// The fraction of a polyline's arc length (its n points at xy) that lies within `reach` of a wall not declared
+// invariant; `near_mask` from within_reach_of_mask for the same reach.
+double fraction_along_walls(const Grid &g, const Walls &walls, const std::vector<std::uint8_t> &near_mask,
+                            const double *xy, std::size_t n, double reach) {
+    std::vector<double> near(n, 0.0);
     bool any_near = false;
-    for (std::size_t k = 0; k < near.size(); ++k) {
+    const double dx = g.dx(), dy = g.dy();
+    for (std::size_t k = 0; k < n; ++k) {
         const double x = xy[2 * k], y = xy[2 * k + 1];
         double d = HUGE_VAL;
         if (walls.left) d = std::min(d, x - g.x_min);
         if (walls.right) d = std::min(d, g.x_max - x);
         if (walls.bottom) d = std::min(d, y - g.y_min);
         if (walls.top) d = std::min(d, g.y_max - y);
-        if (walls.mask && !to_mask.empty()) {
+        bool within = d < reach;
+        if (!within && walls.mask && !near_mask.empty()) {
             const std::size_t j = static_cast<std::size_t>(
-                                  std::clamp(std::lround((x - g.x_min) / g.dx()), 0L, static_cast<long>(g.nx) - 1)),
+                                  std::clamp(std::lround((x - g.x_min) / dx), 0L, static_cast<long>(g.nx) - 1)),
                               i = static_cast<std::size_t>(
-                                  std::clamp(std::lround((y - g.y_min) / g.dy()), 0L, static_cast<long>(g.ny) - 1));
-            d = std::min(d, to_mask[i * g.nx + j]);
+                                  std::clamp(std::lround((y - g.y_min) / dy), 0L, static_cast<long>(g.ny) - 1));
+            within = near_mask[i * g.nx + j] != 0;
         }
-        near[k] = d < reach ? 1.0 : 0.0;
-        any_near = any_near || d < reach;
+        near[k] = within ? 1.0 : 0.0;
+        any_near = any_near || within;
     }
     if (!any_near) return 0.0; // most segments: no wall in reach, and the integral below would be 0
-    const CurveStats st = curve_statistics(xy, near);
+    const CurveStats st = curve_statistics(std::vector<double>(xy, xy + 2 * n), near);
     return st.covered_length > 0.0 ? st.integral / st.covered_length : 0.0;
 }
 
@@ -603,6 +667,7 @@ std::vector<Segment> Hyperbolic::truncated_segments(const sdk::Host &host, const
     for (std::size_t l = 0; l < lines.size(); ++l) {
         const Strainline &line = lines[l];
         const std::size_t n = line.xy.size() / 2;
+        const std::vector<double> steps = segment_lengths(line.xy);
         std::size_t k = 0;
         while (k < n) {
             while (k < n && !(line.deviation[k] < m_epsilon)) ++k;
@@ -613,12 +678,12 @@ std::vector<Segment> Hyperbolic::truncated_segments(const sdk::Host &host, const
             s.line = l;
             s.first = first;
             s.last = k - 1;
-            s.length = polyline_length(points_of(lines, s));
+            s.length = length_from_steps(steps, s.first, s.last);
             if (s.length < min_length) {
                 ++short_per_line[l];
                 continue;
             }
-            if (meter.measure(lines, s)) per_line[l].push_back(s);
+            if (meter.measure(lines, s, steps.data())) per_line[l].push_back(s);
         }
     }
     std::vector<Segment> candidates;
@@ -640,11 +705,13 @@ std::vector<char> Hyperbolic::along_walls(const sdk::Host &host, const CauchyGre
                                           const std::vector<Strainline> &lines, const std::vector<Segment> &candidates,
                                           double radius) const {
     std::vector<char> along_wall(candidates.size(), 0);
-    const std::vector<double> to_mask = m_walls.mask ? distance_to_mask(cg.grid, cg.mask) : std::vector<double>();
+    const std::vector<std::uint8_t> near_mask =
+        m_walls.mask ? within_reach_of_mask(cg.grid, cg.mask, radius) : std::vector<std::uint8_t>();
     std::size_t count = 0;
 #pragma omp parallel for schedule(dynamic) reduction(+ : count)
     for (std::size_t c = 0; c < candidates.size(); ++c)
-        if (fraction_along_walls(cg.grid, m_walls, to_mask, points_of(lines, candidates[c]), radius) > 0.5) {
+        if (fraction_along_walls(cg.grid, m_walls, near_mask, first_point(lines, candidates[c]),
+                                 candidates[c].last - candidates[c].first + 1, radius) > 0.5) {
             along_wall[c] = 1;
             ++count;
         }
@@ -653,11 +720,6 @@ std::vector<char> Hyperbolic::along_walls(const sdk::Host &host, const CauchyGre
                   " segments run along the box's edge or the mask's and are not "
                   "reported (declare invariant walls with \"invariant_walls\")");
     return along_wall;
-}
-
-// A segment's first point, where its run of points in its strainline starts.
-const double *first_point(const std::vector<Strainline> &lines, const Segment &s) {
-    return lines[s.line].xy.data() + 2 * s.first;
 }
 
 // Within two grid cells (at most the neighbour distance) a point lies along another curve: it covers the point.
@@ -673,13 +735,15 @@ std::vector<char> near_points(const RunIndex &index, const std::vector<double> &
     return near_points(index, xy.data(), xy.size() / 2, cover);
 }
 
-// Marks the points not yet marked near that lie within `cover` of a curve in the index.
-void add_near_points(const RunIndex &index, const double *xy, double cover, std::vector<char> &near) {
+// Marks the points not yet marked near that lie within `cover` of a curve in the index; whether it marked any.
+bool add_near_points(const RunIndex &index, const double *xy, double cover, std::vector<char> &near) {
+    bool marked = false;
     for (std::size_t k = 0; k < near.size(); ++k)
-        if (!near[k] && index.any_near(xy[2 * k], xy[2 * k + 1], cover)) near[k] = 1;
+        if (!near[k] && index.any_near(xy[2 * k], xy[2 * k + 1], cover)) near[k] = marked = true;
+    return marked;
 }
-void add_near_points(const RunIndex &index, const std::vector<double> &xy, double cover, std::vector<char> &near) {
-    add_near_points(index, xy.data(), cover, near);
+bool add_near_points(const RunIndex &index, const std::vector<double> &xy, double cover, std::vector<char> &near) {
+    return add_near_points(index, xy.data(), cover, near);
 }
 
 // The neighbours of a segment in the selection are the other strainlines running beside it, not the same curve found
@@ -705,12 +769,13 @@ std::vector<char> pieces_of_longer(const Grid &g, const std::vector<Strainline> 
     // In chunks: the probes of a chunk are tested in parallel against the index as it was before the chunk, and in
     // order only those not near it against the segments the chunk itself added (the same answers as one by one).
     const std::size_t chunk = 256;
+    RunIndex added(g, cover); // the segments the current chunk added
     for (std::size_t start = 0; start < by_length.size(); start += chunk) {
         const std::size_t end = std::min(by_length.size(), start + chunk);
         std::vector<std::vector<char>> near(end - start);
 #pragma omp parallel for schedule(dynamic)
         for (std::size_t i = start; i < end; ++i) near[i - start] = near_points(distinct, probes[by_length[i]], cover);
-        RunIndex added(g, cover);
+        added.clear();
         bool any_added = false;
         for (std::size_t i = start; i < end; ++i) {
             const std::size_t c = by_length[i];
@@ -745,31 +810,47 @@ std::vector<std::size_t> selection_order(const std::vector<Segment> &candidates,
     return order;
 }
 
-// Whether the candidate's points are all covered at a stride that leaves no uncovered run min_length long unseen:
-// with steps of at most h between points, a run of m = min_length / h points or more holds a point whose index
-// is a multiple of m, and a shorter run is shorter than min_length (the margin 1e-9 outweighs rounding). When all
-// those points are covered, the selection takes nothing from the candidate, and the barriers kept later only
-// cover more. Where candidates crowd along barriers already chosen (an attractor) this tests one point in ~100.
-bool covered_at_stride(const RunIndex &kept, const double *xy, std::size_t n, double cover, double min_length) {
+// Which of a candidate's points lie within `cover` of a barrier kept, as far as the selection can use it; empty when
+// it can select nothing from the candidate. With steps of at most h between points, a run of m = min_length / h
+// points or more holds a point whose index is a multiple of m, and a shorter run is shorter than min_length (the
+// margin 1e-9 outweighs rounding), which select_uncovered drops. So only those points are tested first, and then the
+// runs around the uncovered ones, grown point by point up to the first covered point either way: they come out exactly
+// as a test of every point gives them. The points left untested are marked covered; they lie in shorter runs only,
+// and the barriers kept later only cover more. Where candidates crowd along barriers already chosen (an attractor)
+// this tests one point in ~100.
+std::vector<char> covered_points(const RunIndex &kept, const double *xy, std::size_t n, double cover,
+                                 double min_length) {
     double longest_step2 = 0.0;
     for (std::size_t k = 1; k < n; ++k) {
         const double ex = xy[2 * k] - xy[2 * k - 2], ey = xy[2 * k + 1] - xy[2 * k - 1];
         longest_step2 = std::max(longest_step2, ex * ex + ey * ey);
     }
     const double stride = std::floor(min_length / (std::sqrt(longest_step2) * (1.0 + 1e-9)));
-    if (!(stride >= 2.0)) return false;
+    if (!(stride >= 2.0)) return near_points(kept, xy, n, cover);
     const auto m = static_cast<std::size_t>(std::min(stride, static_cast<double>(n)));
-    for (std::size_t k = 0; k < n; k += m)
-        if (!kept.any_near(xy[2 * k], xy[2 * k + 1], cover)) return false;
-    return true;
+    const auto near = [&](std::size_t k) { return kept.any_near(xy[2 * k], xy[2 * k + 1], cover); };
+    std::vector<char> covered(n, 1);
+    bool any_uncovered = false;
+    for (std::size_t k = 0; k < n; k += m) {
+        if (near(k)) continue;
+        any_uncovered = true;
+        covered[k] = 0;
+        // Back to the previous multiple of m (tested already), unless the run from there reached this point.
+        for (std::size_t j = k; j-- > (k >= m ? k - m + 1 : 0) && covered[j] && !near(j);) covered[j] = 0;
+        // On up to the next multiple of m, which the loop tests itself.
+        for (std::size_t j = k + 1; j < std::min(k + m, n) && !near(j); ++j) covered[j] = 0;
+    }
+    if (!any_uncovered) return {};
+    return covered;
 }
 
 // The runs of candidate c's points not covered by a barrier of smaller q (at least two points) that pass the
-// selection rule of local_minima, appended to `selected`. `index` holds the segments that are no pieces, its buckets
-// sorted by q.
-void select_uncovered(const std::vector<Strainline> &lines, const std::vector<Segment> &candidates, std::size_t c,
-                      const std::vector<char> &covered, const RunIndex &index, const SegmentMeter &meter,
-                      const Scales &scale, std::vector<Selected> &selected) {
+// selection rule of local_minima, in order along the candidate; a remainder's own q is not measured yet (the caller
+// does, for the few that are kept). `index` holds the segments that are no pieces, its buckets sorted by q.
+std::vector<Selected> uncovered_minima(const std::vector<Strainline> &lines, const std::vector<Segment> &candidates,
+                                       std::size_t c, const std::vector<char> &covered, const RunIndex &index,
+                                       const Scales &scale) {
+    std::vector<Selected> picks;
     const auto q_of = [&](std::size_t d) { return candidates[d].q; };
     const Segment &cand = candidates[c];
     const std::size_t n = covered.size();
@@ -793,9 +874,9 @@ void select_uncovered(const std::vector<Strainline> &lines, const std::vector<Se
         for (std::size_t j = 0; j < pick.probes; ++j)
             if (index.any_near_below(probes[2 * j], probes[2 * j + 1], cand.q, c, q_of)) ++pick.dominated;
         if (2 * pick.dominated > pick.probes) continue;
-        if (pick.remainder && !meter.measure(lines, pick.piece)) continue;
-        selected.push_back(pick);
+        picks.push_back(pick);
     }
+    return picks;
 }
 
 // Alg. 1, step 3: the local minima of q, disjoint. Visited in order of increasing q (selection_order), a segment's
@@ -824,38 +905,47 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
     const std::vector<std::size_t> order = selection_order(candidates, along_wall);
     std::vector<Selected> selected;
     RunIndex kept(g, cover);
+    const std::size_t min_chunk = 128, max_chunk = 8192;
     // In chunks of the order, as in pieces_of_longer: each candidate's points are tested in parallel against the
-    // barriers kept before its chunk, and in order the rest against those its chunk added.
-    const std::size_t chunk = 128;
-    for (std::size_t start = 0; start < order.size(); start += chunk) {
+    // barriers kept before its chunk, and so is the selection rule on its uncovered runs; then in order the rest
+    // against the barriers its chunk added, the rule again only where they covered more of it. Barriers are rare (a
+    // few among thousands of candidates): a chunk that adds none doubles the next one (fewer parallel regions, each
+    // with its wait at the end), one that adds some halves it (less serial work on the rest of a chunk).
+    std::size_t chunk = min_chunk;
+    for (std::size_t start = 0, end = 0; start < order.size(); start = end) {
         if (m_max_barriers > 0 && selected.size() >= m_max_barriers) break;
-        const std::size_t end = std::min(order.size(), start + chunk);
+        end = std::min(order.size(), start + chunk);
         std::vector<std::vector<char>> covered(end - start);
+        std::vector<std::vector<Selected>> picks(end - start);
 #pragma omp parallel for schedule(dynamic)
         for (std::size_t i = start; i < end; ++i) {
             const Segment &cand = candidates[order[i]];
             const double *xy = first_point(lines, cand);
             const std::size_t n = cand.last - cand.first + 1;
-            if (!covered_at_stride(kept, xy, n, cover, scale.min_length))
-                covered[i - start] = near_points(kept, xy, n, cover);
+            covered[i - start] = covered_points(kept, xy, n, cover, scale.min_length);
+            if (!covered[i - start].empty())
+                picks[i - start] = uncovered_minima(lines, candidates, order[i], covered[i - start], index, scale);
         }
-        RunIndex added(g, cover);
+        std::optional<RunIndex> added; // the barriers this chunk added, made with its first
         const std::size_t kept_before = selected.size();
         for (std::size_t i = start; i < end; ++i) {
             if (m_max_barriers > 0 && selected.size() >= m_max_barriers) break;
             const std::size_t c = order[i];
             if (covered[i - start].empty()) continue; // no uncovered run min_length long: nothing to select
-            if (selected.size() > kept_before)
-                add_near_points(added, first_point(lines, candidates[c]), cover, covered[i - start]);
+            if (added && add_near_points(*added, first_point(lines, candidates[c]), cover, covered[i - start]))
+                picks[i - start] = uncovered_minima(lines, candidates, c, covered[i - start], index, scale);
             const std::size_t first_new = selected.size();
-            select_uncovered(lines, candidates, c, covered[i - start], index, meter, scale, selected);
+            for (Selected &pick : picks[i - start])
+                if (!pick.remainder || meter.measure(lines, pick.piece)) selected.push_back(pick);
             // This candidate's pieces cover only from now on, not the rest of the same candidate.
+            if (selected.size() > first_new && !added) added.emplace(g, cover);
             for (std::size_t b = first_new; b < selected.size(); ++b) {
                 const std::size_t n = selected[b].piece.last - selected[b].piece.first + 1;
                 kept.add(first_point(lines, selected[b].piece), n, b);
-                added.add(first_point(lines, selected[b].piece), n, b);
+                added->add(first_point(lines, selected[b].piece), n, b);
             }
         }
+        chunk = selected.size() > kept_before ? std::max(min_chunk, chunk / 2) : std::min(max_chunk, 2 * chunk);
     }
     std::stable_sort(selected.begin(), selected.end(),
                      [](const Selected &a, const Selected &b) { return a.piece.q < b.piece.q; });
@@ -1055,17 +1145,32 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     const bool backward = in.t1 < in.t0;
     const bool opposite = m_route == "opposite-time";
 
+    using clock = std::chrono::steady_clock;
+    clock::time_point mark = clock::now();
+    std::string timings; // the sub-stages' wall seconds, for the log: where a slow extraction spends its time
+    const auto lap = [&](const char *name) {
+        const clock::time_point now = clock::now();
+        timings += std::string(timings.empty() ? "" : ", ") + name + " " +
+                   format(std::chrono::duration<double>(now - mark).count()) + " s";
+        mark = now;
+    };
     const std::vector<Strainline> lines = opposite ? opposite_time_strainlines(host, in, deviation, scale.max_length)
                                                    : direct_strainlines(host, cg, deviation, scale.max_length);
+    lap("strainlines");
     // Directly l(gamma_t1) = int sqrt(lambda1) ds, from log lambda1 on the grid.
     std::vector<double> log_lambda1(g.size());
     for (std::size_t p = 0; p < g.size(); ++p) log_lambda1[p] = std::log(cg.lambda1[p]);
     const SegmentMeter meter{g, log_lambda1, cg.mask, opposite};
     const std::vector<Segment> candidates = truncated_segments(host, lines, meter, scale.min_length);
+    lap("segments");
     if (host.progress(0.7)) throw std::runtime_error("stopped by the user");
     const std::vector<char> along_wall = along_walls(host, cg, lines, candidates, scale.radius);
+    lap("walls");
     const std::vector<Selected> selected = local_minima(host, g, lines, candidates, along_wall, meter, scale);
+    lap("selection");
     const AdvectionCheck check = advect_barriers(host, in, cg, lines, selected);
+    lap("advection");
+    host.info("stages: " + timings);
     if (host.progress(0.9)) throw std::runtime_error("stopped by the user");
     report_barriers(host, lines, candidates, selected, check, backward);
     if (!in.plots) return;

@@ -45,6 +45,13 @@ struct CurveStats {
     std::size_t finite_points = 0;
 };
 CurveStats curve_statistics(const std::vector<double> &xy, const std::vector<double> &values, bool closed = false);
+// The same from the lengths of the curve's segments (segment k joins point k to point (k + 1) mod n; `segments` is
+// n - 1 for an open curve, n for a closed one), bit for bit: a caller that measures many pieces of one long polyline
+// (the hyperbolic extractor's strainline segments) computes each length once instead of once per statistic.
+CurveStats curve_statistics(const double *values, std::size_t n, const double *segment_lengths, std::size_t segments);
+// The lengths of a polyline's segments, point k to point k + 1 (and the last back to the first when `closed`):
+// their sum in order is polyline_length, their running sum cumulative_length.
+std::vector<double> segment_lengths(const std::vector<double> &xy, bool closed = false);
 
 // "Advect these points": xy_in (x, y interleaved, n points) to xy_out (2n values) with mask (n MaskBits, 0 =
 // valid). The runner wraps advect_points in one; an extractor plugin wraps sdk::Host::advect.

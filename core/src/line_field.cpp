@@ -214,8 +214,11 @@ LineField::LineField(const Grid &grid, std::vector<double> vx, std::vector<doubl
     m_inv_dy = 1.0 / grid.dy();
     m_v.resize(2 * n);
     for (std::size_t p = 0; p < n; ++p) {
-        m_v[2 * p] = m_vx[p];
-        m_v[2 * p + 1] = m_vy[p];
+        // An unusable point holds (NaN, NaN) when masked and (NaN, 0) when undefined instead of its vector, so that
+        // the lane evaluation learns a cell's status from the sums of its corners: the x sum is NaN when any corner
+        // is unusable, the y sum when any is masked.
+        m_v[2 * p] = m_state[p] == 0 ? m_vx[p] : nan_value;
+        m_v[2 * p + 1] = m_state[p] == 0 ? m_vy[p] : m_state[p] == 1 ? nan_value : 0.0;
     }
     if (grid.nx < 2 || grid.ny < 2) return;
     const std::size_t cx = grid.nx - 1, cy = grid.ny - 1;
@@ -269,7 +272,7 @@ LineStatus LineField::evaluate(double x, double y, double ref_x, double ref_y, d
     std::size_t i, j;
     double u, v;
     if (!locate(x, y, i, j, u, v)) return LineStatus::outside;
-    const std::int32_t cell = m_cell[i * (m_grid.nx - 1) + j];
+    const std::uint8_t cell = m_cell[i * (m_grid.nx - 1) + j];
     if (cell != 0) return cell_status[cell];
     const std::size_t corners[4] = {i * m_grid.nx + j, i * m_grid.nx + j + 1, (i + 1) * m_grid.nx + j,
                                     (i + 1) * m_grid.nx + j + 1};
@@ -312,9 +315,8 @@ void LineField::evaluate_lanes(std::size_t n, const double *x, const double *y, 
     }
     const double x0 = g.x_min, y0 = g.y_min, x1 = g.x_max, y1 = g.y_max, inv_dx = m_inv_dx, inv_dy = m_inv_dy;
     const double last_j = static_cast<double>(g.nx - 2), last_i = static_cast<double>(g.ny - 2);
-    const std::ptrdiff_t nx = static_cast<std::ptrdiff_t>(g.nx), cells_x = nx - 1;
+    const std::ptrdiff_t nx = static_cast<std::ptrdiff_t>(g.nx);
     const double *v = m_v.data();
-    const std::int32_t *cell = m_cell.data();
     // In chunks: the lane loop vectorises (gathers of the cell corners) when every statement is on 32- or 64-bit
     // values, so the status is kept wide for a chunk and narrowed afterwards.
     constexpr std::size_t chunk = 64;
@@ -347,10 +349,10 @@ void LineField::evaluate_lanes(std::size_t n, const double *x, const double *y, 
                 sy += weights[q] * sign * cy;
             }
             const double norm = std::sqrt(sx * sx + sy * sy);
-            const std::int64_t c = cell[i * cells_x + j];
-            // Status codes as LineStatus: 0 ok, 1 outside, 2 masked, 3 singular (cell codes 0 ok, 1 masked, 2
-            // singular).
-            const std::int64_t st = !inside ? 1 : c != 0 ? c + 1 : !(norm >= min_interpolated_norm) ? 3 : 0;
+            // Status codes as LineStatus: 0 ok, 1 outside, 2 masked, 3 singular, as m_cell would give them (masked
+            // before singular) from the NaNs the constructor stored: the y sum is NaN when a corner is masked, the
+            // x sum, and with it the norm, when a corner is masked or undefined (x != x: NaN, without a call).
+            const std::int64_t st = !inside ? 1 : sy != sy ? 2 : !(norm >= min_interpolated_norm) ? 3 : 0;
             const bool ok = st == 0;
             const double inverse = 1.0 / (ok ? norm : 1.0);
             ox[k] = ok ? sx * inverse : rx;

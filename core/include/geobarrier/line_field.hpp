@@ -101,12 +101,13 @@ class LineField {
     // the one before, and a multiplication has a quarter of a division's latency.
     double m_inv_dx = 1.0, m_inv_dy = 1.0;
     std::vector<double> m_vx, m_vy;
-    std::vector<double> m_v; // the same vectors interleaved (x, y), so that a cell's corners share cache lines
+    // The same vectors interleaved (x, y), so that a cell's corners share cache lines; an unusable point holds (NaN,
+    // its m_state) instead.
+    std::vector<double> m_v;
     std::vector<std::uint8_t> m_state; // 0 ok, 1 masked, 2 undefined
     // Per cell ((ny - 1) * (nx - 1), row-major): the status of its four corners together (0 ok, 1 masked,
-    // 2 singular), so that a tensor-line step reads one value instead of four; 32 bits wide because the vectorised
-    // lane evaluation gathers it (there are no byte gathers).
-    std::vector<std::int32_t> m_cell;
+    // 2 singular), so that a tensor-line step reads one byte instead of four.
+    std::vector<std::uint8_t> m_cell;
     // The cell holding (x, y) and the local coordinates in it; false outside the box.
     bool locate(double x, double y, std::size_t &i, std::size_t &j, double &u, double &v) const;
 };

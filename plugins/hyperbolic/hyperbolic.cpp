@@ -430,6 +430,9 @@ struct Hyperbolic {
         string_param("line_method", "midpoint", "midpoint|rk4|bs32|dopri5",
                      "tensor-line integration: fixed half-cell steps (midpoint, rk4) or adaptive pairs at the "
                      "tolerance (bs32, dopri5); docs/extractors.md"),
+        real_param("line_step", 0.0, 0.0, HUGE_VAL, "state",
+                   "strainline step (largest step of the adaptive methods), direct route; 0 = half a grid cell, "
+                   "but at least 1/16 of the seed distance unless seed_spacing is given"),
         bool_param("validate", true, "advect every barrier to t1 with point insertion and report its true length"),
         real_param("max_gap_fraction", 0.005, 1e-6, 0.5, "",
                    "curve advection: no gap in an image longer than this fraction of the image's size"),
@@ -445,7 +448,7 @@ struct Hyperbolic {
           m_max_barriers(static_cast<std::size_t>(p.integer("max_barriers"))), m_singular_gap(p.real("singular_gap")),
           m_route(p.string("route")), m_validate(p.flag("validate")), m_max_gap_fraction(p.real("max_gap_fraction")),
           m_walls(Walls::parse(p.string("invariant_walls"))),
-          m_line_method(tensor_line_method(p.string("line_method"))) {}
+          m_line_method(tensor_line_method(p.string("line_method"))), m_line_step(p.real("line_step")) {}
 
     void extract(const sdk::Host &host, const gb_extract_input &in) const;
 
@@ -460,6 +463,7 @@ struct Hyperbolic {
     double m_max_gap_fraction;
     Walls m_walls;
     TensorLineMethod m_line_method;
+    double m_line_step;
 
   private:
     std::vector<double> seeds(const Grid &g, const LineField &field, const std::vector<double> *deviation) const;
@@ -537,7 +541,9 @@ std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, co
     // grids resolve the fields better, but strainlines sampled more densely than that only cost more (on the
     // damped Duffing attractor, 1000 x 1000, docs/extractors.md: the same barrier, 2.5 times fewer points). With
     // the default seed distance it is half a cell of the 601 x 401 grid the extractor was validated on.
-    if (m_seed_spacing == 0)
+    if (m_line_step > 0)
+        settings.max_step = m_line_step;
+    else if (m_seed_spacing == 0)
         settings.max_step = std::max(0.5 * std::min(cg.grid.dx(), cg.grid.dy()), seed_distance(cg.grid) / 16.0);
     std::vector<Strainline> lines(n);
     const std::size_t block = 1024; // seeds per batch of lockstep lanes: progress still every ~10%

@@ -317,49 +317,39 @@ void LineField::evaluate_lanes(std::size_t n, const double *x, const double *y, 
     const double last_j = static_cast<double>(g.nx - 2), last_i = static_cast<double>(g.ny - 2);
     const std::ptrdiff_t nx = static_cast<std::ptrdiff_t>(g.nx);
     const double *v = m_v.data();
-    // In chunks: the lane loop vectorises (gathers of the cell corners) when every statement is on 32- or 64-bit
-    // values, so the status is kept wide for a chunk and narrowed afterwards.
-    constexpr std::size_t chunk = 64;
-    std::int64_t wide[chunk];
-    for (std::size_t start = 0; start < n; start += chunk) {
-        const std::size_t m = std::min(chunk, n - start);
-        const double *cx_ = x + start, *cy_ = y + start, *rx_ = ref_x + start, *ry_ = ref_y + start;
-        double *ox = vx + start, *oy = vy + start;
 #pragma GCC ivdep
-        for (std::size_t k = 0; k < m; ++k) {
-            const double px = cx_[k], py = cy_[k];
-            const bool inside = px >= x0 && px <= x1 && py >= y0 && py <= y1;
-            // Outside (or NaN) the lane is evaluated at the box's corner and reported outside: no branch, no bad
-            // index.
-            const double fx = ((inside ? px : x0) - x0) * inv_dx, fy = ((inside ? py : y0) - y0) * inv_dy;
-            // As locate(): the cell's index is the floor, the last cell also holds the box's far edge.
-            const double cj = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fx)), last_j);
-            const double ci = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fy)), last_i);
-            const std::ptrdiff_t j = static_cast<std::ptrdiff_t>(cj), i = static_cast<std::ptrdiff_t>(ci);
-            const double u = fx - cj, w = fy - ci;
-            const std::ptrdiff_t p = i * nx + j;
-            const double weights[4] = {(1 - u) * (1 - w), u * (1 - w), (1 - u) * w, u * w};
-            const std::ptrdiff_t corners[4] = {p, p + 1, p + nx, p + nx + 1};
-            const double rx = rx_[k], ry = ry_[k];
-            double sx = 0.0, sy = 0.0;
-            for (int q = 0; q < 4; ++q) {
-                const double cx = v[2 * corners[q]], cy = v[2 * corners[q] + 1];
-                const double sign = cx * rx + cy * ry < 0.0 ? -1.0 : 1.0;
-                sx += weights[q] * sign * cx;
-                sy += weights[q] * sign * cy;
-            }
-            const double norm = std::sqrt(sx * sx + sy * sy);
-            // Status codes as LineStatus: 0 ok, 1 outside, 2 masked, 3 singular, as m_cell would give them (masked
-            // before singular) from the NaNs the constructor stored: the y sum is NaN when a corner is masked, the
-            // x sum, and with it the norm, when a corner is masked or undefined (x != x: NaN, without a call).
-            const std::int64_t st = !inside ? 1 : sy != sy ? 2 : !(norm >= min_interpolated_norm) ? 3 : 0;
-            const bool ok = st == 0;
-            const double inverse = 1.0 / (ok ? norm : 1.0);
-            ox[k] = ok ? sx * inverse : rx;
-            oy[k] = ok ? sy * inverse : ry;
-            wide[k] = st;
+    for (std::size_t k = 0; k < n; ++k) {
+        const double px = x[k], py = y[k];
+        const bool inside = px >= x0 && px <= x1 && py >= y0 && py <= y1;
+        // Outside (or NaN) the lane is evaluated at the box's corner and reported outside: no branch, no bad index.
+        const double fx = ((inside ? px : x0) - x0) * inv_dx, fy = ((inside ? py : y0) - y0) * inv_dy;
+        // As locate(): the cell's index is the floor, the last cell also holds the box's far edge.
+        const double cj = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fx)), last_j);
+        const double ci = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fy)), last_i);
+        const std::ptrdiff_t j = static_cast<std::ptrdiff_t>(cj), i = static_cast<std::ptrdiff_t>(ci);
+        const double u = fx - cj, w = fy - ci;
+        const std::ptrdiff_t p = i * nx + j;
+        const double weights[4] = {(1 - u) * (1 - w), u * (1 - w), (1 - u) * w, u * w};
+        const std::ptrdiff_t corners[4] = {p, p + 1, p + nx, p + nx + 1};
+        const double rx = ref_x[k], ry = ref_y[k];
+        double sx = 0.0, sy = 0.0;
+        for (int q = 0; q < 4; ++q) {
+            const double cx = v[2 * corners[q]], cy = v[2 * corners[q] + 1];
+            const double sign = cx * rx + cy * ry < 0.0 ? -1.0 : 1.0;
+            sx += weights[q] * sign * cx;
+            sy += weights[q] * sign * cy;
         }
-        for (std::size_t k = 0; k < m; ++k) status[start + k] = static_cast<std::uint8_t>(wide[k]);
+        const double norm = std::sqrt(sx * sx + sy * sy);
+        // Status codes as LineStatus: 0 ok, 1 outside, 2 masked, 3 singular, as m_cell would give them (masked before
+        // singular) from the NaNs the constructor stored: the y sum is NaN when a corner is masked, the x sum, and
+        // with it the norm, when a corner is masked or undefined (x != x: NaN, without a call, which would not
+        // vectorise).
+        const std::uint8_t st = !inside ? 1 : sy != sy ? 2 : !(norm >= min_interpolated_norm) ? 3 : 0;
+        const bool ok = st == 0;
+        const double inverse = 1.0 / (ok ? norm : 1.0);
+        vx[k] = ok ? sx * inverse : rx;
+        vy[k] = ok ? sy * inverse : ry;
+        status[k] = st;
     }
 }
 

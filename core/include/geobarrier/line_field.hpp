@@ -101,8 +101,8 @@ class LineField {
     // the one before, and a multiplication has a quarter of a division's latency.
     double m_inv_dx = 1.0, m_inv_dy = 1.0;
     std::vector<double> m_vx, m_vy;
-    // The same vectors interleaved (x, y), so that a cell's corners share cache lines; an unusable point holds (NaN,
-    // its m_state) instead.
+    // The same vectors interleaved (x, y), so that a cell's corners share cache lines; an unusable point holds
+    // (NaN, NaN) when masked and (NaN, 0) when undefined instead (evaluate_lanes reads its cell's status from them).
     std::vector<double> m_v;
     std::vector<std::uint8_t> m_state; // 0 ok, 1 masked, 2 undefined
     // Per cell ((ny - 1) * (nx - 1), row-major): the status of its four corners together (0 ok, 1 masked,

@@ -210,13 +210,10 @@ struct SegmentMeter {
         const Strainline &line = lines[s.line];
         const std::vector<double> xy = points_of(lines, s);
         const std::size_t n = s.last - s.first + 1;
-        std::vector<double> own_steps;
-        if (!steps) {
-            own_steps = segment_lengths(xy);
-        } else {
-            own_steps.assign(steps + s.first, steps + s.last);
-        }
-        const CurveStats ds = curve_statistics(line.deviation.data() + s.first, n, own_steps.data(), n - 1);
+        // The piece's own segment lengths: the strainline's from s.first on, or measured here.
+        const std::vector<double> measured = steps ? std::vector<double>() : segment_lengths(xy);
+        const double *piece_steps = steps ? steps + s.first : measured.data();
+        const CurveStats ds = curve_statistics(line.deviation.data() + s.first, n, piece_steps, n - 1);
         s.mean_deviation = ds.mean;
         s.max_deviation = ds.max;
         if (opposite) {
@@ -227,7 +224,7 @@ struct SegmentMeter {
             // Interpolating log(lambda1) is exact for exponential variation across a cell.
             std::vector<double> root = sample_along(grid, log_lambda1, mask, xy);
             for (double &v : root) v = std::exp(0.5 * v);
-            const CurveStats rs = curve_statistics(root.data(), n, own_steps.data(), n - 1);
+            const CurveStats rs = curve_statistics(root.data(), n, piece_steps, n - 1);
             if (rs.covered_length < 0.999 * s.length) return false;
             s.stretched_length = rs.integral;
         }
@@ -235,7 +232,7 @@ struct SegmentMeter {
         // The point at half the arc length: the first whose running length reaches it (cumulative_length's sums).
         std::size_t mid = 0;
         double run = 0.0;
-        while (mid + 1 < n && run < 0.5 * s.length) run += own_steps[mid++];
+        while (mid + 1 < n && run < 0.5 * s.length) run += piece_steps[mid++];
         s.mid_x = xy[2 * mid];
         s.mid_y = xy[2 * mid + 1];
         return std::isfinite(s.q);

@@ -538,10 +538,15 @@ std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, co
     // grids resolve the fields better, but strainlines sampled more densely than that only cost more (on the
     // damped Duffing attractor, 1000 x 1000, docs/extractors.md: the same barrier, 2.5 times fewer points). With
     // the default seed distance it is half a cell of the 601 x 401 grid the extractor was validated on.
-    if (m_line_step > 0)
-        settings.max_step = m_line_step;
-    else if (m_seed_spacing == 0)
-        settings.max_step = std::max(0.5 * std::min(cg.grid.dx(), cg.grid.dy()), seed_distance(cg.grid) / 16.0);
+    const double half_cell = 0.5 * std::min(cg.grid.dx(), cg.grid.dy());
+    settings.max_step = m_line_step > 0      ? m_line_step
+                        : m_seed_spacing > 0 ? half_cell
+                                             : std::max(half_cell, seed_distance(cg.grid) / 16.0);
+    // The step in full (scripts/hyperbolic-conditioning reads it to halve and double it).
+    std::ostringstream step;
+    step.precision(17);
+    step << settings.max_step;
+    host.info("strainline step " + step.str() + " (state units)");
     std::vector<Strainline> lines(n);
     const std::size_t block = 1024; // seeds per batch of lockstep lanes: progress still every ~10%
     for (std::size_t start = 0; start < n; start += block) {

@@ -79,6 +79,7 @@ struct Resolved {
 // Lanes per lockstep group: enough for the widest vectors (8 doubles) twice over, few enough that a group's arrays
 // stay in the first-level cache.
 constexpr std::size_t lane_count = 16;
+constexpr std::size_t reserve_cap = 1 << 16; // points reserved per line at most
 
 // One group of lanes integrating lines start..start+count of a batch: each lane takes the next line when its line
 // ends, so the lanes stay busy until the batch runs dry. Every lane does exactly what a lone line would: the stage
@@ -123,6 +124,15 @@ template <class Tab> class LaneGroup {
             if (!std::isfinite(x0) || !std::isfinite(y0)) {
                 line.stop = StopReason::domain_edge;
                 continue;
+            }
+            // Fixed steps: room for a line that runs its whole length, so that the lane never copies its points to
+            // grow them (capped: only lines stopped early leave reserved memory untouched).
+            if (!adaptive) {
+                const std::size_t room = std::min<std::size_t>(
+                    {m_r.s.max_steps, reserve_cap,
+                     static_cast<std::size_t>(std::min(m_r.s.max_length / m_r.max_step, 1e9)) + 2});
+                line.xy.reserve(2 * room);
+                line.s.reserve(room);
             }
             line.xy = {x0, y0};
             line.s = {0.0};

@@ -111,6 +111,64 @@ TEST_CASE("lengths, resampling, shoelace area, bilinear sampling, statistics") {
     CHECK(st.finite_points == 10);
 }
 
+TEST_CASE("several fields sampled in one pass give sample_along's values bit for bit; partial segment lengths") {
+    Grid g;
+    g.x_min = -1.3;
+    g.x_max = 2.1;
+    g.y_min = -0.7;
+    g.y_max = 0.9;
+    g.nx = 37;
+    g.ny = 23;
+    // Two non-bilinear fields, one with a NaN point (unknown there) and one with a masked point given as NaN.
+    std::vector<double> a(g.size()), b(g.size());
+    for (std::size_t p = 0; p < g.size(); ++p) {
+        a[p] = std::sin(0.37 * static_cast<double>(p)) * 1e-3;
+        b[p] = std::log(1.5 + std::cos(0.11 * static_cast<double>(p)));
+    }
+    a[5 * g.nx + 7] = std::nan("");
+    std::vector<std::uint8_t> mask(g.size(), 0);
+    mask[11 * g.nx + 20] = mask_left_bounds;
+    std::vector<double> both(2 * g.size());
+    for (std::size_t p = 0; p < g.size(); ++p) {
+        both[2 * p] = a[p];
+        both[2 * p + 1] = mask[p] ? std::nan("") : b[p];
+    }
+    // A wandering polyline that leaves the box, crosses both bad points and ends on the box's far corner.
+    std::vector<double> xy;
+    for (int k = 0; k < 2000; ++k) {
+        const double t = 0.01 * k;
+        xy.push_back(0.4 + 1.9 * std::sin(1.3 * t) * std::cos(0.21 * t));
+        xy.push_back(0.1 + 0.95 * std::cos(0.7 * t + 0.3));
+    }
+    xy.insert(xy.end(), {g.x(7), g.y(5), g.x(20) + 1e-3, g.y(11) - 1e-3, g.x_max, g.y_max});
+    const std::vector<double> sampled = sample_interleaved_along(g, both, 2, xy);
+    const std::vector<double> sa = sample_along(g, a, {}, xy), sb = sample_along(g, b, mask, xy);
+    REQUIRE(sampled.size() == 2 * sa.size());
+    std::size_t nan_a = 0, nan_b = 0, differ = 0;
+    for (std::size_t k = 0; k < sa.size(); ++k) {
+        nan_a += std::isnan(sa[k]);
+        nan_b += std::isnan(sb[k]);
+        const auto same = [](double u, double v) { return (std::isnan(u) && std::isnan(v)) || u == v; };
+        differ += !same(sampled[2 * k], sa[k]) + !same(sampled[2 * k + 1], sb[k]);
+    }
+    CHECK(differ == 0);
+    CHECK(nan_a > 0); // the polyline met the unknown point, the box's edge ...
+    CHECK(nan_b > 0); // ... and the masked one
+    CHECK(nan_b < sa.size() / 2);
+    CHECK_THROWS_AS(sample_interleaved_along(g, a, 2, xy), std::invalid_argument);
+
+    // Partial segment lengths are the whole polyline's, bit for bit, on the stretch asked for and nowhere else.
+    const std::vector<double> whole = segment_lengths(xy);
+    std::vector<double> part(whole.size(), -1.0);
+    segment_lengths(xy.data(), 100, 700, part.data());
+    for (std::size_t k = 0; k < part.size(); ++k) {
+        if (k >= 100 && k < 700)
+            CHECK(part[k] == whole[k]);
+        else
+            CHECK(part[k] == -1.0);
+    }
+}
+
 TEST_CASE("advecting a radial segment under a twist map: length of the spiral image") {
     // The segment r in [0.2, 1] at angle 0 maps to the spiral angle = k r^2, of length
     // int sqrt(1 + (2 k r^2)^2) dr. With 3 starting points the image is far too coarse; insertion must fix it.

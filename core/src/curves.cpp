@@ -73,22 +73,40 @@ double shoelace_area(const std::vector<double> &xy) {
 
 namespace {
 
+// The cell of (x, y) (its corners' grid indices) and their bilinear weights, given the grid spacings; false outside
+// the box. The one place that decides where a sample comes from, so that every sampler gives the same bits.
+struct BilinearCell {
+    std::size_t c[4];
+    double w[4];
+    bool locate(const Grid &g, double dx, double dy, double x, double y) {
+        if (!(x >= g.x_min && x <= g.x_max && y >= g.y_min && y <= g.y_max)) return false;
+        const double fx = (x - g.x_min) / dx, fy = (y - g.y_min) / dy;
+        const std::size_t j = std::min(static_cast<std::size_t>(fx), g.nx - 2);
+        const std::size_t i = std::min(static_cast<std::size_t>(fy), g.ny - 2);
+        const double u = fx - static_cast<double>(j), v = fy - static_cast<double>(i);
+        c[0] = i * g.nx + j;
+        c[1] = i * g.nx + j + 1;
+        c[2] = (i + 1) * g.nx + j;
+        c[3] = (i + 1) * g.nx + j + 1;
+        w[0] = (1 - u) * (1 - v);
+        w[1] = u * (1 - v);
+        w[2] = (1 - u) * v;
+        w[3] = u * v;
+        return true;
+    }
+};
+
 // sample_field with the grid spacings given: sample_along computes them once for all its points. Inlined in both
 // (an exported function is not, in a shared library), which halves the cost of sampling a strainline's d_g.
 inline double bilinear_sample(const Grid &g, double dx, double dy, const std::vector<double> &field,
                               const std::vector<std::uint8_t> &mask, double x, double y, std::uint8_t masked_by) {
-    if (!(x >= g.x_min && x <= g.x_max && y >= g.y_min && y <= g.y_max)) return nan_value;
-    const double fx = (x - g.x_min) / dx, fy = (y - g.y_min) / dy;
-    const std::size_t j = std::min(static_cast<std::size_t>(fx), g.nx - 2);
-    const std::size_t i = std::min(static_cast<std::size_t>(fy), g.ny - 2);
-    const double u = fx - static_cast<double>(j), v = fy - static_cast<double>(i);
-    const std::size_t c[4] = {i * g.nx + j, i * g.nx + j + 1, (i + 1) * g.nx + j, (i + 1) * g.nx + j + 1};
-    const double w[4] = {(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v};
+    BilinearCell cell;
+    if (!cell.locate(g, dx, dy, x, y)) return nan_value;
     double sum = 0.0;
     for (int k = 0; k < 4; ++k) {
-        if (!mask.empty() && (mask[c[k]] & masked_by)) return nan_value;
-        if (!std::isfinite(field[c[k]])) return nan_value;
-        sum += w[k] * field[c[k]];
+        if (!mask.empty() && (mask[cell.c[k]] & masked_by)) return nan_value;
+        if (!std::isfinite(field[cell.c[k]])) return nan_value;
+        sum += cell.w[k] * field[cell.c[k]];
     }
     return sum;
 }
@@ -110,14 +128,42 @@ std::vector<double> sample_along(const Grid &grid, const std::vector<double> &fi
     return out;
 }
 
+std::vector<double> sample_interleaved_along(const Grid &grid, const std::vector<double> &fields,
+                                             std::size_t components, const std::vector<double> &xy) {
+    if (components == 0 || fields.size() != components * grid.size())
+        throw std::invalid_argument("sample_interleaved_along: fields must hold components values per grid point");
+    const std::size_t n = xy.size() / 2;
+    std::vector<double> out(components * n, nan_value);
+    const double dx = grid.dx(), dy = grid.dy();
+    for (std::size_t k = 0; k < n; ++k) {
+        BilinearCell cell;
+        if (!cell.locate(grid, dx, dy, xy[2 * k], xy[2 * k + 1])) continue;
+        for (std::size_t f = 0; f < components; ++f) {
+            // As bilinear_sample: the weighted corners summed in order, NaN when any corner is not finite.
+            double sum = 0.0;
+            bool finite = true;
+            for (int q = 0; q < 4; ++q) {
+                const double value = fields[components * cell.c[q] + f];
+                finite = finite && std::isfinite(value);
+                sum += cell.w[q] * value;
+            }
+            out[components * k + f] = finite ? sum : nan_value;
+        }
+    }
+    return out;
+}
+
 std::vector<double> segment_lengths(const std::vector<double> &xy, bool closed) {
     const std::size_t n = xy.size() / 2;
-    std::vector<double> out;
-    out.reserve(n);
-    for (std::size_t k = 1; k < n; ++k)
-        out.push_back(std::hypot(xy[2 * k] - xy[2 * k - 2], xy[2 * k + 1] - xy[2 * k - 1]));
-    if (closed && n > 2) out.push_back(std::hypot(xy[0] - xy[2 * n - 2], xy[1] - xy[2 * n - 1]));
+    std::vector<double> out(n > 1 ? (closed && n > 2 ? n : n - 1) : 0);
+    if (n > 1) segment_lengths(xy.data(), 0, n - 1, out.data());
+    if (closed && n > 2) out[n - 1] = std::hypot(xy[0] - xy[2 * n - 2], xy[1] - xy[2 * n - 1]);
     return out;
+}
+
+void segment_lengths(const double *xy, std::size_t first, std::size_t last, double *out) {
+    for (std::size_t k = first + 1; k <= last; ++k)
+        out[k - 1] = std::hypot(xy[2 * k] - xy[2 * k - 2], xy[2 * k + 1] - xy[2 * k - 1]);
 }
 
 CurveStats curve_statistics(const std::vector<double> &xy, const std::vector<double> &values, bool closed) {

@@ -41,6 +41,7 @@ constexpr double max_condition = 100.0;
 struct Strainline {
     std::vector<double> xy, xy_t1;
     std::vector<double> deviation; // d_g^xi1 at each point (NaN outside the usable field)
+    std::vector<double> root;      // direct route: sqrt(lambda1) at each point (NaN where masked or unknown)
 };
 
 // A compact strainline segment with d_g^xi1 < max_deviation at every point: a barrier candidate.
@@ -197,10 +198,7 @@ class RunIndex {
 // What truncation and selection measure along a piece of a strainline: l(gamma_t0), d_g^xi1, l(gamma_t1) and q
 // (eq. `rel_stretch`), the midpoint.
 struct SegmentMeter {
-    const Grid &grid;
-    const std::vector<double> &log_lambda1; // log lambda1 on the grid: l(gamma_t1) = int sqrt(lambda1) ds (direct)
-    const std::vector<std::uint8_t> &mask;
-    bool opposite; // l(gamma_t1) is the stretchline's measured length at t1 instead
+    bool opposite; // l(gamma_t1) is the stretchline's measured length at t1, else int sqrt(lambda1) ds (line.root)
 
     // Fills everything but `length` (set by the caller, which drops short pieces first); false when sqrt(lambda1) is
     // unknown on part of the piece or q is not finite. `steps`, when given, holds the lengths of the strainline's
@@ -221,10 +219,7 @@ struct SegmentMeter {
                 polyline_length(std::vector<double>(line.xy_t1.begin() + 2 * static_cast<std::ptrdiff_t>(s.first),
                                                     line.xy_t1.begin() + 2 * static_cast<std::ptrdiff_t>(s.last + 1)));
         } else {
-            // Interpolating log(lambda1) is exact for exponential variation across a cell.
-            std::vector<double> root = sample_along(grid, log_lambda1, mask, xy);
-            for (double &v : root) v = std::exp(0.5 * v);
-            const CurveStats rs = curve_statistics(root.data(), n, piece_steps, n - 1);
+            const CurveStats rs = curve_statistics(line.root.data() + s.first, n, piece_steps, n - 1);
             if (rs.covered_length < 0.999 * s.length) return false;
             s.stretched_length = rs.integral;
         }
@@ -469,6 +464,9 @@ struct Hyperbolic {
     }
     std::vector<Strainline> direct_strainlines(const sdk::Host &host, const CauchyGreenField &cg,
                                                const std::vector<double> &deviation, double max_length) const;
+    static void sample_deviation_and_root(const Grid &g, const std::vector<double> &deviation_and_log_lambda1,
+                                          std::vector<Strainline> &lines, std::size_t first,
+                                          std::vector<TwoWayLine> &batch);
     std::vector<Strainline> opposite_time_strainlines(const sdk::Host &host, const gb_extract_input &in,
                                                       const std::vector<double> &deviation, double max_length) const;
     Scales scales(const Grid &g) const;
@@ -522,6 +520,19 @@ std::vector<double> Hyperbolic::seeds(const Grid &g, const LineField &field,
     return seed_lattice(g, std::max(d / g.dx(), 1.0), std::max(d / g.dy(), 1.0), field, deviation, m_epsilon);
 }
 
+// d_g^xi1 and log lambda1 interleaved on the grid (log lambda1 NaN where masked), for sample_deviation_and_root.
+// Interpolating log lambda1 is exact for exponential variation across a cell.
+std::vector<double> deviation_and_log_lambda1(const CauchyGreenField &cg, const std::vector<double> &deviation) {
+    const std::size_t n = cg.grid.size();
+    std::vector<double> fields(2 * n);
+#pragma omp parallel for schedule(static)
+    for (std::size_t p = 0; p < n; ++p) {
+        fields[2 * p] = deviation[p];
+        fields[2 * p + 1] = cg.mask[p] ? nan_value : std::log(cg.lambda1[p]);
+    }
+    return fields;
+}
+
 std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, const CauchyGreenField &cg,
                                                        const std::vector<double> &deviation, double max_length) const {
     const LineField xi1 = LineField::from_cauchy_green(cg, 1, m_singular_gap);
@@ -548,21 +559,37 @@ std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, co
     step << settings.max_step;
     host.info("strainline step " + step.str() + " (state units)");
     std::vector<Strainline> lines(n);
+    const std::vector<double> sampled = deviation_and_log_lambda1(cg, deviation);
     const std::size_t block = 1024; // seeds per batch of lockstep lanes: progress still every ~10%
     for (std::size_t start = 0; start < n; start += block) {
         const std::size_t end = std::min(n, start + block);
         std::vector<TwoWayLine> batch = integrate_tensor_lines_both_ways(
             xi1, std::vector<double>(seed.begin() + 2 * start, seed.begin() + 2 * end), settings);
-#pragma omp parallel for schedule(dynamic, 16)
-        for (std::size_t k = start; k < end; ++k) {
-            TwoWayLine &t = batch[k - start];
-            lines[k].deviation = sample_along(cg.grid, deviation, {}, t.xy);
-            lines[k].xy = std::move(t.xy);
-        }
+        sample_deviation_and_root(cg.grid, sampled, lines, start, batch);
         if (host.progress(0.6 * static_cast<double>(end) / static_cast<double>(std::max<std::size_t>(n, 1))))
             throw std::runtime_error("stopped by the user");
     }
     return lines;
+}
+
+// Moves a batch of two-way lines into lines[first...] with d_g^xi1 and sqrt(lambda1) at each point (l(gamma_t1) =
+// int sqrt(lambda1) ds), both sampled in one pass over the points.
+void Hyperbolic::sample_deviation_and_root(const Grid &g, const std::vector<double> &deviation_and_log_lambda1,
+                                           std::vector<Strainline> &lines, std::size_t first,
+                                           std::vector<TwoWayLine> &batch) {
+#pragma omp parallel for schedule(dynamic, 16)
+    for (std::size_t k = 0; k < batch.size(); ++k) {
+        Strainline &line = lines[first + k];
+        const std::vector<double> both = sample_interleaved_along(g, deviation_and_log_lambda1, 2, batch[k].xy);
+        const std::size_t m = both.size() / 2;
+        line.deviation.resize(m);
+        line.root.resize(m);
+        for (std::size_t i = 0; i < m; ++i) {
+            line.deviation[i] = both[2 * i];
+            line.root[i] = std::exp(0.5 * both[2 * i + 1]);
+        }
+        line.xy = std::move(batch[k].xy);
+    }
 }
 
 std::vector<Strainline> Hyperbolic::opposite_time_strainlines(const sdk::Host &host, const gb_extract_input &in,
@@ -671,27 +698,34 @@ std::vector<Segment> Hyperbolic::truncated_segments(const sdk::Host &host, const
                                                     const SegmentMeter &meter, double min_length) const {
     std::vector<std::vector<Segment>> per_line(lines.size());
     std::vector<std::size_t> short_per_line(lines.size(), 0);
-#pragma omp parallel for schedule(dynamic)
-    for (std::size_t l = 0; l < lines.size(); ++l) {
-        const Strainline &line = lines[l];
-        const std::size_t n = line.xy.size() / 2;
-        const std::vector<double> steps = segment_lengths(line.xy);
-        std::size_t k = 0;
-        while (k < n) {
-            while (k < n && !(line.deviation[k] < m_epsilon)) ++k;
-            const std::size_t first = k;
-            while (k < n && line.deviation[k] < m_epsilon) ++k;
-            if (k - first < 2) continue;
-            Segment s;
-            s.line = l;
-            s.first = first;
-            s.last = k - 1;
-            s.length = length_from_steps(steps, s.first, s.last);
-            if (s.length < min_length) {
-                ++short_per_line[l];
-                continue;
+#pragma omp parallel
+    {
+        // The strainline's segment lengths (steps[k] joins its points k and k + 1), measured only along its pieces
+        // with d_g < epsilon: on W they hold a fraction of its points. One buffer per thread, reused line by line.
+        std::vector<double> steps;
+#pragma omp for schedule(dynamic)
+        for (std::size_t l = 0; l < lines.size(); ++l) {
+            const Strainline &line = lines[l];
+            const std::size_t n = line.xy.size() / 2;
+            if (steps.size() < n) steps.resize(n);
+            std::size_t k = 0;
+            while (k < n) {
+                while (k < n && !(line.deviation[k] < m_epsilon)) ++k;
+                const std::size_t first = k;
+                while (k < n && line.deviation[k] < m_epsilon) ++k;
+                if (k - first < 2) continue;
+                segment_lengths(line.xy.data(), first, k - 1, steps.data());
+                Segment s;
+                s.line = l;
+                s.first = first;
+                s.last = k - 1;
+                s.length = length_from_steps(steps, s.first, s.last);
+                if (s.length < min_length) {
+                    ++short_per_line[l];
+                    continue;
+                }
+                if (meter.measure(lines, s, steps.data())) per_line[l].push_back(s);
             }
-            if (meter.measure(lines, s, steps.data())) per_line[l].push_back(s);
         }
     }
     std::vector<Segment> candidates;
@@ -1165,10 +1199,7 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     const std::vector<Strainline> lines = opposite ? opposite_time_strainlines(host, in, deviation, scale.max_length)
                                                    : direct_strainlines(host, cg, deviation, scale.max_length);
     lap("strainlines");
-    // Directly l(gamma_t1) = int sqrt(lambda1) ds, from log lambda1 on the grid.
-    std::vector<double> log_lambda1(g.size());
-    for (std::size_t p = 0; p < g.size(); ++p) log_lambda1[p] = std::log(cg.lambda1[p]);
-    const SegmentMeter meter{g, log_lambda1, cg.mask, opposite};
+    const SegmentMeter meter{opposite};
     const std::vector<Segment> candidates = truncated_segments(host, lines, meter, scale.min_length);
     lap("segments");
     if (host.progress(0.7)) throw std::runtime_error("stopped by the user");

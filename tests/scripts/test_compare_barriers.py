@@ -167,23 +167,22 @@ class RealPair(unittest.TestCase):
                 want = brute_farthest(x["_pts"], [segments_of(y["_pts"], y["closed"]) for y in Y])
                 got = cb.farthest(x["_pts"], [y["_line"].segments for y in Y])
                 self.assertAlmostEqual(got, want, delta=1e-12 * want)
-        far = max(x_far for x_far in (cb.hausdorff(x, y) for x in A for y in B))
+        far = max(cb.hausdorff(x, y) for x in A for y in B)
         self.assertGreater(far / 0.0036, 100, "the pair is meant to lie hundreds of grid spacings apart")
 
     def test_output_matches_brute_force(self):
-        argv = [SCRIPT, self.A, self.B, "--spacing", "0.0036"]
+        # The whole printout (matches, distances, figures, summary) and the exit status, with compare-barriers'
+        # farthest and with brute force in its place.
+        argv = [SCRIPT, self.A, self.B, "--spacing", "0.0036", "--max-distance", "400"]
         outputs = []
         for farthest in (cb.farthest, brute_farthest_of_segments):
-            saved = cb.farthest
-            cb.farthest = farthest
-            try:
-                out = io.StringIO()
-                with contextlib.redirect_stdout(out), unittest.mock.patch.object(sys, "argv", argv):
-                    status = cb.main()
-                outputs.append((status, out.getvalue()))
-            finally:
-                cb.farthest = saved
+            out = io.StringIO()
+            with contextlib.redirect_stdout(out), unittest.mock.patch.object(sys, "argv", argv), \
+                    unittest.mock.patch.object(cb, "farthest", farthest):
+                status = cb.main()
+            outputs.append((status, out.getvalue()))
         self.assertEqual(outputs[0], outputs[1])
+        self.assertEqual(outputs[0][0], 0)
         self.assertIn("max distance 366 spacings over 4 / 4 barriers", outputs[0][1])
 
 

@@ -141,21 +141,29 @@ TEST_CASE("several fields sampled in one pass give sample_along's values bit for
         xy.push_back(0.1 + 0.95 * std::cos(0.7 * t + 0.3));
     }
     xy.insert(xy.end(), {g.x(7), g.y(5), g.x(20) + 1e-3, g.y(11) - 1e-3, g.x_max, g.y_max});
-    const std::vector<double> sampled = sample_interleaved_along(g, both, 2, xy);
+    std::vector<double> sampled[2];
+    sample_interleaved_along(g, both, 2, xy, sampled);
     const std::vector<double> sa = sample_along(g, a, {}, xy), sb = sample_along(g, b, mask, xy);
-    REQUIRE(sampled.size() == 2 * sa.size());
+    REQUIRE(sampled[0].size() == sa.size());
+    REQUIRE(sampled[1].size() == sa.size());
     std::size_t nan_a = 0, nan_b = 0, differ = 0;
     for (std::size_t k = 0; k < sa.size(); ++k) {
         nan_a += std::isnan(sa[k]);
         nan_b += std::isnan(sb[k]);
         const auto same = [](double u, double v) { return (std::isnan(u) && std::isnan(v)) || u == v; };
-        differ += !same(sampled[2 * k], sa[k]) + !same(sampled[2 * k + 1], sb[k]);
+        differ += !same(sampled[0][k], sa[k]) + !same(sampled[1][k], sb[k]);
     }
     CHECK(differ == 0);
     CHECK(nan_a > 0); // the polyline met the unknown point, the box's edge ...
     CHECK(nan_b > 0); // ... and the masked one
     CHECK(nan_b < sa.size() / 2);
-    CHECK_THROWS_AS(sample_interleaved_along(g, a, 2, xy), std::invalid_argument);
+    CHECK_THROWS_AS(sample_interleaved_along(g, a, 2, xy, sampled), std::invalid_argument);
+    // One field alone: sample_along's values too.
+    sample_interleaved_along(g, a, 1, xy, sampled);
+    std::size_t differ_one = 0;
+    for (std::size_t k = 0; k < sa.size(); ++k)
+        differ_one += !((std::isnan(sampled[0][k]) && std::isnan(sa[k])) || sampled[0][k] == sa[k]);
+    CHECK(differ_one == 0);
 
     // Partial segment lengths are the whole polyline's, bit for bit, on the stretch asked for and nowhere else.
     const std::vector<double> whole = segment_lengths(xy);

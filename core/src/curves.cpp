@@ -82,40 +82,22 @@ double shoelace_area(const std::vector<double> &xy) {
 
 namespace {
 
-// The cell of (x, y) (its corners' grid indices) and their bilinear weights, given the grid spacings; false outside
-// the box. The one place that decides where a sample comes from, so that every sampler gives the same bits.
-struct BilinearCell {
-    std::size_t c[4];
-    double w[4];
-    bool locate(const Grid &g, double dx, double dy, double x, double y) {
-        if (!(x >= g.x_min && x <= g.x_max && y >= g.y_min && y <= g.y_max)) return false;
-        const double fx = (x - g.x_min) / dx, fy = (y - g.y_min) / dy;
-        const std::size_t j = std::min(static_cast<std::size_t>(fx), g.nx - 2);
-        const std::size_t i = std::min(static_cast<std::size_t>(fy), g.ny - 2);
-        const double u = fx - static_cast<double>(j), v = fy - static_cast<double>(i);
-        c[0] = i * g.nx + j;
-        c[1] = i * g.nx + j + 1;
-        c[2] = (i + 1) * g.nx + j;
-        c[3] = (i + 1) * g.nx + j + 1;
-        w[0] = (1 - u) * (1 - v);
-        w[1] = u * (1 - v);
-        w[2] = (1 - u) * v;
-        w[3] = u * v;
-        return true;
-    }
-};
-
 // sample_field with the grid spacings given: sample_along computes them once for all its points. Inlined in both
 // (an exported function is not, in a shared library), which halves the cost of sampling a strainline's d_g.
 inline double bilinear_sample(const Grid &g, double dx, double dy, const std::vector<double> &field,
                               const std::vector<std::uint8_t> &mask, double x, double y, std::uint8_t masked_by) {
-    BilinearCell cell;
-    if (!cell.locate(g, dx, dy, x, y)) return nan_value;
+    if (!(x >= g.x_min && x <= g.x_max && y >= g.y_min && y <= g.y_max)) return nan_value;
+    const double fx = (x - g.x_min) / dx, fy = (y - g.y_min) / dy;
+    const std::size_t j = std::min(static_cast<std::size_t>(fx), g.nx - 2);
+    const std::size_t i = std::min(static_cast<std::size_t>(fy), g.ny - 2);
+    const double u = fx - static_cast<double>(j), v = fy - static_cast<double>(i);
+    const std::size_t c[4] = {i * g.nx + j, i * g.nx + j + 1, (i + 1) * g.nx + j, (i + 1) * g.nx + j + 1};
+    const double w[4] = {(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v};
     double sum = 0.0;
     for (int k = 0; k < 4; ++k) {
-        if (!mask.empty() && (mask[cell.c[k]] & masked_by)) return nan_value;
-        if (!std::isfinite(field[cell.c[k]])) return nan_value;
-        sum += cell.w[k] * field[cell.c[k]];
+        if (!mask.empty() && (mask[c[k]] & masked_by)) return nan_value;
+        if (!std::isfinite(field[c[k]])) return nan_value;
+        sum += w[k] * field[c[k]];
     }
     return sum;
 }
@@ -141,13 +123,16 @@ namespace {
 
 // sample_interleaved_along for a known number of components, written so that the compiler vectorises it over the
 // points (gathers of the corners, no branch): a point outside the box is sampled at the box's corner and then
-// reported NaN. Each value is BilinearCell's and bilinear_sample's to the bit: the same cell (the floor of the same
+// reported NaN. Each value is bilinear_sample's to the bit: the same cell (the floor of the same
 // quotient, the last cell holding the far edge), the same weights and the same order of the sum.
 template <std::size_t C>
-void sample_interleaved_lanes(const Grid &g, const double *fields, const double *xy, std::size_t n, double *out) {
+void sample_interleaved_lanes(const Grid &g, const double *fields, const double *xy, std::size_t n,
+                              double *const *out) {
     const double x0 = g.x_min, y0 = g.y_min, x1 = g.x_max, y1 = g.y_max, dx = g.dx(), dy = g.dy();
     const double last_j = static_cast<double>(g.nx - 2), last_i = static_cast<double>(g.ny - 2);
     const std::ptrdiff_t nx = static_cast<std::ptrdiff_t>(g.nx);
+    double *outputs[C];
+    for (std::size_t f = 0; f < C; ++f) outputs[f] = out[f];
 #pragma GCC ivdep
     for (std::size_t k = 0; k < n; ++k) {
         const double px = xy[2 * k], py = xy[2 * k + 1];
@@ -166,44 +151,27 @@ void sample_interleaved_lanes(const Grid &g, const double *fields, const double 
             const double sum = 0.0 + weights[0] * c0 + weights[1] * c1 + weights[2] * c2 + weights[3] * c3;
             // x - x is 0 for a finite x and NaN for NaN and infinities: one test for the four corners, no call.
             const bool finite = inside & ((c0 - c0) + (c1 - c1) + (c2 - c2) + (c3 - c3) == 0.0);
-            out[C * k + f] = finite ? sum : nan_value;
+            outputs[f][k] = finite ? sum : nan_value;
         }
     }
 }
 
 } // namespace
 
-std::vector<double> sample_interleaved_along(const Grid &grid, const std::vector<double> &fields,
-                                             std::size_t components, const std::vector<double> &xy) {
-    if (components == 0 || fields.size() != components * grid.size())
-        throw std::invalid_argument("sample_interleaved_along: fields must hold components values per grid point");
+void sample_interleaved_along(const Grid &grid, const std::vector<double> &fields, std::size_t components,
+                              const std::vector<double> &xy, std::vector<double> *outputs) {
+    if (components < 1 || components > 2 || fields.size() != components * grid.size())
+        throw std::invalid_argument("sample_interleaved_along: fields must hold 1 or 2 values per grid point");
     const std::size_t n = xy.size() / 2;
-    std::vector<double> out(components * n, nan_value);
-    if (components == 1) {
-        sample_interleaved_lanes<1>(grid, fields.data(), xy.data(), n, out.data());
-        return out;
+    double *out[2] = {nullptr, nullptr};
+    for (std::size_t f = 0; f < components; ++f) {
+        outputs[f].resize(n);
+        out[f] = outputs[f].data();
     }
-    if (components == 2) {
-        sample_interleaved_lanes<2>(grid, fields.data(), xy.data(), n, out.data());
-        return out;
-    }
-    const double dx = grid.dx(), dy = grid.dy();
-    for (std::size_t k = 0; k < n; ++k) {
-        BilinearCell cell;
-        if (!cell.locate(grid, dx, dy, xy[2 * k], xy[2 * k + 1])) continue;
-        for (std::size_t f = 0; f < components; ++f) {
-            // As bilinear_sample: the weighted corners summed in order, NaN when any corner is not finite.
-            double sum = 0.0;
-            bool finite = true;
-            for (int q = 0; q < 4; ++q) {
-                const double value = fields[components * cell.c[q] + f];
-                finite = finite && std::isfinite(value);
-                sum += cell.w[q] * value;
-            }
-            out[components * k + f] = finite ? sum : nan_value;
-        }
-    }
-    return out;
+    if (components == 1)
+        sample_interleaved_lanes<1>(grid, fields.data(), xy.data(), n, out);
+    else
+        sample_interleaved_lanes<2>(grid, fields.data(), xy.data(), n, out);
 }
 
 std::vector<double> segment_lengths(const std::vector<double> &xy, bool closed) {

@@ -580,14 +580,11 @@ void Hyperbolic::sample_deviation_and_root(const Grid &g, const std::vector<doub
 #pragma omp parallel for schedule(dynamic, 16)
     for (std::size_t k = 0; k < batch.size(); ++k) {
         Strainline &line = lines[first + k];
-        const std::vector<double> both = sample_interleaved_along(g, deviation_and_log_lambda1, 2, batch[k].xy);
-        const std::size_t m = both.size() / 2;
-        line.deviation.resize(m);
-        line.root.resize(m);
-        for (std::size_t i = 0; i < m; ++i) {
-            line.deviation[i] = both[2 * i];
-            line.root[i] = std::exp(0.5 * both[2 * i + 1]);
-        }
+        std::vector<double> sampled[2];
+        sample_interleaved_along(g, deviation_and_log_lambda1, 2, batch[k].xy, sampled);
+        line.deviation = std::move(sampled[0]);
+        line.root = std::move(sampled[1]);
+        for (double &v : line.root) v = std::exp(0.5 * v);
         line.xy = std::move(batch[k].xy);
     }
 }

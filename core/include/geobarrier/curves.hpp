@@ -35,13 +35,14 @@ double sample_field(const Grid &grid, const std::vector<double> &field, const st
 std::vector<double> sample_along(const Grid &grid, const std::vector<double> &field,
                                  const std::vector<std::uint8_t> &mask, const std::vector<double> &xy,
                                  std::uint8_t masked_by = 0xff);
-// Several grid fields at every point of a polyline in one pass: `fields` holds `components` values per grid point
-// (point p's at components * p), the result as many per polyline point, each exactly sample_field's value with an
-// empty mask (a masked point is given as NaN in its field). One pass finds each point's cell once and reads every
-// field's corners from the same cache lines: the hyperbolic extractor samples d_g and log lambda1 at the ~18 million
-// points of W's strainlines this way, where two sample_along calls missed the cache twice.
-std::vector<double> sample_interleaved_along(const Grid &grid, const std::vector<double> &fields,
-                                             std::size_t components, const std::vector<double> &xy);
+// One or two grid fields at every point of a polyline in one pass: `fields` holds `components` (1 or 2) values per
+// grid point (point p's at components * p); outputs[f] is resized to the polyline's point count and filled with
+// field f's values, each exactly sample_field's with an empty mask (a masked point is given as NaN in its field).
+// One pass finds each point's cell once and reads both fields' corners from the same cache lines: the hyperbolic
+// extractor samples d_g and log lambda1 at the ~18 million points of W's strainlines this way, where two
+// sample_along calls missed the cache twice.
+void sample_interleaved_along(const Grid &grid, const std::vector<double> &fields, std::size_t components,
+                              const std::vector<double> &xy, std::vector<double> *outputs);
 
 // Statistics of point values along a polyline (values.size() == number of points). NaN values are skipped:
 // `integral` (trapezoidal, int f ds) and `mean` (integral / covered length) use only segments with two finite

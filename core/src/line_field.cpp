@@ -121,6 +121,7 @@ std::vector<double> strain_deviation_field(const CauchyGreenField &cg, const Str
 
 std::vector<std::uint8_t> singular_mask(const CauchyGreenField &cg, double gap) {
     std::vector<std::uint8_t> out(cg.grid.size(), 0);
+#pragma omp parallel for schedule(static)
     for (std::size_t p = 0; p < out.size(); ++p) {
         const double l1 = cg.lambda1[p], l2 = cg.lambda2[p];
         // As a ratio, so that a lambda2 that overflowed to +Inf (long horizons) counts as strongly anisotropic.
@@ -161,6 +162,7 @@ CauchyGreenField cauchy_green_from_input(const gb_extract_input &input) {
     cg.xi1_y = need("xi1_y");
     cg.xi2_x.resize(n);
     cg.xi2_y.resize(n);
+#pragma omp parallel for schedule(static)
     for (std::size_t p = 0; p < n; ++p) { // xi2 = Omega xi1 (paper, section 2.2)
         cg.xi2_x[p] = -cg.xi1_y[p];
         cg.xi2_y[p] = cg.xi1_x[p];
@@ -199,6 +201,8 @@ LineField::LineField(const Grid &grid, std::vector<double> vx, std::vector<doubl
     if (m_vx.size() != n || m_vy.size() != n || (!masked.empty() && masked.size() != n) ||
         (!undefined.empty() && undefined.size() != n))
         throw std::invalid_argument("LineField: every array must have nx * ny entries");
+        // Point by point, in parallel (a 1000 x 1000 grid is a million points, on the extractors' serial path).
+#pragma omp parallel for schedule(static)
     for (std::size_t p = 0; p < n; ++p) {
         const double norm = std::hypot(m_vx[p], m_vy[p]);
         if (!masked.empty() && masked[p]) {
@@ -213,6 +217,7 @@ LineField::LineField(const Grid &grid, std::vector<double> vx, std::vector<doubl
     m_inv_dx = 1.0 / grid.dx();
     m_inv_dy = 1.0 / grid.dy();
     m_v.resize(2 * n);
+#pragma omp parallel for schedule(static)
     for (std::size_t p = 0; p < n; ++p) {
         // An unusable point holds (NaN, NaN) when masked and (NaN, 0) when undefined instead of its vector, so that
         // the lane evaluation learns a cell's status from the sums of its corners: the x sum is NaN when any corner
@@ -223,6 +228,7 @@ LineField::LineField(const Grid &grid, std::vector<double> vx, std::vector<doubl
     if (grid.nx < 2 || grid.ny < 2) return;
     const std::size_t cx = grid.nx - 1, cy = grid.ny - 1;
     m_cell.assign(cx * cy, 0);
+#pragma omp parallel for schedule(static)
     for (std::size_t i = 0; i < cy; ++i)
         for (std::size_t j = 0; j < cx; ++j) {
             const std::size_t p = i * grid.nx + j;
@@ -241,6 +247,7 @@ LineField::LineField(const Grid &grid, std::vector<double> vx, std::vector<doubl
 LineField LineField::from_cauchy_green(const CauchyGreenField &cg, int which, double gap) {
     if (which != 1 && which != 2) throw std::invalid_argument("LineField::from_cauchy_green: which must be 1 or 2");
     std::vector<std::uint8_t> masked(cg.grid.size(), 0);
+#pragma omp parallel for schedule(static)
     for (std::size_t p = 0; p < masked.size(); ++p) masked[p] = (cg.mask[p] & mask_trajectory_bits) ? 1 : 0;
     return LineField(cg.grid, which == 1 ? cg.xi1_x : cg.xi2_x, which == 1 ? cg.xi1_y : cg.xi2_y, std::move(masked),
                      singular_mask(cg, gap));

@@ -201,7 +201,8 @@ LineField::LineField(const Grid &grid, std::vector<double> vx, std::vector<doubl
     if (m_vx.size() != n || m_vy.size() != n || (!masked.empty() && masked.size() != n) ||
         (!undefined.empty() && undefined.size() != n))
         throw std::invalid_argument("LineField: every array must have nx * ny entries");
-        // Point by point, in parallel (a 1000 x 1000 grid is a million points, on the extractors' serial path).
+        // Each loop below runs point by point in parallel: a 1000 x 1000 grid is a million points, on the extractors'
+        // serial path before their tensor lines.
 #pragma omp parallel for schedule(static)
     for (std::size_t p = 0; p < n; ++p) {
         const double norm = std::hypot(m_vx[p], m_vy[p]);

@@ -206,10 +206,14 @@ struct SegmentMeter {
     // the same points again for every statistic; the figures are the same bit for bit either way.
     bool measure(const std::vector<Strainline> &lines, Segment &s, const double *steps = nullptr) const {
         const Strainline &line = lines[s.line];
-        const std::vector<double> xy = points_of(lines, s);
+        const double *xy = first_point(lines, s); // read in place: pieces hold most of W's 18 million points
         const std::size_t n = s.last - s.first + 1;
         // The piece's own segment lengths: the strainline's from s.first on, or measured here.
-        const std::vector<double> measured = steps ? std::vector<double>() : segment_lengths(xy);
+        std::vector<double> measured;
+        if (!steps) {
+            measured.resize(n > 1 ? n - 1 : 0);
+            segment_lengths(xy, 0, n - 1, measured.data());
+        }
         const double *piece_steps = steps ? steps + s.first : measured.data();
         const CurveStats ds = curve_statistics(line.deviation.data() + s.first, n, piece_steps, n - 1);
         s.mean_deviation = ds.mean;
@@ -698,7 +702,7 @@ std::vector<Segment> Hyperbolic::truncated_segments(const sdk::Host &host, const
 #pragma omp parallel
     {
         // The strainline's segment lengths (steps[k] joins its points k and k + 1), measured only along its pieces
-        // with d_g < epsilon: on W they hold a fraction of its points. One buffer per thread, reused line by line.
+        // with d_g < epsilon, into one buffer per thread reused line by line (not a fresh vector per line).
         std::vector<double> steps;
 #pragma omp for schedule(dynamic)
         for (std::size_t l = 0; l < lines.size(); ++l) {

@@ -6,6 +6,7 @@
 
 #include <doctest/doctest.h>
 
+#include <algorithm>
 #include <cmath>
 
 using namespace geobarrier;
@@ -119,13 +120,14 @@ TEST_CASE("several fields sampled in one pass give sample_along's values bit for
     g.y_max = 0.9;
     g.nx = 37;
     g.ny = 23;
-    // Two non-bilinear fields, one with a NaN point (unknown there) and one with a masked point given as NaN.
+    // Two non-bilinear fields, one with a NaN and an infinite point and one with a masked point given as NaN.
     std::vector<double> a(g.size()), b(g.size());
     for (std::size_t p = 0; p < g.size(); ++p) {
         a[p] = std::sin(0.37 * static_cast<double>(p)) * 1e-3;
         b[p] = std::log(1.5 + std::cos(0.11 * static_cast<double>(p)));
     }
     a[5 * g.nx + 7] = std::nan("");
+    a[3 * g.nx + 30] = HUGE_VAL; // an overflowed value: as unusable as a NaN
     std::vector<std::uint8_t> mask(g.size(), 0);
     mask[11 * g.nx + 20] = mask_left_bounds;
     std::vector<double> both(2 * g.size());
@@ -133,37 +135,39 @@ TEST_CASE("several fields sampled in one pass give sample_along's values bit for
         both[2 * p] = a[p];
         both[2 * p + 1] = mask[p] ? std::nan("") : b[p];
     }
-    // A wandering polyline that leaves the box, crosses both bad points and ends on the box's far corner.
+    // A wandering polyline that leaves the box, crosses the bad points and ends on the box's far corner.
     std::vector<double> xy;
     for (int k = 0; k < 2000; ++k) {
         const double t = 0.01 * k;
         xy.push_back(0.4 + 1.9 * std::sin(1.3 * t) * std::cos(0.21 * t));
         xy.push_back(0.1 + 0.95 * std::cos(0.7 * t + 0.3));
     }
-    xy.insert(xy.end(), {g.x(7), g.y(5), g.x(20) + 1e-3, g.y(11) - 1e-3, g.x_max, g.y_max});
+    xy.insert(xy.end(), {g.x(7), g.y(5), g.x(30), g.y(3), g.x(20) + 1e-3, g.y(11) - 1e-3, g.x_max, g.y_max});
     std::vector<double> sampled[2];
     sample_interleaved_along(g, both, 2, xy, sampled);
     const std::vector<double> sa = sample_along(g, a, {}, xy), sb = sample_along(g, b, mask, xy);
     REQUIRE(sampled[0].size() == sa.size());
     REQUIRE(sampled[1].size() == sa.size());
-    std::size_t nan_a = 0, nan_b = 0, differ = 0;
-    for (std::size_t k = 0; k < sa.size(); ++k) {
-        nan_a += std::isnan(sa[k]);
-        nan_b += std::isnan(sb[k]);
-        const auto same = [](double u, double v) { return (std::isnan(u) && std::isnan(v)) || u == v; };
-        differ += !same(sampled[0][k], sa[k]) + !same(sampled[1][k], sb[k]);
-    }
-    CHECK(differ == 0);
-    CHECK(nan_a > 0); // the polyline met the unknown point, the box's edge ...
+    // How many values differ, NaN counting as equal to NaN only.
+    const auto differing = [](const std::vector<double> &u, const std::vector<double> &v) {
+        std::size_t count = 0;
+        for (std::size_t k = 0; k < u.size(); ++k) count += !((std::isnan(u[k]) && std::isnan(v[k])) || u[k] == v[k]);
+        return count;
+    };
+    CHECK(differing(sampled[0], sa) == 0);
+    CHECK(differing(sampled[1], sb) == 0);
+    const auto nan_a =
+        static_cast<std::size_t>(std::count_if(sa.begin(), sa.end(), [](double v) { return std::isnan(v); }));
+    const auto nan_b =
+        static_cast<std::size_t>(std::count_if(sb.begin(), sb.end(), [](double v) { return std::isnan(v); }));
+    CHECK(nan_a > 0); // the polyline met the unknown and infinite points, the box's edge ...
     CHECK(nan_b > 0); // ... and the masked one
     CHECK(nan_b < sa.size() / 2);
+    CHECK(std::isnan(sampled[0][2001])); // the infinite point's own value
     CHECK_THROWS_AS(sample_interleaved_along(g, a, 2, xy, sampled), std::invalid_argument);
     // One field alone: sample_along's values too.
     sample_interleaved_along(g, a, 1, xy, sampled);
-    std::size_t differ_one = 0;
-    for (std::size_t k = 0; k < sa.size(); ++k)
-        differ_one += !((std::isnan(sampled[0][k]) && std::isnan(sa[k])) || sampled[0][k] == sa[k]);
-    CHECK(differ_one == 0);
+    CHECK(differing(sampled[0], sa) == 0);
 
     // Partial segment lengths are the whole polyline's, bit for bit, on the stretch asked for and nowhere else.
     const std::vector<double> whole = segment_lengths(xy);

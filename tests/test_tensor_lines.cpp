@@ -167,3 +167,59 @@ TEST_CASE("every line_method closes circles within the interpolation error; a ba
     }
     CHECK_THROWS_AS(tensor_line_method("euler"), std::invalid_argument);
 }
+
+TEST_CASE("both ways in a batch: arc lengths optional, the same points either way, joins in place") {
+    // Circles around (0.3, 0), seeded above the centre: those of radius < 0.7 close inside the box, larger ones leave
+    // it at both ends.
+    const Grid g = box(-1, 1, -1, 1, 101, 101);
+    const LineField f = circle_field(g, 0.3, 0.0, 0.05, 11);
+    std::vector<double> seeds;
+    for (int k = 0; k < 40; ++k) seeds.insert(seeds.end(), {0.31, 0.2 + 0.78 * k / 39.0});
+    TensorLineSettings with_lengths;
+    with_lengths.max_length = 3.0;
+    TensorLineSettings without = with_lengths;
+    without.arc_lengths = false;
+    const std::vector<TwoWayLine> a = integrate_tensor_lines_both_ways(f, seeds, with_lengths);
+    const std::vector<TwoWayLine> b = integrate_tensor_lines_both_ways(f, seeds, without);
+    REQUIRE(a.size() == b.size());
+    int closed = 0, open = 0;
+    for (std::size_t k = 0; k < a.size(); ++k) {
+        CAPTURE(k);
+        CHECK(a[k].xy == b[k].xy);
+        CHECK(a[k].size() == b[k].size());
+        CHECK(a[k].seed_index == b[k].seed_index);
+        CHECK(a[k].closed == b[k].closed);
+        CHECK(a[k].stop_backward == b[k].stop_backward);
+        CHECK(a[k].stop_forward == b[k].stop_forward);
+        CHECK(b[k].s.empty());
+        (a[k].closed ? closed : open) += 1;
+        // The seed where seed_index says, each arc length the length of the polyline up to its point, and each
+        // branch (the same lines integrated one way) bit for bit in its place.
+        REQUIRE(a[k].s.size() == a[k].size());
+        CHECK(a[k].xy[2 * a[k].seed_index] == seeds[2 * k]);
+        CHECK(a[k].xy[2 * a[k].seed_index + 1] == seeds[2 * k + 1]);
+        const std::vector<double> length = cumulative_length(a[k].xy);
+        for (std::size_t p = 0; p < a[k].size(); ++p)
+            CHECK(a[k].s[p] - a[k].s[0] == doctest::Approx(length[p]).epsilon(1e-12));
+        if (a[k].closed) continue;
+        // Each branch, integrated alone one way, lies bit for bit in its place: the forward one from the seed on,
+        // the backward one reversed before it.
+        double vx = 0.0, vy = 0.0;
+        REQUIRE(f.evaluate(seeds[2 * k], seeds[2 * k + 1], 1.0, 0.0, vx, vy) == LineStatus::ok);
+        const TensorLine fwd = integrate_tensor_line(f, seeds[2 * k], seeds[2 * k + 1], vx, vy, with_lengths);
+        const TensorLine bwd = integrate_tensor_line(f, seeds[2 * k], seeds[2 * k + 1], -vx, -vy, with_lengths);
+        const std::size_t seed = a[k].seed_index;
+        REQUIRE(seed + 1 == bwd.size());
+        REQUIRE(seed + fwd.size() == a[k].size());
+        for (std::size_t p = 0; p < fwd.size(); ++p) {
+            CHECK(a[k].xy[2 * (seed + p)] == fwd.xy[2 * p]);
+            CHECK(a[k].xy[2 * (seed + p) + 1] == fwd.xy[2 * p + 1]);
+        }
+        for (std::size_t p = 0; p < bwd.size(); ++p) {
+            CHECK(a[k].xy[2 * (seed - p)] == bwd.xy[2 * p]);
+            CHECK(a[k].xy[2 * (seed - p) + 1] == bwd.xy[2 * p + 1]);
+        }
+    }
+    CHECK(closed > 0);
+    CHECK(open > 0);
+}

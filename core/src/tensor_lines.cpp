@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 
 namespace geobarrier {
@@ -89,9 +90,9 @@ constexpr std::size_t reserve_cap = 1 << 16; // points reserved per line at most
 template <class Tab> class LaneGroup {
   public:
     LaneGroup(const LineField &field, const Resolved &r, const double *starts, std::size_t count,
-              TensorLineObserver *observer, std::size_t first_id, TensorLine *out)
+              TensorLineObserver *observer, std::size_t first_id, TensorLine *out, std::size_t room_factor)
         : m_field(field), m_r(r), m_starts(starts), m_count(count), m_observer(observer), m_first_id(first_id),
-          m_out(out) {}
+          m_out(out), m_room_factor(room_factor) {}
 
     void run() {
         for (std::size_t l = 0; l < lane_count; ++l) {
@@ -125,17 +126,17 @@ template <class Tab> class LaneGroup {
                 line.stop = StopReason::domain_edge;
                 continue;
             }
-            // Fixed steps: room for a line that runs its whole length, so that the lane never copies its points to
-            // grow them (capped: only lines stopped early leave reserved memory untouched).
+            // Fixed steps: room for a line that runs its whole length (times room_factor: a forward branch also
+            // receives its backward one), so that the lane never copies its points to grow them (capped: only lines
+            // stopped early leave reserved memory untouched).
             if (!adaptive) {
-                const std::size_t room = std::min<std::size_t>(
-                    {m_r.s.max_steps, reserve_cap,
-                     static_cast<std::size_t>(std::min(m_r.s.max_length / m_r.max_step, 1e9)) + 2});
+                const std::size_t whole = static_cast<std::size_t>(std::min(m_r.s.max_length / m_r.max_step, 1e9)) + 2;
+                const std::size_t room = m_room_factor * std::min<std::size_t>({m_r.s.max_steps, reserve_cap, whole});
                 line.xy.reserve(2 * room);
-                line.s.reserve(room);
+                if (m_r.s.arc_lengths) line.s.reserve(room);
             }
             line.xy = {x0, y0};
-            line.s = {0.0};
+            if (m_r.s.arc_lengths) line.s = {0.0};
             double tx, ty;
             const LineStatus s0 = m_field.evaluate(x0, y0, st[2], st[3], tx, ty);
             if (s0 != LineStatus::ok) {
@@ -281,12 +282,12 @@ template <class Tab> class LaneGroup {
             m_nx[l] * m_start_tx[l] + m_ny[l] * m_start_ty[l] > 0.0) {
             line.xy.push_back(m_x0[l]);
             line.xy.push_back(m_y0[l]);
-            line.s.push_back(m_s[l] - seg + distance(px, py, m_x0[l], m_y0[l]));
+            if (m_r.s.arc_lengths) line.s.push_back(m_s[l] - seg + distance(px, py, m_x0[l], m_y0[l]));
             return end(StopReason::closed);
         }
         line.xy.push_back(ox);
         line.xy.push_back(oy);
-        line.s.push_back(m_s[l]);
+        if (m_r.s.arc_lengths) line.s.push_back(m_s[l]);
         if (m_observer && m_observer->stop_after(m_first_id + m_line[l], px, py, ox, oy, m_s[l]))
             return end(StopReason::observer);
         return limits_reached(l);
@@ -299,6 +300,7 @@ template <class Tab> class LaneGroup {
     TensorLineObserver *m_observer;
     std::size_t m_first_id;
     TensorLine *m_out;
+    std::size_t m_room_factor;
 
     // Per lane (idle lanes keep harmless values: evaluate_lanes accepts any point).
     std::size_t m_line[lane_count] = {};
@@ -320,14 +322,15 @@ std::size_t lines_per_item(std::size_t n) {
 
 template <class Tab>
 void run_batch(const LineField &field, const Resolved &r, const std::vector<double> &starts,
-               TensorLineObserver *observer, std::vector<TensorLine> &out) {
+               TensorLineObserver *observer, std::size_t room_factor, std::vector<TensorLine> &out) {
     const std::size_t n = out.size(), per_item = lines_per_item(n);
     const long long items = static_cast<long long>((n + per_item - 1) / per_item);
 #pragma omp parallel for schedule(dynamic) if (items > 1)
     for (long long item = 0; item < items; ++item) {
         const std::size_t first = static_cast<std::size_t>(item) * per_item;
         const std::size_t count = std::min(per_item, n - first);
-        LaneGroup<Tab>(field, r, starts.data() + 4 * first, count, observer, first, out.data() + first).run();
+        LaneGroup<Tab>(field, r, starts.data() + 4 * first, count, observer, first, out.data() + first, room_factor)
+            .run();
     }
 }
 
@@ -354,27 +357,38 @@ TensorLineMethod tensor_line_method(const std::string &name) {
     throw std::invalid_argument("tensor-line method \"" + name + "\" is not one of midpoint, rk4, bs32, dopri5");
 }
 
-std::vector<TensorLine> integrate_tensor_lines(const LineField &field, const std::vector<double> &starts,
-                                               const TensorLineSettings &settings, TensorLineObserver *observer) {
+namespace {
+
+// integrate_tensor_lines, with room for room_factor times a whole line reserved per line (fixed steps).
+std::vector<TensorLine> integrate_lines(const LineField &field, const std::vector<double> &starts,
+                                        const TensorLineSettings &settings, TensorLineObserver *observer,
+                                        std::size_t room_factor) {
     if (starts.size() % 4 != 0)
         throw std::invalid_argument("integrate_tensor_lines: starts must hold x, y, dir_x, dir_y for each line");
     std::vector<TensorLine> out(starts.size() / 4);
     const Resolved r(field, settings);
     switch (settings.method) {
     case TensorLineMethod::midpoint:
-        run_batch<detail::MidpointTableau>(field, r, starts, observer, out);
+        run_batch<detail::MidpointTableau>(field, r, starts, observer, room_factor, out);
         break;
     case TensorLineMethod::rk4:
-        run_batch<detail::Rk4Tableau>(field, r, starts, observer, out);
+        run_batch<detail::Rk4Tableau>(field, r, starts, observer, room_factor, out);
         break;
     case TensorLineMethod::bs32:
-        run_batch<detail::Bs32Tableau>(field, r, starts, observer, out);
+        run_batch<detail::Bs32Tableau>(field, r, starts, observer, room_factor, out);
         break;
     case TensorLineMethod::dopri5:
-        run_batch<detail::Dopri5Tableau>(field, r, starts, observer, out);
+        run_batch<detail::Dopri5Tableau>(field, r, starts, observer, room_factor, out);
         break;
     }
     return out;
+}
+
+} // namespace
+
+std::vector<TensorLine> integrate_tensor_lines(const LineField &field, const std::vector<double> &starts,
+                                               const TensorLineSettings &settings, TensorLineObserver *observer) {
+    return integrate_lines(field, starts, settings, observer, 1);
 }
 
 TensorLine integrate_tensor_line(const LineField &field, double x0, double y0, double dir_x, double dir_y,
@@ -398,7 +412,7 @@ std::vector<TwoWayLine> integrate_tensor_lines_both_ways(const LineField &field,
             TwoWayLine &o = out[k];
             if (std::isfinite(x0) && std::isfinite(y0)) {
                 o.xy = {x0, y0};
-                o.s = {0.0};
+                if (settings.arc_lengths) o.s = {0.0};
             }
             o.stop_backward = o.stop_forward = st == LineStatus::ok ? StopReason::domain_edge : stop_for(st);
             continue;
@@ -406,7 +420,8 @@ std::vector<TwoWayLine> integrate_tensor_lines_both_ways(const LineField &field,
         forward_starts.insert(forward_starts.end(), {x0, y0, vx, vy});
         started.push_back(k);
     }
-    std::vector<TensorLine> forward = integrate_tensor_lines(field, forward_starts, settings);
+    // Room for the backward branch too: the join moves it into the forward branch's memory.
+    std::vector<TensorLine> forward = integrate_lines(field, forward_starts, settings, nullptr, 2);
     // The backward branches of the lines that did not close on themselves.
     std::vector<double> backward_starts;
     std::vector<std::size_t> open;
@@ -434,30 +449,30 @@ std::vector<TwoWayLine> integrate_tensor_lines_both_ways(const LineField &field,
         }
         TensorLine &bwd = backward[backward_of[m]];
         const std::size_t nb = bwd.size(), nf = fwd.size();
-        const double total_back = nb ? bwd.s.back() : 0.0;
-        // The backward branch reversed, without its seed, then the forward branch.
-        const std::size_t n = (nb ? nb - 1 : 0) + nf;
-        o.xy.resize(2 * n);
-        o.s.resize(n);
-        std::size_t i = 0;
-        for (std::size_t k = nb; k-- > 1; ++i) {
-            o.xy[2 * i] = bwd.xy[2 * k];
-            o.xy[2 * i + 1] = bwd.xy[2 * k + 1];
-            o.s[i] = total_back - bwd.s[k];
+        // The backward branch reversed, without its seed, then the forward branch: in the forward branch's memory
+        // (reserved for both), its points moved up to make room, so that no new memory is written twice.
+        const std::size_t shift = nb ? nb - 1 : 0;
+        const bool lengths = settings.arc_lengths;
+        const double total_back = lengths && nb ? bwd.s.back() : 0.0;
+        fwd.xy.resize(2 * (shift + nf));
+        std::memmove(fwd.xy.data() + 2 * shift, fwd.xy.data(), 2 * nf * sizeof(double));
+        if (lengths) {
+            fwd.s.resize(shift + nf);
+            for (std::size_t k = nf; k-- > 0;) fwd.s[shift + k] = total_back + fwd.s[k];
         }
-        o.seed_index = i;
-        for (std::size_t k = 0; k < nf; ++k, ++i) {
-            o.xy[2 * i] = fwd.xy[2 * k];
-            o.xy[2 * i + 1] = fwd.xy[2 * k + 1];
-            o.s[i] = total_back + fwd.s[k];
+        for (std::size_t k = nb, i = 0; k-- > 1; ++i) {
+            fwd.xy[2 * i] = bwd.xy[2 * k];
+            fwd.xy[2 * i + 1] = bwd.xy[2 * k + 1];
+            if (lengths) fwd.s[i] = total_back - bwd.s[k];
         }
+        o.xy = std::move(fwd.xy);
+        o.s = std::move(fwd.s);
+        o.seed_index = shift;
         o.stop_backward = bwd.stop;
         o.stop_forward = fwd.stop;
-        // The branches are no longer needed: free them now, on this thread.
+        // The backward branch is no longer needed: free it now, on this thread.
         std::vector<double>().swap(bwd.xy);
         std::vector<double>().swap(bwd.s);
-        std::vector<double>().swap(fwd.xy);
-        std::vector<double>().swap(fwd.s);
     }
     return out;
 }

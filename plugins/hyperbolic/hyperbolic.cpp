@@ -549,6 +549,7 @@ std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, co
     settings.method = m_line_method;
     settings.max_length = max_length;
     settings.detect_closure = true;
+    settings.arc_lengths = false; // the segments measure their own lengths, only where d_g < epsilon
     // Steps of at most half a grid cell, as long as that is not finer than 1/16 of the seed distance: finer
     // grids resolve the fields better, but strainlines sampled more densely than that only cost more (on the
     // damped Duffing attractor, 1000 x 1000, docs/extractors.md: the same barrier, 2.5 times fewer points). With

@@ -177,10 +177,8 @@ TEST_CASE("both ways in a batch: arc lengths optional, the same points either wa
     for (int k = 0; k < 40; ++k) seeds.insert(seeds.end(), {0.31, 0.2 + 0.78 * k / 39.0});
     TensorLineSettings with_lengths;
     with_lengths.max_length = 3.0;
-    TensorLineSettings without = with_lengths;
-    without.arc_lengths = false;
     const std::vector<TwoWayLine> a = integrate_tensor_lines_both_ways(f, seeds, with_lengths);
-    const std::vector<TwoWayLine> b = integrate_tensor_lines_both_ways(f, seeds, without);
+    const std::vector<TwoWayLine> b = integrate_tensor_lines_both_ways(f, seeds, with_lengths, ArcLengths::drop);
     REQUIRE(a.size() == b.size());
     int closed = 0, open = 0;
     for (std::size_t k = 0; k < a.size(); ++k) {

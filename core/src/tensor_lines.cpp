@@ -65,8 +65,10 @@ double distance(double ax, double ay, double bx, double by) {
 // The settings with their grid-relative defaults filled in.
 struct Resolved {
     TensorLineSettings s;
+    bool arc_lengths;
     double max_step, min_step, initial_step, closure_distance, closure_min_length;
-    Resolved(const LineField &field, const TensorLineSettings &settings) : s(settings) {
+    Resolved(const LineField &field, const TensorLineSettings &settings, bool keep_arc_lengths = true)
+        : s(settings), arc_lengths(keep_arc_lengths) {
         const Grid &g = field.grid();
         const double h = std::min(g.dx(), g.dy());
         max_step = settings.max_step > 0.0 ? settings.max_step : 0.5 * h;
@@ -135,10 +137,10 @@ template <class Tab> class LaneGroup {
                 const std::size_t whole = static_cast<std::size_t>(std::min(m_r.s.max_length / m_r.max_step, 1e9)) + 2;
                 const std::size_t room = m_room_factor * std::min<std::size_t>({m_r.s.max_steps, reserve_cap, whole});
                 line.xy.reserve(2 * room);
-                if (m_r.s.arc_lengths) line.s.reserve(room);
+                if (m_r.arc_lengths) line.s.reserve(room);
             }
             line.xy = {x0, y0};
-            if (m_r.s.arc_lengths) line.s = {0.0};
+            if (m_r.arc_lengths) line.s = {0.0};
             double tx, ty;
             const LineStatus s0 = m_field.evaluate(x0, y0, st[2], st[3], tx, ty);
             if (s0 != LineStatus::ok) {
@@ -284,12 +286,12 @@ template <class Tab> class LaneGroup {
             m_nx[l] * m_start_tx[l] + m_ny[l] * m_start_ty[l] > 0.0) {
             line.xy.push_back(m_x0[l]);
             line.xy.push_back(m_y0[l]);
-            if (m_r.s.arc_lengths) line.s.push_back(m_s[l] - seg + distance(px, py, m_x0[l], m_y0[l]));
+            if (m_r.arc_lengths) line.s.push_back(m_s[l] - seg + distance(px, py, m_x0[l], m_y0[l]));
             return end(StopReason::closed);
         }
         line.xy.push_back(ox);
         line.xy.push_back(oy);
-        if (m_r.s.arc_lengths) line.s.push_back(m_s[l]);
+        if (m_r.arc_lengths) line.s.push_back(m_s[l]);
         if (m_observer && m_observer->stop_after(m_first_id + m_line[l], px, py, ox, oy, m_s[l]))
             return end(StopReason::observer);
         return limits_reached(l);
@@ -361,14 +363,15 @@ TensorLineMethod tensor_line_method(const std::string &name) {
 
 namespace {
 
-// integrate_tensor_lines, with room for room_factor times a whole line reserved per line (fixed steps).
+// integrate_tensor_lines, with room for room_factor times a whole line reserved per line (fixed steps), with or
+// without arc lengths.
 std::vector<TensorLine> integrate_lines(const LineField &field, const std::vector<double> &starts,
                                         const TensorLineSettings &settings, TensorLineObserver *observer,
-                                        std::size_t room_factor) {
+                                        std::size_t room_factor, bool arc_lengths) {
     if (starts.size() % 4 != 0)
         throw std::invalid_argument("integrate_tensor_lines: starts must hold x, y, dir_x, dir_y for each line");
     std::vector<TensorLine> out(starts.size() / 4);
-    const Resolved r(field, settings);
+    const Resolved r(field, settings, arc_lengths);
     switch (settings.method) {
     case TensorLineMethod::midpoint:
         run_batch<detail::MidpointTableau>(field, r, starts, observer, room_factor, out);
@@ -390,7 +393,7 @@ std::vector<TensorLine> integrate_lines(const LineField &field, const std::vecto
 
 std::vector<TensorLine> integrate_tensor_lines(const LineField &field, const std::vector<double> &starts,
                                                const TensorLineSettings &settings, TensorLineObserver *observer) {
-    return integrate_lines(field, starts, settings, observer, 1);
+    return integrate_lines(field, starts, settings, observer, 1, true);
 }
 
 TensorLine integrate_tensor_line(const LineField &field, double x0, double y0, double dir_x, double dir_y,
@@ -400,6 +403,12 @@ TensorLine integrate_tensor_line(const LineField &field, double x0, double y0, d
 
 std::vector<TwoWayLine> integrate_tensor_lines_both_ways(const LineField &field, const std::vector<double> &seeds,
                                                          const TensorLineSettings &settings) {
+    return integrate_tensor_lines_both_ways(field, seeds, settings, ArcLengths::keep);
+}
+
+std::vector<TwoWayLine> integrate_tensor_lines_both_ways(const LineField &field, const std::vector<double> &seeds,
+                                                         const TensorLineSettings &settings, ArcLengths arc_lengths) {
+    const bool lengths = arc_lengths == ArcLengths::keep;
     const std::size_t n = seeds.size() / 2;
     std::vector<TwoWayLine> out(n);
     // The forward branch starts along the field's vector at the seed (aligned to +x); seeds where the field is not
@@ -414,7 +423,7 @@ std::vector<TwoWayLine> integrate_tensor_lines_both_ways(const LineField &field,
             TwoWayLine &o = out[k];
             if (std::isfinite(x0) && std::isfinite(y0)) {
                 o.xy = {x0, y0};
-                if (settings.arc_lengths) o.s = {0.0};
+                if (lengths) o.s = {0.0};
             }
             o.stop_backward = o.stop_forward = st == LineStatus::ok ? StopReason::domain_edge : stop_for(st);
             continue;
@@ -423,7 +432,7 @@ std::vector<TwoWayLine> integrate_tensor_lines_both_ways(const LineField &field,
         started.push_back(k);
     }
     // Room for the backward branch too: the join moves it into the forward branch's memory.
-    std::vector<TensorLine> forward = integrate_lines(field, forward_starts, settings, nullptr, 2);
+    std::vector<TensorLine> forward = integrate_lines(field, forward_starts, settings, nullptr, 2, lengths);
     // The backward branches of the lines that did not close on themselves.
     std::vector<double> backward_starts;
     std::vector<std::size_t> open;
@@ -433,7 +442,7 @@ std::vector<TwoWayLine> integrate_tensor_lines_both_ways(const LineField &field,
                                                        -forward_starts[4 * m + 2], -forward_starts[4 * m + 3]});
         open.push_back(m);
     }
-    std::vector<TensorLine> backward = integrate_tensor_lines(field, backward_starts, settings);
+    std::vector<TensorLine> backward = integrate_lines(field, backward_starts, settings, nullptr, 1, lengths);
     // Which backward branch belongs to each started line, then the joins, line by line in parallel (on W they copy
     // 18 million points).
     std::vector<std::size_t> backward_of(started.size(), 0);
@@ -454,7 +463,6 @@ std::vector<TwoWayLine> integrate_tensor_lines_both_ways(const LineField &field,
         // The backward branch reversed, without its seed, then the forward branch: in the forward branch's memory
         // (reserved for both), its points moved up to make room, so that no new memory is written twice.
         const std::size_t shift = nb ? nb - 1 : 0;
-        const bool lengths = settings.arc_lengths;
         const double total_back = lengths && nb ? bwd.s.back() : 0.0;
         fwd.xy.resize(2 * (shift + nf));
         std::memmove(fwd.xy.data() + 2 * shift, fwd.xy.data(), 2 * nf * sizeof(double));

@@ -549,7 +549,6 @@ std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, co
     settings.method = m_line_method;
     settings.max_length = max_length;
     settings.detect_closure = true;
-    settings.arc_lengths = false; // the segments measure their own lengths, only where d_g < epsilon
     // Steps of at most half a grid cell, as long as that is not finer than 1/16 of the seed distance: finer
     // grids resolve the fields better, but strainlines sampled more densely than that only cost more (on the
     // damped Duffing attractor, 1000 x 1000, docs/extractors.md: the same barrier, 2.5 times fewer points). With
@@ -568,8 +567,9 @@ std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, co
     const std::size_t block = 1024; // seeds per batch of lockstep lanes: progress still every ~10%
     for (std::size_t start = 0; start < n; start += block) {
         const std::size_t end = std::min(n, start + block);
+        // No arc lengths: the segments measure their own lengths, only where d_g < epsilon.
         std::vector<TwoWayLine> batch = integrate_tensor_lines_both_ways(
-            xi1, std::vector<double>(seed.begin() + 2 * start, seed.begin() + 2 * end), settings);
+            xi1, std::vector<double>(seed.begin() + 2 * start, seed.begin() + 2 * end), settings, ArcLengths::drop);
         sample_deviation_and_root(cg.grid, sampled, lines, start, batch);
         if (host.progress(0.6 * static_cast<double>(end) / static_cast<double>(std::max<std::size_t>(n, 1))))
             throw std::runtime_error("stopped by the user");

@@ -51,13 +51,10 @@ struct TensorLineSettings {
     bool detect_closure = true;      // stop with `closed` when the line returns to its start point
     double closure_distance = 0.0;   // 0: half the smaller grid spacing
     double closure_min_length = 0.0; // 0: 10 grid spacings; shorter returns are not closures
-    // Store each point's arc length (TensorLine::s, TwoWayLine::s). A caller that needs only the points turns it off:
-    // on long lines (the hyperbolic extractor's: 18 million points at 1000 x 1000) it is a third of what is written.
-    bool arc_lengths = true;
 };
 
 // One direction of a tensor line: points (x, y interleaved; the first is the seed), their arc lengths from the
-// seed (empty unless TensorLineSettings::arc_lengths), and why it stopped. Every stored value is finite.
+// seed (empty where the caller asked for ArcLengths::drop), and why it stopped. Every stored value is finite.
 struct TensorLine {
     std::vector<double> xy;
     std::vector<double> s;
@@ -91,7 +88,7 @@ std::vector<TensorLine> integrate_tensor_lines(const LineField &field, const std
 // there is no better reference).
 struct TwoWayLine {
     std::vector<double> xy;                            // x, y interleaved
-    std::vector<double> s;                             // arc length from the first point (if asked for)
+    std::vector<double> s;                             // arc length from the first point (unless dropped)
     std::size_t seed_index = 0;                        // index of the seed point in the polyline
     StopReason stop_backward = StopReason::max_length; // at the first point
     StopReason stop_forward = StopReason::max_length;  // at the last point
@@ -103,6 +100,13 @@ TwoWayLine integrate_tensor_line_both_ways(const LineField &field, double x0, do
 // The same from every seed (x, y interleaved), in lockstep lanes.
 std::vector<TwoWayLine> integrate_tensor_lines_both_ways(const LineField &field, const std::vector<double> &seeds,
                                                          const TensorLineSettings &settings = {});
+// Whether the lines keep each point's arc length (TwoWayLine::s). A caller that needs only the points drops them: on
+// long lines (the hyperbolic extractor's, 18 million points at 1000 x 1000) they are a third of what is written.
+// (An argument rather than a TensorLineSettings member, so that the settings' layout, which extractors linking the
+// core library compile in, stays that of the 0.1 series.)
+enum class ArcLengths { keep, drop };
+std::vector<TwoWayLine> integrate_tensor_lines_both_ways(const LineField &field, const std::vector<double> &seeds,
+                                                         const TensorLineSettings &settings, ArcLengths arc_lengths);
 
 } // namespace geobarrier
 

@@ -191,8 +191,7 @@ TEST_CASE("both ways in a batch: arc lengths optional, the same points either wa
         CHECK(a[k].stop_forward == b[k].stop_forward);
         CHECK(b[k].s.empty());
         (a[k].closed ? closed : open) += 1;
-        // The seed where seed_index says, each arc length the length of the polyline up to its point, and each
-        // branch (the same lines integrated one way) bit for bit in its place.
+        // The seed where seed_index says, and each arc length the length of the polyline up to its point.
         REQUIRE(a[k].s.size() == a[k].size());
         CHECK(a[k].xy[2 * a[k].seed_index] == seeds[2 * k]);
         CHECK(a[k].xy[2 * a[k].seed_index + 1] == seeds[2 * k + 1]);

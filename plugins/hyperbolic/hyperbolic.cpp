@@ -36,12 +36,12 @@ constexpr double nan_value = std::numeric_limits<double>::quiet_NaN();
 // with tangent errors theta ~ 5e-4 the image length then stays within kappa^2 theta^2 / 2 ~ 1e-3 of the barrier's.
 constexpr double max_condition = 100.0;
 
-// A strainline at t0, with what the picture and the selection need. For the opposite-time route, xy_t1 holds the
-// matching points of the stretchline at t1 whose image it is.
+// A strainline at t0: its points. For the opposite-time route, xy_t1 holds the matching points of the stretchline at
+// t1 whose image it is. The fields along it (d_g^xi1, sqrt(lambda1)) are not kept: SegmentMeter samples them line by
+// line while it truncates, and again along the few pieces measured later (on W, 18 million points: keeping them
+// doubled what the strainlines hold, 290 MB more written and read again).
 struct Strainline {
     std::vector<double> xy, xy_t1;
-    std::vector<double> deviation; // d_g^xi1 at each point (NaN outside the usable field)
-    std::vector<double> root;      // direct route: sqrt(lambda1) at each point (NaN where masked or unknown)
 };
 
 // A compact strainline segment with d_g^xi1 < max_deviation at every point: a barrier candidate.
@@ -53,6 +53,7 @@ struct Segment {
     double q = 0.0;
     double mean_deviation = 0.0, max_deviation = 0.0;
     double mid_x = 0.0, mid_y = 0.0; // the point at half its arc length
+    double longest_step = 0.0;       // the longest distance between consecutive points (candidates only)
 };
 
 // A segment's points, copied out of its strainline.
@@ -195,18 +196,37 @@ class RunIndex {
     std::vector<std::size_t> m_filled;           // the buckets that hold a run
 };
 
-// What truncation and selection measure along a piece of a strainline: l(gamma_t0), d_g^xi1, l(gamma_t1) and q
-// (eq. `rel_stretch`), the midpoint.
-struct SegmentMeter {
-    bool opposite; // l(gamma_t1) is the stretchline's measured length at t1, else int sqrt(lambda1) ds (line.root)
+// The fields along the points of a strainline (or of a piece of one), sampled by SegmentMeter::sample: d_g^xi1 at
+// each point (NaN outside the usable field) and, direct route, sqrt(lambda1) (NaN where masked or unknown).
+struct Sampled {
+    std::vector<double> fields[2]; // deviation, root
+    const std::vector<double> &deviation() const { return fields[0]; }
+    const std::vector<double> &root() const { return fields[1]; }
+};
 
-    // Fills everything but `length` (set by the caller, which drops short pieces first); false when sqrt(lambda1) is
-    // unknown on part of the piece or q is not finite. `steps`, when given, holds the lengths of the strainline's
-    // segments (steps[k] joins its points k and k + 1), so that a strainline's thousands of pieces do not measure
-    // the same points again for every statistic; the figures are the same bit for bit either way.
-    bool measure(const std::vector<Strainline> &lines, Segment &s, const double *steps = nullptr) const {
-        const Strainline &line = lines[s.line];
-        const double *xy = first_point(lines, s); // read in place: pieces hold most of W's 18 million points
+// What truncation and selection measure along a piece of a strainline: l(gamma_t0), d_g^xi1, l(gamma_t1) and q
+// (eq. `rel_stretch`), the midpoint; and the grid fields they read, sampled along the points.
+struct SegmentMeter {
+    bool opposite; // l(gamma_t1) is the stretchline's measured length at t1, else int sqrt(lambda1) ds
+    const Grid &grid;
+    // On the grid, interleaved: d_g^xi1 and, direct route, log lambda1 (NaN where masked). Interpolating log lambda1
+    // is exact for exponential variation across a cell.
+    const std::vector<double> &fields;
+
+    // The fields at the points (x, y interleaved), in one pass that finds each point's cell once.
+    void sample(const std::vector<double> &xy, Sampled &out) const {
+        sample_interleaved_along(grid, fields, opposite ? 1 : 2, xy, out.fields);
+        if (!opposite)
+            for (double &v : out.fields[1]) v = std::exp(0.5 * v);
+    }
+
+    // Fills everything but `length` (set by the caller, which drops short pieces first) from the piece's points xy,
+    // the fields sampled there and (opposite-time) its points at t1, each from the piece's first point on; false
+    // when sqrt(lambda1) is unknown on part of the piece or q is not finite. `steps`, when given, holds the lengths of
+    // the piece's segments (steps[k] joins its points k and k + 1), so that a strainline's thousands of pieces do not
+    // measure the same points again for every statistic; the figures are the same bit for bit either way.
+    bool measure(const double *xy, const double *deviation, const double *root, const double *xy_t1, Segment &s,
+                 const double *steps) const {
         const std::size_t n = s.last - s.first + 1;
         // The piece's own segment lengths: the strainline's from s.first on, or measured here.
         std::vector<double> measured;
@@ -214,16 +234,14 @@ struct SegmentMeter {
             measured.resize(n > 1 ? n - 1 : 0);
             segment_lengths(xy, 0, n - 1, measured.data());
         }
-        const double *piece_steps = steps ? steps + s.first : measured.data();
-        const CurveStats ds = curve_statistics(line.deviation.data() + s.first, n, piece_steps, n - 1);
+        const double *piece_steps = steps ? steps : measured.data();
+        const CurveStats ds = curve_statistics(deviation, n, piece_steps, n - 1);
         s.mean_deviation = ds.mean;
         s.max_deviation = ds.max;
         if (opposite) {
-            s.stretched_length =
-                polyline_length(std::vector<double>(line.xy_t1.begin() + 2 * static_cast<std::ptrdiff_t>(s.first),
-                                                    line.xy_t1.begin() + 2 * static_cast<std::ptrdiff_t>(s.last + 1)));
+            s.stretched_length = polyline_length(std::vector<double>(xy_t1, xy_t1 + 2 * n));
         } else {
-            const CurveStats rs = curve_statistics(line.root.data() + s.first, n, piece_steps, n - 1);
+            const CurveStats rs = curve_statistics(root, n, piece_steps, n - 1);
             if (rs.covered_length < 0.999 * s.length) return false;
             s.stretched_length = rs.integral;
         }
@@ -235,6 +253,16 @@ struct SegmentMeter {
         s.mid_x = xy[2 * mid];
         s.mid_y = xy[2 * mid + 1];
         return std::isfinite(s.q);
+    }
+
+    // The same for a piece of a strainline whose fields are not at hand (a remainder of the selection): sampled
+    // again at the piece's points only.
+    bool measure(const std::vector<Strainline> &lines, Segment &s) const {
+        const Strainline &line = lines[s.line];
+        Sampled along;
+        sample(points_of(lines, s), along);
+        return measure(first_point(lines, s), along.deviation().data(), along.root().data(),
+                       line.xy_t1.empty() ? nullptr : line.xy_t1.data() + 2 * s.first, s, nullptr);
     }
 };
 
@@ -359,20 +387,38 @@ double fraction_along_walls(const Grid &g, const Walls &walls, const std::vector
     return st.covered_length > 0.0 ? st.integral / st.covered_length : 0.0;
 }
 
-// Points about `spacing` apart along a polyline (at least 3, at most 64), at the middles of equal arc-length parts.
-std::vector<double> probe_points(const std::vector<double> &xy, double spacing) {
-    const std::vector<double> arc = cumulative_length(xy);
-    const std::size_t count = std::clamp<std::size_t>(static_cast<std::size_t>(std::ceil(arc.back() / spacing)), 3, 64);
+// Points about `spacing` apart along a polyline of n points (at least 3, at most 64), at the middles of equal
+// arc-length parts; arc holds cumulative_length's lengths from the first point (n of them).
+std::vector<double> probe_points(const double *xy, const double *arc, std::size_t n, double spacing) {
+    const double total = arc[n - 1];
+    const std::size_t count = std::clamp<std::size_t>(static_cast<std::size_t>(std::ceil(total / spacing)), 3, 64);
     std::vector<double> out(2 * count);
     for (std::size_t j = 0; j < count; ++j) {
-        const double at = (static_cast<double>(j) + 0.5) / static_cast<double>(count) * arc.back();
-        const std::size_t m = std::min(
-            static_cast<std::size_t>(std::lower_bound(arc.begin(), arc.end(), at) - arc.begin()), arc.size() - 1);
+        const double at = (static_cast<double>(j) + 0.5) / static_cast<double>(count) * total;
+        const std::size_t m = std::min(static_cast<std::size_t>(std::lower_bound(arc, arc + n, at) - arc), n - 1);
         out[2 * j] = xy[2 * m];
         out[2 * j + 1] = xy[2 * m + 1];
     }
     return out;
 }
+std::vector<double> probe_points(const std::vector<double> &xy, double spacing) {
+    return probe_points(xy.data(), cumulative_length(xy).data(), xy.size() / 2, spacing);
+}
+
+// Alg. 1, step 2, line by line: each strainline's compact segments with d_g^xi1 < epsilon at least min_length long.
+// Each segment also gets its probe points for the selection (probe_points), taken while its points are at hand.
+struct Truncation {
+    std::vector<std::vector<Segment>> per_line;           // measured, in order along the line
+    std::vector<std::vector<std::vector<double>>> probes; // per line, the probe points of each of its segments
+    std::vector<std::size_t> short_per_line;              // how many shorter ones were left out
+    explicit Truncation(std::size_t lines = 0) : per_line(lines), probes(lines), short_per_line(lines, 0) {}
+};
+
+// The barrier candidates: truncation's segments of every line in line order, and their probe points.
+struct Candidates {
+    std::vector<Segment> segments;
+    std::vector<std::vector<double>> probes;
+};
 
 // A barrier chosen by the selection rule (step 5 of docs/extractors.md).
 struct Selected {
@@ -467,24 +513,23 @@ struct Hyperbolic {
         return m_seed_distance > 0 ? m_seed_distance : std::max(g.x_max - g.x_min, g.y_max - g.y_min) / 75.0;
     }
     std::vector<Strainline> direct_strainlines(const sdk::Host &host, const CauchyGreenField &cg,
-                                               const std::vector<double> &deviation, double max_length) const;
-    static void sample_deviation_and_root(const Grid &g, const std::vector<double> &deviation_and_log_lambda1,
-                                          std::vector<Strainline> &lines, std::size_t first,
-                                          std::vector<TwoWayLine> &batch);
+                                               const std::vector<double> &deviation, const Scales &scale,
+                                               const SegmentMeter &meter, Truncation &truncation) const;
     std::vector<Strainline> opposite_time_strainlines(const sdk::Host &host, const gb_extract_input &in,
-                                                      const std::vector<double> &deviation, double max_length) const;
+                                                      double max_length) const;
     Scales scales(const Grid &g) const;
-    std::vector<Segment> truncated_segments(const sdk::Host &host, const std::vector<Strainline> &lines,
-                                            const SegmentMeter &meter, double min_length) const;
+    void truncate(const std::vector<Strainline> &lines, std::size_t first, std::size_t end, const SegmentMeter &meter,
+                  const Scales &scale, Truncation &out) const;
+    Candidates gathered_candidates(const sdk::Host &host, Truncation &truncation, double min_length) const;
     std::vector<char> along_walls(const sdk::Host &host, const CauchyGreenField &cg,
                                   const std::vector<Strainline> &lines, const std::vector<Segment> &candidates,
                                   double radius) const;
     std::vector<Selected> local_minima(const sdk::Host &host, const Grid &g, const std::vector<Strainline> &lines,
-                                       const std::vector<Segment> &candidates, const std::vector<char> &along_wall,
+                                       const Candidates &found, const std::vector<char> &along_wall,
                                        const SegmentMeter &meter, const Scales &scale) const;
     AdvectionCheck advect_barriers(const sdk::Host &host, const gb_extract_input &in, const CauchyGreenField &cg,
                                    const std::vector<Strainline> &lines, const std::vector<Selected> &selected) const;
-    void draw_strainlines(const gb_extract_input &in, const Grid &g, const std::vector<Strainline> &lines,
+    void draw_strainlines(const gb_extract_input &in, const SegmentMeter &meter, const std::vector<Strainline> &lines,
                           const std::vector<Selected> &selected) const;
 };
 
@@ -524,8 +569,8 @@ std::vector<double> Hyperbolic::seeds(const Grid &g, const LineField &field,
     return seed_lattice(g, std::max(d / g.dx(), 1.0), std::max(d / g.dy(), 1.0), field, deviation, m_epsilon);
 }
 
-// d_g^xi1 and log lambda1 interleaved on the grid (log lambda1 NaN where masked), for sample_deviation_and_root.
-// Interpolating log lambda1 is exact for exponential variation across a cell.
+// d_g^xi1 and log lambda1 interleaved on the grid (log lambda1 NaN where masked): the direct route's SegmentMeter
+// fields.
 std::vector<double> deviation_and_log_lambda1(const CauchyGreenField &cg, const std::vector<double> &deviation) {
     const std::size_t n = cg.grid.size();
     std::vector<double> fields(2 * n);
@@ -537,8 +582,10 @@ std::vector<double> deviation_and_log_lambda1(const CauchyGreenField &cg, const 
     return fields;
 }
 
+// Alg. 1, step 1 (and step 2 batch by batch, truncation): strainlines integrated both ways from the seed lattice.
 std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, const CauchyGreenField &cg,
-                                                       const std::vector<double> &deviation, double max_length) const {
+                                                       const std::vector<double> &deviation, const Scales &scale,
+                                                       const SegmentMeter &meter, Truncation &truncation) const {
     const LineField xi1 = LineField::from_cauchy_green(cg, 1, m_singular_gap);
     const std::vector<double> seed = seeds(cg.grid, xi1, &deviation);
     const std::size_t n = seed.size() / 2;
@@ -547,7 +594,7 @@ std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, co
               " apart, where d_g < " + format(m_epsilon) + ")");
     TensorLineSettings settings;
     settings.method = m_line_method;
-    settings.max_length = max_length;
+    settings.max_length = scale.max_length;
     settings.detect_closure = true;
     // Steps of at most half a grid cell, as long as that is not finer than 1/16 of the seed distance: finer
     // grids resolve the fields better, but strainlines sampled more densely than that only cost more (on the
@@ -563,39 +610,24 @@ std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, co
     step << settings.max_step;
     host.info("strainline step " + step.str() + " (state units)");
     std::vector<Strainline> lines(n);
-    const std::vector<double> sampled = deviation_and_log_lambda1(cg, deviation);
+    truncation = Truncation(n);
     const std::size_t block = 1024; // seeds per batch of lockstep lanes: progress still every ~10%
     for (std::size_t start = 0; start < n; start += block) {
         const std::size_t end = std::min(n, start + block);
         // No arc lengths: the segments measure their own lengths, only where d_g < epsilon.
         std::vector<TwoWayLine> batch = integrate_tensor_lines_both_ways(
             xi1, std::vector<double>(seed.begin() + 2 * start, seed.begin() + 2 * end), settings, ArcLengths::drop);
-        sample_deviation_and_root(cg.grid, sampled, lines, start, batch);
+        for (std::size_t k = 0; k < batch.size(); ++k) lines[start + k].xy = std::move(batch[k].xy);
+        // Truncated now, batch by batch, rather than after all of them: the fields sampled along a line live only in
+        // its thread's buffers, and a batch's points are read again soon after they were written.
+        truncate(lines, start, end, meter, scale, truncation);
         if (host.progress(0.6 * static_cast<double>(end) / static_cast<double>(std::max<std::size_t>(n, 1))))
             throw std::runtime_error("stopped by the user");
     }
     return lines;
 }
 
-// Moves a batch of two-way lines into lines[first...] with d_g^xi1 and sqrt(lambda1) at each point (l(gamma_t1) =
-// int sqrt(lambda1) ds), both sampled in one pass over the points.
-void Hyperbolic::sample_deviation_and_root(const Grid &g, const std::vector<double> &deviation_and_log_lambda1,
-                                           std::vector<Strainline> &lines, std::size_t first,
-                                           std::vector<TwoWayLine> &batch) {
-#pragma omp parallel for schedule(dynamic, 16)
-    for (std::size_t k = 0; k < batch.size(); ++k) {
-        Strainline &line = lines[first + k];
-        std::vector<double> sampled[2];
-        sample_interleaved_along(g, deviation_and_log_lambda1, 2, batch[k].xy, sampled);
-        line.deviation = std::move(sampled[0]);
-        line.root = std::move(sampled[1]);
-        for (double &v : line.root) v = std::exp(0.5 * v);
-        line.xy = std::move(batch[k].xy);
-    }
-}
-
 std::vector<Strainline> Hyperbolic::opposite_time_strainlines(const sdk::Host &host, const gb_extract_input &in,
-                                                              const std::vector<double> &deviation,
                                                               double max_length) const {
     // Stretchlines of the opposite-time tensor C_{t1}^{t0} (tangent to its xi2) at t1, advected to t0, are
     // strainlines of C_{t0}^{t1} (Farazmand & Haller 2012), and more accurate than integrating xi1 at t0 because
@@ -677,7 +709,6 @@ std::vector<Strainline> Hyperbolic::opposite_time_strainlines(const sdk::Host &h
                 Strainline l;
                 l.xy.assign(a.xy1.begin() + 2 * first, a.xy1.begin() + 2 * k);
                 l.xy_t1.assign(a.xy0.begin() + 2 * first, a.xy0.begin() + 2 * k);
-                l.deviation = sample_along(g, deviation, {}, l.xy);
                 lines.push_back(std::move(l));
             }
             first = k;
@@ -693,53 +724,74 @@ Scales Hyperbolic::scales(const Grid &g) const {
             m_neighbour_distance > 0 ? m_neighbour_distance : 0.02 * diagonal};
 }
 
-// Alg. 1, step 2: each strainline truncated to the compact segments with d_g^xi1 < epsilon at every point, those at
-// least min_length long measured (relative stretching q, eq. `rel_stretch`). Line by line in parallel, gathered in
-// line order.
-std::vector<Segment> Hyperbolic::truncated_segments(const sdk::Host &host, const std::vector<Strainline> &lines,
-                                                    const SegmentMeter &meter, double min_length) const {
-    std::vector<std::vector<Segment>> per_line(lines.size());
-    std::vector<std::size_t> short_per_line(lines.size(), 0);
+// Alg. 1, step 2: strainlines first..end - 1 truncated to the compact segments with d_g^xi1 < epsilon at every point,
+// those at least min_length long measured (relative stretching q, eq. `rel_stretch`) and probed, into `out` (sized for
+// all the lines). Line by line in parallel, each line's fields sampled into its thread's buffers and read at once.
+void Hyperbolic::truncate(const std::vector<Strainline> &lines, std::size_t first, std::size_t end,
+                          const SegmentMeter &meter, const Scales &scale, Truncation &out) const {
 #pragma omp parallel
     {
-        // The strainline's segment lengths (steps[k] joins its points k and k + 1), measured only along its pieces
-        // with d_g < epsilon, into one buffer per thread reused line by line (not a fresh vector per line).
-        std::vector<double> steps;
+        // Per thread, reused line by line (not fresh vectors per line): the fields along the line, its segment
+        // lengths (steps[k] joins its points k and k + 1), measured only along its pieces with d_g < epsilon, and a
+        // segment's cumulative lengths.
+        Sampled along;
+        std::vector<double> steps, arc;
 #pragma omp for schedule(dynamic)
-        for (std::size_t l = 0; l < lines.size(); ++l) {
+        for (std::size_t l = first; l < end; ++l) {
             const Strainline &line = lines[l];
             const std::size_t n = line.xy.size() / 2;
+            meter.sample(line.xy, along);
+            const std::vector<double> &deviation = along.deviation();
             if (steps.size() < n) steps.resize(n);
             std::size_t k = 0;
             while (k < n) {
-                while (k < n && !(line.deviation[k] < m_epsilon)) ++k;
-                const std::size_t first = k;
-                while (k < n && line.deviation[k] < m_epsilon) ++k;
-                if (k - first < 2) continue;
-                segment_lengths(line.xy.data(), first, k - 1, steps.data());
+                while (k < n && !(deviation[k] < m_epsilon)) ++k;
+                const std::size_t begin = k;
+                while (k < n && deviation[k] < m_epsilon) ++k;
+                if (k - begin < 2) continue;
+                segment_lengths(line.xy.data(), begin, k - 1, steps.data());
                 Segment s;
                 s.line = l;
-                s.first = first;
+                s.first = begin;
                 s.last = k - 1;
                 s.length = length_from_steps(steps, s.first, s.last);
-                if (s.length < min_length) {
-                    ++short_per_line[l];
+                if (s.length < scale.min_length) {
+                    ++out.short_per_line[l];
                     continue;
                 }
-                if (meter.measure(lines, s, steps.data())) per_line[l].push_back(s);
+                if (!meter.measure(line.xy.data() + 2 * begin, deviation.data() + begin,
+                                   meter.opposite ? nullptr : along.root().data() + begin,
+                                   meter.opposite ? line.xy_t1.data() + 2 * begin : nullptr, s, steps.data() + begin))
+                    continue;
+                // cumulative_length's sums, from the steps measured already.
+                const std::size_t n_piece = k - begin;
+                arc.resize(n_piece);
+                arc[0] = 0.0;
+                s.longest_step = 0.0;
+                for (std::size_t j = 1; j < n_piece; ++j) {
+                    arc[j] = arc[j - 1] + steps[begin + j - 1];
+                    s.longest_step = std::max(s.longest_step, steps[begin + j - 1]);
+                }
+                out.per_line[l].push_back(s);
+                out.probes[l].push_back(probe_points(line.xy.data() + 2 * begin, arc.data(), n_piece, scale.radius));
             }
         }
     }
-    std::vector<Segment> candidates;
+}
+
+// The candidates: every line's segments, in line order (moved out of the truncation), and the log's line on them.
+Candidates Hyperbolic::gathered_candidates(const sdk::Host &host, Truncation &truncation, double min_length) const {
+    Candidates all;
     std::size_t short_segments = 0;
-    for (std::size_t l = 0; l < lines.size(); ++l) {
-        candidates.insert(candidates.end(), per_line[l].begin(), per_line[l].end());
-        short_segments += short_per_line[l];
+    for (std::size_t l = 0; l < truncation.per_line.size(); ++l) {
+        all.segments.insert(all.segments.end(), truncation.per_line[l].begin(), truncation.per_line[l].end());
+        for (std::vector<double> &p : truncation.probes[l]) all.probes.push_back(std::move(p));
+        short_segments += truncation.short_per_line[l];
     }
-    host.info("" + std::to_string(lines.size()) + " strainlines, " + std::to_string(candidates.size()) +
+    host.info("" + std::to_string(truncation.per_line.size()) + " strainlines, " + std::to_string(all.segments.size()) +
               " segments with d_g < " + format(m_epsilon) + " at least " + format(min_length) + " long (" +
               std::to_string(short_segments) + " shorter ones left out)");
-    return candidates;
+    return all;
 }
 
 // The wall filter: segments running along a wall that is not declared invariant (more than half their length within
@@ -797,17 +849,15 @@ bool add_near_points(const RunIndex &index, const std::vector<double> &xy, doubl
 // neighbour distance apart, within two grid cells of them) is a piece: it can be chosen, but it is nobody's
 // neighbour; the longer segments stand for it. Visited longest first, so that the index holds only the distinct
 // curves (a few hundred where thousands of strainlines crowd onto an attractor).
-std::vector<char> pieces_of_longer(const Grid &g, const std::vector<Strainline> &lines,
-                                   const std::vector<Segment> &candidates, double radius) {
+std::vector<char> pieces_of_longer(const Grid &g, const std::vector<Strainline> &lines, const Candidates &found,
+                                   double radius) {
+    const std::vector<Segment> &candidates = found.segments;
+    const std::vector<std::vector<double>> &probes = found.probes;
     std::vector<char> piece(candidates.size(), 0);
     std::vector<std::size_t> by_length(candidates.size());
     std::iota(by_length.begin(), by_length.end(), std::size_t{0});
     std::stable_sort(by_length.begin(), by_length.end(),
                      [&](std::size_t a, std::size_t b) { return candidates[a].length > candidates[b].length; });
-    std::vector<std::vector<double>> probes(candidates.size());
-#pragma omp parallel for schedule(dynamic, 16)
-    for (std::size_t c = 0; c < candidates.size(); ++c)
-        probes[c] = probe_points(points_of(lines, candidates[c]), radius);
     const double cover = cover_distance(g, radius);
     RunIndex distinct(g, cover);
     // In chunks: the probes of a chunk are tested in parallel against the index as it was before the chunk, and in
@@ -855,21 +905,16 @@ std::vector<std::size_t> selection_order(const std::vector<Segment> &candidates,
 }
 
 // Which of a candidate's points lie within `cover` of a barrier kept, as far as the selection can use it; empty when
-// it can select nothing from the candidate. With steps of at most h between points, a run of m = min_length / h
-// points or more holds a point whose index is a multiple of m, and a shorter run is shorter than min_length (the
-// margin 1e-9 outweighs rounding), which select_uncovered drops. So only those points are tested first, and then the
-// runs around the uncovered ones, grown point by point up to the first covered point either way: they come out exactly
-// as a test of every point gives them. The points left untested are marked covered; they lie in shorter runs only,
-// and the barriers kept later only cover more. Where candidates crowd along barriers already chosen (an attractor)
-// this tests one point in ~100.
-std::vector<char> covered_points(const RunIndex &kept, const double *xy, std::size_t n, double cover,
-                                 double min_length) {
-    double longest_step2 = 0.0;
-    for (std::size_t k = 1; k < n; ++k) {
-        const double ex = xy[2 * k] - xy[2 * k - 2], ey = xy[2 * k + 1] - xy[2 * k - 1];
-        longest_step2 = std::max(longest_step2, ex * ex + ey * ey);
-    }
-    const double stride = std::floor(min_length / (std::sqrt(longest_step2) * (1.0 + 1e-9)));
+// it can select nothing from the candidate. With steps of at most h = longest_step between points, a run of
+// m = min_length / h points or more holds a point whose index is a multiple of m, and a shorter run is shorter than
+// min_length (the margin 1e-9 outweighs rounding), which uncovered_minima drops. So only those points are tested
+// first, and then the runs around the uncovered ones, grown point by point up to the first covered point either way:
+// they come out exactly as a test of every point gives them. The points left untested are marked covered; they lie in
+// shorter runs only, and the barriers kept later only cover more. Where candidates crowd along barriers already chosen
+// (an attractor) this tests one point in ~100.
+std::vector<char> covered_points(const RunIndex &kept, const double *xy, std::size_t n, double longest_step,
+                                 double cover, double min_length) {
+    const double stride = std::floor(min_length / (longest_step * (1.0 + 1e-9)));
     if (!(stride >= 2.0)) return near_points(kept, xy, n, cover);
     const auto m = static_cast<std::size_t>(std::min(stride, static_cast<double>(n)));
     const auto near = [&](std::size_t k) { return kept.any_near(xy[2 * k], xy[2 * k + 1], cover); };
@@ -891,10 +936,10 @@ std::vector<char> covered_points(const RunIndex &kept, const double *xy, std::si
 // The runs of candidate c's points not covered by a barrier of smaller q (at least two points) that pass the
 // selection rule of local_minima, in order along the candidate; a remainder's own q is not measured yet (the caller
 // does, for the few that are kept). `index` holds the segments that are no pieces, its buckets sorted by q.
-std::vector<Selected> uncovered_minima(const std::vector<Strainline> &lines, const std::vector<Segment> &candidates,
-                                       std::size_t c, const std::vector<char> &covered, const RunIndex &index,
-                                       const Scales &scale) {
+std::vector<Selected> uncovered_minima(const std::vector<Strainline> &lines, const Candidates &found, std::size_t c,
+                                       const std::vector<char> &covered, const RunIndex &index, const Scales &scale) {
     std::vector<Selected> picks;
+    const std::vector<Segment> &candidates = found.segments;
     const auto q_of = [&](std::size_t d) { return candidates[d].q; };
     const Segment &cand = candidates[c];
     const std::size_t n = covered.size();
@@ -910,10 +955,15 @@ std::vector<Selected> uncovered_minima(const std::vector<Strainline> &lines, con
         pick.piece.first = cand.first + begin;
         pick.piece.last = cand.first + k - 1;
         pick.remainder = begin > 0 || k < n;
-        const std::vector<double> piece_xy = points_of(lines, pick.piece);
-        pick.piece.length = polyline_length(piece_xy);
-        if (pick.piece.length < scale.min_length || (pick.remainder && 3.0 * pick.piece.length < cand.length)) continue;
-        const std::vector<double> probes = probe_points(piece_xy, scale.radius);
+        // The whole candidate (the usual case away from the barriers kept) has its length and probes already.
+        std::vector<double> piece_probes;
+        if (pick.remainder) {
+            const std::vector<double> piece_xy = points_of(lines, pick.piece);
+            pick.piece.length = polyline_length(piece_xy);
+            if (pick.piece.length < scale.min_length || 3.0 * pick.piece.length < cand.length) continue;
+            piece_probes = probe_points(piece_xy, scale.radius);
+        }
+        const std::vector<double> &probes = pick.remainder ? piece_probes : found.probes[c];
         pick.probes = probes.size() / 2;
         for (std::size_t j = 0; j < pick.probes; ++j)
             if (index.any_near_below(probes[2 * j], probes[2 * j + 1], cand.q, c, q_of)) ++pick.dominated;
@@ -934,11 +984,11 @@ std::vector<Selected> uncovered_minima(const std::vector<Strainline> &lines, con
 // segment that runs on past a barrier of smaller q (`selection` "remainder"). Ranked by the q of what is reported
 // (a remainder's own q).
 std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid &g,
-                                               const std::vector<Strainline> &lines,
-                                               const std::vector<Segment> &candidates,
+                                               const std::vector<Strainline> &lines, const Candidates &found,
                                                const std::vector<char> &along_wall, const SegmentMeter &meter,
                                                const Scales &scale) const {
-    const std::vector<char> piece_of_longer = pieces_of_longer(g, lines, candidates, scale.radius);
+    const std::vector<Segment> &candidates = found.segments;
+    const std::vector<char> piece_of_longer = pieces_of_longer(g, lines, found, scale.radius);
     RunIndex index(g, scale.radius);
     for (std::size_t c = 0; c < candidates.size(); ++c)
         if (!piece_of_longer[c])
@@ -966,9 +1016,9 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
             const Segment &cand = candidates[order[i]];
             const double *xy = first_point(lines, cand);
             const std::size_t n = cand.last - cand.first + 1;
-            covered[i - start] = covered_points(kept, xy, n, cover, scale.min_length);
+            covered[i - start] = covered_points(kept, xy, n, cand.longest_step, cover, scale.min_length);
             if (!covered[i - start].empty())
-                picks[i - start] = uncovered_minima(lines, candidates, order[i], covered[i - start], index, scale);
+                picks[i - start] = uncovered_minima(lines, found, order[i], covered[i - start], index, scale);
         }
         std::optional<RunIndex> added; // the barriers this chunk added, made with its first
         const std::size_t kept_before = selected.size();
@@ -977,7 +1027,7 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
             const std::size_t c = order[i];
             if (covered[i - start].empty()) continue; // no uncovered run min_length long: nothing to select
             if (added && add_near_points(*added, first_point(lines, candidates[c]), cover, covered[i - start]))
-                picks[i - start] = uncovered_minima(lines, candidates, c, covered[i - start], index, scale);
+                picks[i - start] = uncovered_minima(lines, found, c, covered[i - start], index, scale);
             const std::size_t first_new = selected.size();
             for (Selected &pick : picks[i - start])
                 if (!pick.remainder || meter.measure(lines, pick.piece)) selected.push_back(pick);
@@ -1122,8 +1172,9 @@ void draw_barriers(const gb_extract_input &in, const CauchyGreenField &cg, const
 
 // The picture strainlines.png, the paper's figure strainline-ex2: all strainlines grey, the least-stretching barrier
 // red, the points of its strainline with d_g >= epsilon black.
-void Hyperbolic::draw_strainlines(const gb_extract_input &in, const Grid &g, const std::vector<Strainline> &lines,
-                                  const std::vector<Selected> &selected) const {
+void Hyperbolic::draw_strainlines(const gb_extract_input &in, const SegmentMeter &meter,
+                                  const std::vector<Strainline> &lines, const std::vector<Selected> &selected) const {
+    const Grid &g = meter.grid;
     XYPlot xp;
     xp.title = "strainlines (grey), least-stretching barrier (red), d_g > " + format(m_epsilon) + " (black)";
     xp.x_label = sdk::axis_label(in, 0);
@@ -1167,8 +1218,10 @@ void Hyperbolic::draw_strainlines(const gb_extract_input &in, const Grid &g, con
         above.color = "black";
         above.marker_px = 3.0;
         above.label = "d_g > epsilon";
-        for (std::size_t k = 0; k < parent.deviation.size(); ++k)
-            if (!(parent.deviation[k] < m_epsilon) && std::isfinite(parent.xy[2 * k])) {
+        Sampled along;
+        meter.sample(parent.xy, along);
+        for (std::size_t k = 0; k < along.deviation().size(); ++k)
+            if (!(along.deviation()[k] < m_epsilon) && std::isfinite(parent.xy[2 * k])) {
                 above.xy.push_back(parent.xy[2 * k]);
                 above.xy.push_back(parent.xy[2 * k + 1]);
             }
@@ -1198,16 +1251,24 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
                    format(std::chrono::duration<double>(now - mark).count()) + " s";
         mark = now;
     };
-    const std::vector<Strainline> lines = opposite ? opposite_time_strainlines(host, in, deviation, scale.max_length)
-                                                   : direct_strainlines(host, cg, deviation, scale.max_length);
-    lap("strainlines");
-    const SegmentMeter meter{opposite};
-    const std::vector<Segment> candidates = truncated_segments(host, lines, meter, scale.min_length);
-    lap("segments");
+    const std::vector<double> fields = opposite ? deviation : deviation_and_log_lambda1(cg, deviation);
+    const SegmentMeter meter{opposite, g, fields};
+    Truncation truncation;
+    // The direct route truncates its strainlines batch by batch as it integrates them; the opposite-time route after
+    // advecting them.
+    const std::vector<Strainline> lines = opposite ? opposite_time_strainlines(host, in, scale.max_length)
+                                                   : direct_strainlines(host, cg, deviation, scale, meter, truncation);
+    if (opposite) {
+        truncation = Truncation(lines.size());
+        truncate(lines, 0, lines.size(), meter, scale, truncation);
+    }
+    lap("strainlines and segments");
+    const Candidates found = gathered_candidates(host, truncation, scale.min_length);
+    const std::vector<Segment> &candidates = found.segments;
     if (host.progress(0.7)) throw std::runtime_error("stopped by the user");
     const std::vector<char> along_wall = along_walls(host, cg, lines, candidates, scale.radius);
     lap("walls");
-    const std::vector<Selected> selected = local_minima(host, g, lines, candidates, along_wall, meter, scale);
+    const std::vector<Selected> selected = local_minima(host, g, lines, found, along_wall, meter, scale);
     lap("selection");
     const AdvectionCheck check = advect_barriers(host, in, cg, lines, selected);
     lap("advection");
@@ -1216,7 +1277,7 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     report_barriers(host, lines, candidates, selected, check, backward);
     if (!in.plots) return;
     draw_barriers(in, cg, lines, selected, backward);
-    draw_strainlines(in, g, lines, selected);
+    draw_strainlines(in, meter, lines, selected);
 }
 
 } // namespace

@@ -357,11 +357,34 @@ std::vector<std::uint8_t> within_reach_of_mask(const Grid &g, const std::vector<
     return within;
 }
 
-// The fraction of a polyline's arc length (its n points at xy) that lies within `reach` of a wall not declared
-// invariant; `near_mask` from within_reach_of_mask for the same reach.
-double fraction_along_walls(const Grid &g, const Walls &walls, const std::vector<std::uint8_t> &near_mask,
-                            const double *xy, std::size_t n, double reach) {
-    std::vector<double> near(n, 0.0);
+// The wall filter: segments running along a wall that is not declared invariant (more than half their length within
+// the neighbour distance of it) are flagged. They are no candidates for reporting but stay in the neighbourhoods of
+// the selection, so that the strainlines beside them do not become local minima in their place.
+struct WallFilter {
+    const Grid &grid;
+    Walls walls;
+    double reach;                        // the neighbour distance
+    std::vector<std::uint8_t> near_mask; // within_reach_of_mask for reach, when the mask is a wall
+
+    WallFilter(const CauchyGreenField &cg, const Walls &w, double r)
+        : grid(cg.grid), walls(w), reach(r),
+          near_mask(w.mask ? within_reach_of_mask(cg.grid, cg.mask, r) : std::vector<std::uint8_t>()) {}
+
+    // Whether a segment (its n points at xy, steps[k] the length from point k to k + 1) runs along a wall. `near`
+    // is a buffer.
+    bool along(const double *xy, std::size_t n, const double *steps, std::vector<double> &near) const {
+        return fraction_near(xy, n, steps, near) > 0.5;
+    }
+
+  private:
+    // The fraction of the segment's arc length that lies within reach of a wall.
+    double fraction_near(const double *xy, std::size_t n, const double *steps, std::vector<double> &near) const;
+};
+
+double WallFilter::fraction_near(const double *xy, std::size_t n, const double *steps,
+                                 std::vector<double> &near) const {
+    const Grid &g = grid;
+    near.assign(n, 0.0);
     bool any_near = false;
     const double dx = g.dx(), dy = g.dy();
     for (std::size_t k = 0; k < n; ++k) {
@@ -383,7 +406,7 @@ double fraction_along_walls(const Grid &g, const Walls &walls, const std::vector
         any_near = any_near || within;
     }
     if (!any_near) return 0.0; // most segments: no wall in reach, and the integral below would be 0
-    const CurveStats st = curve_statistics(std::vector<double>(xy, xy + 2 * n), near);
+    const CurveStats st = curve_statistics(near.data(), n, steps, n - 1);
     return st.covered_length > 0.0 ? st.integral / st.covered_length : 0.0;
 }
 
@@ -406,18 +429,22 @@ std::vector<double> probe_points(const std::vector<double> &xy, double spacing) 
 }
 
 // Alg. 1, step 2, line by line: each strainline's compact segments with d_g^xi1 < epsilon at least min_length long.
-// Each segment also gets its probe points for the selection (probe_points), taken while its points are at hand.
+// Each segment also gets what the selection asks of it (its probe points, whether it runs along a wall), found while
+// its points are at hand.
 struct Truncation {
     std::vector<std::vector<Segment>> per_line;           // measured, in order along the line
     std::vector<std::vector<std::vector<double>>> probes; // per line, the probe points of each of its segments
+    std::vector<std::vector<char>> along_wall;            // per line, WallFilter::along for each of its segments
     std::vector<std::size_t> short_per_line;              // how many shorter ones were left out
-    explicit Truncation(std::size_t lines = 0) : per_line(lines), probes(lines), short_per_line(lines, 0) {}
+    explicit Truncation(std::size_t lines = 0)
+        : per_line(lines), probes(lines), along_wall(lines), short_per_line(lines, 0) {}
 };
 
-// The barrier candidates: truncation's segments of every line in line order, and their probe points.
+// The barrier candidates: truncation's segments of every line in line order, their probe points and wall flags.
 struct Candidates {
     std::vector<Segment> segments;
     std::vector<std::vector<double>> probes;
+    std::vector<char> along_wall;
 };
 
 // A barrier chosen by the selection rule (step 5 of docs/extractors.md).
@@ -514,19 +541,16 @@ struct Hyperbolic {
     }
     std::vector<Strainline> direct_strainlines(const sdk::Host &host, const CauchyGreenField &cg,
                                                const std::vector<double> &deviation, const Scales &scale,
-                                               const SegmentMeter &meter, Truncation &truncation) const;
+                                               const SegmentMeter &meter, const WallFilter &walls,
+                                               Truncation &truncation) const;
     std::vector<Strainline> opposite_time_strainlines(const sdk::Host &host, const gb_extract_input &in,
                                                       double max_length) const;
     Scales scales(const Grid &g) const;
     void truncate(const std::vector<Strainline> &lines, std::size_t first, std::size_t end, const SegmentMeter &meter,
-                  const Scales &scale, Truncation &out) const;
+                  const WallFilter &walls, const Scales &scale, Truncation &out) const;
     Candidates gathered_candidates(const sdk::Host &host, Truncation &truncation, double min_length) const;
-    std::vector<char> along_walls(const sdk::Host &host, const CauchyGreenField &cg,
-                                  const std::vector<Strainline> &lines, const std::vector<Segment> &candidates,
-                                  double radius) const;
     std::vector<Selected> local_minima(const sdk::Host &host, const Grid &g, const std::vector<Strainline> &lines,
-                                       const Candidates &found, const std::vector<char> &along_wall,
-                                       const SegmentMeter &meter, const Scales &scale) const;
+                                       const Candidates &found, const SegmentMeter &meter, const Scales &scale) const;
     AdvectionCheck advect_barriers(const sdk::Host &host, const gb_extract_input &in, const CauchyGreenField &cg,
                                    const std::vector<Strainline> &lines, const std::vector<Selected> &selected) const;
     void draw_strainlines(const gb_extract_input &in, const SegmentMeter &meter, const std::vector<Strainline> &lines,
@@ -585,7 +609,8 @@ std::vector<double> deviation_and_log_lambda1(const CauchyGreenField &cg, const 
 // Alg. 1, step 1 (and step 2 batch by batch, truncation): strainlines integrated both ways from the seed lattice.
 std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, const CauchyGreenField &cg,
                                                        const std::vector<double> &deviation, const Scales &scale,
-                                                       const SegmentMeter &meter, Truncation &truncation) const {
+                                                       const SegmentMeter &meter, const WallFilter &walls,
+                                                       Truncation &truncation) const {
     const LineField xi1 = LineField::from_cauchy_green(cg, 1, m_singular_gap);
     const std::vector<double> seed = seeds(cg.grid, xi1, &deviation);
     const std::size_t n = seed.size() / 2;
@@ -620,7 +645,7 @@ std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, co
         for (std::size_t k = 0; k < batch.size(); ++k) lines[start + k].xy = std::move(batch[k].xy);
         // Truncated now, batch by batch, rather than after all of them: the fields sampled along a line live only in
         // its thread's buffers, and a batch's points are read again soon after they were written.
-        truncate(lines, start, end, meter, scale, truncation);
+        truncate(lines, start, end, meter, walls, scale, truncation);
         if (host.progress(0.6 * static_cast<double>(end) / static_cast<double>(std::max<std::size_t>(n, 1))))
             throw std::runtime_error("stopped by the user");
     }
@@ -728,14 +753,15 @@ Scales Hyperbolic::scales(const Grid &g) const {
 // those at least min_length long measured (relative stretching q, eq. `rel_stretch`) and probed, into `out` (sized for
 // all the lines). Line by line in parallel, each line's fields sampled into its thread's buffers and read at once.
 void Hyperbolic::truncate(const std::vector<Strainline> &lines, std::size_t first, std::size_t end,
-                          const SegmentMeter &meter, const Scales &scale, Truncation &out) const {
+                          const SegmentMeter &meter, const WallFilter &walls, const Scales &scale,
+                          Truncation &out) const {
 #pragma omp parallel
     {
         // Per thread, reused line by line (not fresh vectors per line): the fields along the line, its segment
         // lengths (steps[k] joins its points k and k + 1), measured only along its pieces with d_g < epsilon, and a
         // segment's cumulative lengths.
         Sampled along;
-        std::vector<double> steps, arc;
+        std::vector<double> steps, arc, near_wall;
 #pragma omp for schedule(dynamic)
         for (std::size_t l = first; l < end; ++l) {
             const Strainline &line = lines[l];
@@ -774,6 +800,8 @@ void Hyperbolic::truncate(const std::vector<Strainline> &lines, std::size_t firs
                 }
                 out.per_line[l].push_back(s);
                 out.probes[l].push_back(probe_points(line.xy.data() + 2 * begin, arc.data(), n_piece, scale.radius));
+                out.along_wall[l].push_back(
+                    walls.along(line.xy.data() + 2 * begin, n_piece, steps.data() + begin, near_wall));
             }
         }
     }
@@ -786,36 +814,18 @@ Candidates Hyperbolic::gathered_candidates(const sdk::Host &host, Truncation &tr
     for (std::size_t l = 0; l < truncation.per_line.size(); ++l) {
         all.segments.insert(all.segments.end(), truncation.per_line[l].begin(), truncation.per_line[l].end());
         for (std::vector<double> &p : truncation.probes[l]) all.probes.push_back(std::move(p));
+        all.along_wall.insert(all.along_wall.end(), truncation.along_wall[l].begin(), truncation.along_wall[l].end());
         short_segments += truncation.short_per_line[l];
     }
     host.info("" + std::to_string(truncation.per_line.size()) + " strainlines, " + std::to_string(all.segments.size()) +
               " segments with d_g < " + format(m_epsilon) + " at least " + format(min_length) + " long (" +
               std::to_string(short_segments) + " shorter ones left out)");
-    return all;
-}
-
-// The wall filter: segments running along a wall that is not declared invariant (more than half their length within
-// the neighbour distance of it) are flagged. They are no candidates for reporting but stay in the neighbourhoods of
-// the selection, so that the strainlines beside them do not become local minima in their place.
-std::vector<char> Hyperbolic::along_walls(const sdk::Host &host, const CauchyGreenField &cg,
-                                          const std::vector<Strainline> &lines, const std::vector<Segment> &candidates,
-                                          double radius) const {
-    std::vector<char> along_wall(candidates.size(), 0);
-    const std::vector<std::uint8_t> near_mask =
-        m_walls.mask ? within_reach_of_mask(cg.grid, cg.mask, radius) : std::vector<std::uint8_t>();
-    std::size_t count = 0;
-#pragma omp parallel for schedule(dynamic) reduction(+ : count)
-    for (std::size_t c = 0; c < candidates.size(); ++c)
-        if (fraction_along_walls(cg.grid, m_walls, near_mask, first_point(lines, candidates[c]),
-                                 candidates[c].last - candidates[c].first + 1, radius) > 0.5) {
-            along_wall[c] = 1;
-            ++count;
-        }
+    const auto count = static_cast<std::size_t>(std::count(all.along_wall.begin(), all.along_wall.end(), char{1}));
     if (count)
         host.info("" + std::to_string(count) +
                   " segments run along the box's edge or the mask's and are not "
                   "reported (declare invariant walls with \"invariant_walls\")");
-    return along_wall;
+    return all;
 }
 
 // Within two grid cells (at most the neighbour distance) a point lies along another curve: it covers the point.
@@ -985,8 +995,7 @@ std::vector<Selected> uncovered_minima(const std::vector<Strainline> &lines, con
 // (a remainder's own q).
 std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid &g,
                                                const std::vector<Strainline> &lines, const Candidates &found,
-                                               const std::vector<char> &along_wall, const SegmentMeter &meter,
-                                               const Scales &scale) const {
+                                               const SegmentMeter &meter, const Scales &scale) const {
     const std::vector<Segment> &candidates = found.segments;
     const std::vector<char> piece_of_longer = pieces_of_longer(g, lines, found, scale.radius);
     RunIndex index(g, scale.radius);
@@ -996,7 +1005,7 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
     const auto q_of = [&](std::size_t c) { return candidates[c].q; };
     index.sort_buckets(q_of);
     const double cover = cover_distance(g, scale.radius);
-    const std::vector<std::size_t> order = selection_order(candidates, along_wall);
+    const std::vector<std::size_t> order = selection_order(candidates, found.along_wall);
     std::vector<Selected> selected;
     RunIndex kept(g, cover);
     const std::size_t min_chunk = 128, max_chunk = 8192;
@@ -1253,22 +1262,22 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     };
     const std::vector<double> fields = opposite ? deviation : deviation_and_log_lambda1(cg, deviation);
     const SegmentMeter meter{opposite, g, fields};
+    const WallFilter walls(cg, m_walls, scale.radius);
     Truncation truncation;
     // The direct route truncates its strainlines batch by batch as it integrates them; the opposite-time route after
     // advecting them.
-    const std::vector<Strainline> lines = opposite ? opposite_time_strainlines(host, in, scale.max_length)
-                                                   : direct_strainlines(host, cg, deviation, scale, meter, truncation);
+    const std::vector<Strainline> lines =
+        opposite ? opposite_time_strainlines(host, in, scale.max_length)
+                 : direct_strainlines(host, cg, deviation, scale, meter, walls, truncation);
     if (opposite) {
         truncation = Truncation(lines.size());
-        truncate(lines, 0, lines.size(), meter, scale, truncation);
+        truncate(lines, 0, lines.size(), meter, walls, scale, truncation);
     }
     lap("strainlines and segments");
     const Candidates found = gathered_candidates(host, truncation, scale.min_length);
     const std::vector<Segment> &candidates = found.segments;
     if (host.progress(0.7)) throw std::runtime_error("stopped by the user");
-    const std::vector<char> along_wall = along_walls(host, cg, lines, candidates, scale.radius);
-    lap("walls");
-    const std::vector<Selected> selected = local_minima(host, g, lines, found, along_wall, meter, scale);
+    const std::vector<Selected> selected = local_minima(host, g, lines, found, meter, scale);
     lap("selection");
     const AdvectionCheck check = advect_barriers(host, in, cg, lines, selected);
     lap("advection");

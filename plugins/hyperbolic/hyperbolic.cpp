@@ -88,26 +88,33 @@ class RunIndex {
     }
     // The n points (x, y interleaved) at xy, which must outlive the index, as polyline `id`.
     void add(const double *xy, std::size_t n, std::size_t id) {
-        std::size_t k = 0;
+        std::size_t k = 0, b = 0;
+        bool inside = n > 0 && bucket(xy[0], xy[1], b);
         while (k < n) {
-            std::size_t b;
-            const bool inside = bucket(xy[2 * k], xy[2 * k + 1], b);
-            std::size_t end = k + 1, b2 = 0;
-            while (end < n && bucket(xy[2 * end], xy[2 * end + 1], b2) == inside && (!inside || b2 == b)) ++end;
-            if (inside) {
-                Run run{xy + 2 * k, end - k, id, HUGE_VAL, -HUGE_VAL, HUGE_VAL, -HUGE_VAL};
-                for (std::size_t m = k; m < end; ++m) {
-                    run.x_lo = std::min(run.x_lo, xy[2 * m]);
-                    run.x_hi = std::max(run.x_hi, xy[2 * m]);
-                    run.y_lo = std::min(run.y_lo, xy[2 * m + 1]);
-                    run.y_hi = std::max(run.y_hi, xy[2 * m + 1]);
-                }
-                if (m_buckets[b].empty()) m_filled.push_back(b);
-                m_buckets[b].push_back(run);
-                mark_occupied_around(b);
+            // The run of points from k on in the same bucket (or outside), each point's bucket found once.
+            Run run{xy + 2 * k, 0, id, HUGE_VAL, -HUGE_VAL, HUGE_VAL, -HUGE_VAL};
+            std::size_t end = k, next_b = 0;
+            bool next_inside = false;
+            while (true) {
+                run.x_lo = std::min(run.x_lo, xy[2 * end]);
+                run.x_hi = std::max(run.x_hi, xy[2 * end]);
+                run.y_lo = std::min(run.y_lo, xy[2 * end + 1]);
+                run.y_hi = std::max(run.y_hi, xy[2 * end + 1]);
+                if (++end == n) break;
+                next_inside = bucket(xy[2 * end], xy[2 * end + 1], next_b);
+                if (next_inside != inside || (inside && next_b != b)) break;
             }
+            run.n = end - k;
+            if (inside) add_run(b, run);
             k = end;
+            inside = next_inside;
+            b = next_b;
         }
+    }
+    // Every run of `other` (an index of the same box and r), after this index's own in each bucket.
+    void add_all(const RunIndex &other) {
+        for (const std::size_t b : other.m_filled)
+            for (const Run &run : other.m_buckets[b]) add_run(b, run);
     }
     // Empties the index, in time proportional to the buckets filled rather than to all of them (an index of the box
     // at two grid cells has ~10^5 buckets, and the selection empties one per chunk of candidates).
@@ -174,6 +181,11 @@ class RunIndex {
         std::size_t id;
         double x_lo, x_hi, y_lo, y_hi; // bounding box of its points
     };
+    void add_run(std::size_t b, const Run &run) {
+        if (m_buckets[b].empty()) m_filled.push_back(b);
+        m_buckets[b].push_back(run);
+        mark_occupied_around(b);
+    }
     bool bucket(double x, double y, std::size_t &b) const {
         const double fx = std::floor((x - m_x0) / m_r), fy = std::floor((y - m_y0) / m_r);
         if (!(fx >= 0 && fy >= 0 && fx < static_cast<double>(m_nx) && fy < static_cast<double>(m_ny))) return false;
@@ -891,11 +903,10 @@ std::vector<char> pieces_of_longer(const Grid &g, const std::vector<Strainline> 
                 piece[c] = 1;
                 continue;
             }
-            const std::size_t n = candidates[c].last - candidates[c].first + 1;
-            distinct.add(first_point(lines, candidates[c]), n, c);
-            added.add(first_point(lines, candidates[c]), n, c);
+            added.add(first_point(lines, candidates[c]), candidates[c].last - candidates[c].first + 1, c);
             any_added = true;
         }
+        distinct.add_all(added); // its runs found once, not again for the index of all
     }
     return piece;
 }

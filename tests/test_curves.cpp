@@ -110,6 +110,22 @@ TEST_CASE("lengths, resampling, shoelace area, bilinear sampling, statistics") {
     st = curve_statistics(seg, vals);
     CHECK(st.covered_length == doctest::Approx(0.8));
     CHECK(st.finite_points == 10);
+
+    // A closed curve's last segment joins its last point to its first: the unit square with f = x + 2y (0, 1, 3, 2
+    // at its corners) has int f ds = 0.5 + 2 + 2.5 + 1 = 6 by the trapezoid rule, exact since f is linear on each
+    // side; open, the side back to the start (1) is left out.
+    std::vector<double> corners = {0, 1, 3, 2};
+    st = curve_statistics(square, corners, true);
+    CHECK(st.integral == 6.0);
+    CHECK(st.covered_length == 4.0);
+    CHECK(st.mean == 1.5);
+    st = curve_statistics(square, corners, false);
+    CHECK(st.integral == 5.0);
+    CHECK(st.covered_length == 3.0);
+    corners[3] = std::nan(""); // both sides at the last corner drop out, the closing one included
+    st = curve_statistics(square, corners, true);
+    CHECK(st.integral == 2.5);
+    CHECK(st.covered_length == 2.0);
 }
 
 TEST_CASE("several fields sampled in one pass give sample_along's values bit for bit; partial segment lengths") {

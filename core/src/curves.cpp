@@ -209,7 +209,9 @@ CurveStats curve_statistics(const double *values, std::size_t n, const double *s
         return st;
     }
     for (std::size_t k = 0; k < segments; ++k) {
-        const std::size_t m = (k + 1) % n;
+        // The next point, wrapping round only on a closed curve's last segment (a test, not a modulo: an integer
+        // division per point was most of the hyperbolic extractor's measuring of W's 16 million segment points).
+        const std::size_t m = k + 1 < n ? k + 1 : 0;
         if (!std::isfinite(values[k]) || !std::isfinite(values[m])) continue;
         const double ds = segment_lengths[k];
         st.integral += 0.5 * (values[k] + values[m]) * ds;

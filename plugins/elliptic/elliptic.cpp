@@ -144,6 +144,8 @@ struct Found {
     std::size_t candidate = 0;
     ClosedShearline orbit;
     double length = 0.0, area = 0.0, mean_deviation = 0.0, max_deviation = 0.0, coverage = 0.0;
+    // <d_g> from exact Cauchy-Green tensors, when the selection uses it (NaN: not computed, or masked throughout)
+    double exact_mean_deviation = std::numeric_limits<double>::quiet_NaN();
     double max_ftle = 0.0, mean_ftle = 0.0;
     bool kept = false;
     std::size_t island = 0;
@@ -179,6 +181,8 @@ struct SearchInputs {
     const ReturnMapSettings &return_map;
     double island_threshold; // FTLE above which an island ends (step 6)
     bool lambda_lines;       // generalized lambda-lines: no <d_g> test
+    const gb_extract_input &in;
+    double h; // the smaller grid spacing
 };
 
 using Metrics = std::vector<std::pair<std::string, double>>;
@@ -222,6 +226,7 @@ json closed_shearline_json(const Found &f) {
             {"length", f.length},
             {"enclosed_area", f.area},
             {"mean_geodesic_deviation", finite_or_null(f.mean_deviation)},
+            {"mean_geodesic_deviation_exact", finite_or_null(f.exact_mean_deviation)},
             {"mean_ftle", finite_or_null(f.mean_ftle)},
             {"kept", f.kept}};
 }
@@ -250,7 +255,7 @@ json region_json(std::size_t region, const Candidate &cand, int sign, const Retu
 // The log line of one region and family: how many launched shearlines returned, why the others did not, how many
 // closed and passed.
 std::string region_summary(std::size_t region, const Candidate &cand, int sign, const ReturnMap &map, std::size_t kept,
-                           double max_mean_deviation) {
+                           const std::string &deviation_rule) {
     std::size_t stops[7] = {0, 0, 0, 0, 0, 0, 0}; // by StopReason
     for (std::size_t k = 0; k < map.sigma.size(); ++k)
         if (!std::isfinite(map.image[k])) ++stops[static_cast<int>(map.stop[k])];
@@ -259,7 +264,7 @@ std::string region_summary(std::size_t region, const Candidate &cand, int sign, 
            std::to_string(map.sigma.size()) + " shearlines returned (not: " + std::to_string(stops[0]) + " edge, " +
            std::to_string(stops[1]) + " masked, " + std::to_string(stops[2]) + " singular, " +
            std::to_string(stops[3] + stops[5]) + " too long); " + std::to_string(map.closed.size()) + " closed, " +
-           std::to_string(kept) + " with <d_g> < " + fmt(max_mean_deviation) +
+           std::to_string(kept) + " with " + deviation_rule +
            (map.failed_brackets ? "; " + std::to_string(map.failed_brackets) + " secant failure(s)" : "");
 }
 
@@ -403,9 +408,14 @@ struct Elliptic {
             "keep only closed shearlines whose arclength-mean FTLE is below the island threshold (ftle_threshold "
             "or Otsu): barriers on the regular side of the chaotic layer, whatever the grid resolution"),
         real_param("exact_deviation_spacing", 0.0, 0.0, 1.0, "grid spacings",
-                   "0: off; > 0: also report each barrier's <d_g> from exact Cauchy-Green tensors on 3 x 3 patches "
-                   "this many grid spacings apart around its vertices (mean_geodesic_deviation_exact; selection "
-                   "still uses the grid's)"),
+                   "0: off (a quarter with selection_deviation exact); > 0: also report each barrier's <d_g> from "
+                   "exact Cauchy-Green tensors on 3 x 3 patches this many grid spacings apart around its vertices "
+                   "(mean_geodesic_deviation_exact)"),
+        string_param("selection_deviation", "grid", "grid|exact",
+                     "the <d_g> that Alg. 2's test compares with max_mean_deviation: the grid's fields along the "
+                     "curve, or exact Cauchy-Green tensors around it (every closed shearline's, 9 trajectories per "
+                     "point at exact_deviation_points points; the grid's <d_g> loses accuracy next to the chaotic "
+                     "layer as T grows)"),
         integer_param("exact_deviation_points", 256, 0, 1000000,
                       "points per barrier, evenly spaced in arclength, where the exact <d_g> is evaluated (9 "
                       "trajectories each); 0 = every vertex (their number grows with the grid)"),
@@ -429,6 +439,7 @@ struct Elliptic {
           m_extrapolate_gap(p.flag("extrapolate_gap")), m_ftle_filter(p.flag("ftle_filter")),
           m_conservative(p.string("conservative")), m_lambda(p.real("lambda")),
           m_exact_deviation_spacing(p.real("exact_deviation_spacing")),
+          m_exact_selection(p.string("selection_deviation") == "exact"),
           m_exact_deviation_points(static_cast<std::size_t>(p.integer("exact_deviation_points"))),
           m_line_method(tensor_line_method(p.string("line_method"))), m_lambda_fallback(p.flag("lambda_fallback")),
           m_lambda_min(p.real("lambda_min")), m_lambda_max(p.real("lambda_max")), m_lambda_step(p.real("lambda_step")),
@@ -450,6 +461,13 @@ struct Elliptic {
                        const std::vector<double> &deviation, int sign, std::size_t region, const Candidate &cand,
                        Search &search) const;
     bool decide_kept(Found &f, double island_threshold, bool lambda_lines) const;
+    // The <d_g> that Alg. 2's test uses (selection_deviation), and the test in words.
+    double selection_deviation(const Found &f) const {
+        return m_exact_selection ? f.exact_mean_deviation : f.mean_deviation;
+    }
+    std::string deviation_rule() const {
+        return std::string(m_exact_selection ? "exact " : "") + "<d_g> < " + fmt(m_max_mean_deviation);
+    }
     void lambda_fallback(const sdk::Host &host, const gb_extract_input &in, const SearchInputs &inputs,
                          const std::vector<Candidate> &candidates, const std::vector<int> &signs, Search &search) const;
     const Found *outermost_lambda_line(const sdk::Host &host, const gb_extract_input &in,
@@ -492,6 +510,7 @@ struct Elliptic {
     bool m_extrapolate_gap, m_ftle_filter;
     std::string m_conservative;
     double m_lambda, m_exact_deviation_spacing;
+    bool m_exact_selection;
     std::size_t m_exact_deviation_points;
     TensorLineMethod m_line_method;
     bool m_lambda_fallback;
@@ -522,7 +541,7 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
     // Steps 2-3: return maps, fixed points, closed shearlines and their <d_g>.
     const std::vector<int> signs = families();
     const ReturnMapSettings return_map = return_map_settings(in, h);
-    const SearchInputs inputs{cg, return_map, island_threshold, lambda_lines};
+    const SearchInputs inputs{cg, return_map, island_threshold, lambda_lines, in, h};
     Search search = search_closed_shearlines(host, inputs, shear, candidates, signs);
     const double t_search = seconds_since(t_start) - t_candidates;
     // Where the eta-lines gave no barrier: the outermost closed lambda-line (step 8).
@@ -654,9 +673,8 @@ Search Elliptic::search_closed_shearlines(const sdk::Host &host, const SearchInp
         }
     }
     if (search.dropped_ftle)
-        host.info(std::to_string(search.dropped_ftle) + " closed shearline(s) with <d_g> < " +
-                  fmt(m_max_mean_deviation) + " dropped: arclength-mean FTLE above the island threshold " +
-                  fmt(inputs.island_threshold));
+        host.info(std::to_string(search.dropped_ftle) + " closed shearline(s) with " + deviation_rule() +
+                  " dropped: arclength-mean FTLE above the island threshold " + fmt(inputs.island_threshold));
     return search;
 }
 
@@ -668,15 +686,30 @@ void Elliptic::search_region(const sdk::Host &host, const SearchInputs &inputs, 
     ReturnMap map = closed_shearlines(eta, sign, cand.section, inputs.return_map, coarse);
     std::size_t kept_here = 0;
     json closed = json::array();
-    for (ClosedShearline &orbit : map.closed) {
-        Found f = measure_closed_shearline(inputs.cg, deviation, region, std::move(orbit));
+    std::vector<Found> measured;
+    for (ClosedShearline &orbit : map.closed)
+        measured.push_back(measure_closed_shearline(inputs.cg, deviation, region, std::move(orbit)));
+    if (m_exact_selection && !inputs.lambda_lines) {
+        // In one advection, the region's closed shearlines that the rest of the test would keep: in the usable
+        // field, not on the chaotic side of the island threshold.
+        std::vector<Found *> curves;
+        for (Found &f : measured)
+            if (f.coverage >= min_deviation_coverage && !(m_ftle_filter && !(f.mean_ftle < inputs.island_threshold)))
+                curves.push_back(&f);
+        const std::vector<double> exact =
+            curves.empty()
+                ? std::vector<double>()
+                : exact_deviations(host, inputs.in, std::vector<const Found *>(curves.begin(), curves.end()), inputs.h);
+        for (std::size_t k = 0; k < curves.size(); ++k) curves[k]->exact_mean_deviation = exact[k];
+    }
+    for (Found &f : measured) {
         if (inputs.lambda_lines) f.lambda = m_lambda;
         search.dropped_ftle += decide_kept(f, inputs.island_threshold, inputs.lambda_lines) ? 1 : 0;
         kept_here += f.kept ? 1 : 0;
         closed.push_back(closed_shearline_json(f));
         search.found.push_back(std::move(f));
     }
-    host.info(region_summary(region, cand, sign, map, kept_here, m_max_mean_deviation));
+    host.info(region_summary(region, cand, sign, map, kept_here, deviation_rule()));
     search.regions.push_back(region_json(region, cand, sign, map, kept_here, std::move(closed)));
     for (auto &line : map.lines) search.picture_lines.push_back(std::move(line));
 }
@@ -685,8 +718,10 @@ void Elliptic::search_region(const sdk::Host &host, const SearchInputs &inputs, 
 // have none), then step 6's bound: not on the chaotic side of the island threshold on average (past the regular
 // region's edge). Returns whether that bound dropped a curve the <d_g> test kept.
 bool Elliptic::decide_kept(Found &f, double island_threshold, bool lambda_lines) const {
+    // The exact <d_g> is a mean over the curve's finite values like the grid's; the grid's coverage still says
+    // whether the curve lies in the usable field.
     const bool passes_deviation =
-        lambda_lines || (f.coverage >= min_deviation_coverage && f.mean_deviation < m_max_mean_deviation);
+        lambda_lines || (f.coverage >= min_deviation_coverage && selection_deviation(f) < m_max_mean_deviation);
     const bool chaotic_side = m_ftle_filter && !(f.mean_ftle < island_threshold);
     f.kept = passes_deviation && !chaotic_side;
     return passes_deviation && chaotic_side;
@@ -694,7 +729,7 @@ bool Elliptic::decide_kept(Found &f, double island_threshold, bool lambda_lines)
 
 // How a barrier was selected (barriers.json's "selection", as the hyperbolic extractor's).
 std::string Elliptic::selection(const Found &f) const {
-    if (!(f.lambda > 0.0)) return "eta-line, <d_g> < " + fmt(m_max_mean_deviation);
+    if (!(f.lambda > 0.0)) return "eta-line, " + deviation_rule();
     if (m_lambda > 0.0) return "lambda-line, lambda = " + fmt(m_lambda) + " (the lambda parameter)";
     return "lambda-line fallback (no eta-line barrier in region " + std::to_string(f.candidate) +
            "): the outermost closed lambda-line, lambda = " + fmt(f.lambda, 6);
@@ -853,7 +888,7 @@ void Elliptic::lambda_fallback(const sdk::Host &host, const gb_extract_input &in
             if (f.candidate == c) {
                 ++closed;
                 kept = kept || f.kept;
-                if (f.coverage >= min_deviation_coverage) least = std::min(least, f.mean_deviation);
+                if (f.coverage >= min_deviation_coverage) least = std::min(least, selection_deviation(f));
             }
         if (kept) continue;
         // A region whose centre lies inside another region's eta-line barrier is in an island that has one.
@@ -990,7 +1025,9 @@ std::vector<double> Elliptic::exact_deviations(const sdk::Host &host, const gb_e
                                   : f->orbit.xy);
         signs.push_back(f->orbit.sign);
     }
-    return exact_mean_deviations(host, in, points, signs, m_exact_deviation_spacing * h, deviation_form());
+    // A quarter of a grid spacing unless given: well inside the cell, far above the trajectories' tolerance.
+    const double spacing = m_exact_deviation_spacing > 0.0 ? m_exact_deviation_spacing : 0.25;
+    return exact_mean_deviations(host, in, points, signs, spacing * h, deviation_form());
 }
 
 // Periodic forcing: points of a barrier iterated by the Poincaré map P = F_t0^(t0 + period) stay on it if it is a
@@ -1059,12 +1096,17 @@ void Elliptic::report_barriers(const sdk::Host &host, const gb_extract_input &in
     for (std::size_t i : kept) barriers.push_back(&found[i]);
     for (const Found *f : barriers)
         if (!(f->lambda > 0.0)) shearlines.push_back(f);
-    const bool exact_wanted = m_exact_deviation_spacing > 0.0 && !shearlines.empty();
-    const std::vector<double> exact = exact_wanted ? exact_deviations(host, in, shearlines, h) : std::vector<double>();
+    // Computed again only when the selection did not (it has every closed shearline's already).
+    const bool exact_wanted = (m_exact_deviation_spacing > 0.0 || m_exact_selection) && !shearlines.empty();
+    const std::vector<double> exact =
+        exact_wanted && !m_exact_selection ? exact_deviations(host, in, shearlines, h) : std::vector<double>();
     std::vector<Metrics> metrics;
     for (std::size_t b = 0, s = 0; b < barriers.size(); ++b) {
         const bool has_exact = exact_wanted && !(barriers[b]->lambda > 0.0);
-        metrics.push_back(barrier_metrics(*barriers[b], has_exact ? &exact[s++] : nullptr));
+        const double *exact_value = !has_exact          ? nullptr
+                                    : m_exact_selection ? &barriers[b]->exact_mean_deviation
+                                                        : &exact[s++];
+        metrics.push_back(barrier_metrics(*barriers[b], exact_value));
     }
     progress(0.25);
 
@@ -1116,7 +1158,7 @@ void Elliptic::draw_shearlines_picture(const std::filesystem::path &out_dir, con
     FieldPlot plot;
     bool lambda_lines = false, shearlines = false; // lambda-lines (parameter or fallback) have no <d_g> test
     for (std::size_t i : kept) (search.found[i].lambda > 0.0 ? lambda_lines : shearlines) = true;
-    const std::string shearline_rule = "with <d_g> < " + fmt(m_max_mean_deviation);
+    const std::string shearline_rule = "with " + deviation_rule();
     plot.title = "Shearlines; closed " +
                  (lambda_lines ? (shearlines ? shearline_rule + " and lambda-lines" : std::string("lambda-lines"))
                                : shearline_rule) +

@@ -413,9 +413,9 @@ struct Elliptic {
                    "(mean_geodesic_deviation_exact)"),
         string_param("selection_deviation", "grid", "grid|exact",
                      "the <d_g> that Alg. 2's test compares with max_mean_deviation: the grid's fields along the "
-                     "curve, or exact Cauchy-Green tensors around it (every closed shearline's, 9 trajectories per "
-                     "point at exact_deviation_points points; the grid's <d_g> loses accuracy next to the chaotic "
-                     "layer as T grows)"),
+                     "curve, or exact Cauchy-Green tensors around it (for every closed shearline the rest of the test "
+                     "would keep: 9 trajectories per point at exact_deviation_points points; the grid's <d_g> loses "
+                     "accuracy next to the chaotic layer as T grows)"),
         integer_param("exact_deviation_points", 256, 0, 1000000,
                       "points per barrier, evenly spaced in arclength, where the exact <d_g> is evaluated (9 "
                       "trajectories each); 0 = every vertex (their number grows with the grid)"),

@@ -440,23 +440,31 @@ std::vector<double> probe_points(const std::vector<double> &xy, double spacing) 
     return probe_points(xy.data(), cumulative_length(xy).data(), xy.size() / 2, spacing);
 }
 
-// Alg. 1, step 2, line by line: each strainline's compact segments with d_g^xi1 < epsilon at least min_length long.
-// Each segment also gets what the selection asks of it (its probe points, whether it runs along a wall), found while
-// its points are at hand.
-struct Truncation {
-    std::vector<std::vector<Segment>> per_line;           // measured, in order along the line
-    std::vector<std::vector<std::vector<double>>> probes; // per line, the probe points of each of its segments
-    std::vector<std::vector<char>> along_wall;            // per line, WallFilter::along for each of its segments
-    std::vector<std::size_t> short_per_line;              // how many shorter ones were left out
-    explicit Truncation(std::size_t lines = 0)
-        : per_line(lines), probes(lines), along_wall(lines), short_per_line(lines, 0) {}
-};
-
-// The barrier candidates: truncation's segments of every line in line order, their probe points and wall flags.
+// Barrier candidates: segments, each with what the selection asks of it (its probe points, whether it runs along a
+// wall), found while its points are at hand.
 struct Candidates {
     std::vector<Segment> segments;
     std::vector<std::vector<double>> probes;
-    std::vector<char> along_wall;
+    std::vector<char> along_wall; // WallFilter::along
+
+    void add(const Segment &s, std::vector<double> segment_probes, bool wall) {
+        segments.push_back(s);
+        probes.push_back(std::move(segment_probes));
+        along_wall.push_back(wall ? 1 : 0);
+    }
+    // Moves `more` after these.
+    void append(Candidates &&more) {
+        segments.insert(segments.end(), more.segments.begin(), more.segments.end());
+        for (std::vector<double> &p : more.probes) probes.push_back(std::move(p));
+        along_wall.insert(along_wall.end(), more.along_wall.begin(), more.along_wall.end());
+    }
+};
+
+// Alg. 1, step 2, line by line: each strainline's compact segments with d_g^xi1 < epsilon at least min_length long.
+struct Truncation {
+    std::vector<Candidates> per_line;        // in order along the line
+    std::vector<std::size_t> short_per_line; // how many shorter ones were left out
+    explicit Truncation(std::size_t lines = 0) : per_line(lines), short_per_line(lines, 0) {}
 };
 
 // A barrier chosen by the selection rule (step 5 of docs/extractors.md).
@@ -810,10 +818,8 @@ void Hyperbolic::truncate(const std::vector<Strainline> &lines, std::size_t firs
                     arc[j] = arc[j - 1] + steps[begin + j - 1];
                     s.longest_step = std::max(s.longest_step, steps[begin + j - 1]);
                 }
-                out.per_line[l].push_back(s);
-                out.probes[l].push_back(probe_points(line.xy.data() + 2 * begin, arc.data(), n_piece, scale.radius));
-                out.along_wall[l].push_back(
-                    walls.along(line.xy.data() + 2 * begin, n_piece, steps.data() + begin, near_wall));
+                out.per_line[l].add(s, probe_points(line.xy.data() + 2 * begin, arc.data(), n_piece, scale.radius),
+                                    walls.along(line.xy.data() + 2 * begin, n_piece, steps.data() + begin, near_wall));
             }
         }
     }
@@ -824,9 +830,7 @@ Candidates Hyperbolic::gathered_candidates(const sdk::Host &host, Truncation &tr
     Candidates all;
     std::size_t short_segments = 0;
     for (std::size_t l = 0; l < truncation.per_line.size(); ++l) {
-        all.segments.insert(all.segments.end(), truncation.per_line[l].begin(), truncation.per_line[l].end());
-        for (std::vector<double> &p : truncation.probes[l]) all.probes.push_back(std::move(p));
-        all.along_wall.insert(all.along_wall.end(), truncation.along_wall[l].begin(), truncation.along_wall[l].end());
+        all.append(std::move(truncation.per_line[l]));
         short_segments += truncation.short_per_line[l];
     }
     host.info("" + std::to_string(truncation.per_line.size()) + " strainlines, " + std::to_string(all.segments.size()) +

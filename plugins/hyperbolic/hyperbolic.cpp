@@ -382,19 +382,12 @@ struct WallFilter {
         : grid(cg.grid), walls(w), reach(r),
           near_mask(w.mask ? within_reach_of_mask(cg.grid, cg.mask, r) : std::vector<std::uint8_t>()) {}
 
-    // Whether a segment (its n points at xy, steps[k] the length from point k to k + 1) runs along a wall. `near`
-    // is a buffer.
-    bool along(const double *xy, std::size_t n, const double *steps, std::vector<double> &near) const {
-        return fraction_near(xy, n, steps, near) > 0.5;
-    }
-
-  private:
-    // The fraction of the segment's arc length that lies within reach of a wall.
-    double fraction_near(const double *xy, std::size_t n, const double *steps, std::vector<double> &near) const;
+    // Whether more than half of a segment's arc length (its n points at xy, steps[k] the length from point k to
+    // k + 1) lies within reach of a wall. `near` is a buffer.
+    bool along(const double *xy, std::size_t n, const double *steps, std::vector<double> &near) const;
 };
 
-double WallFilter::fraction_near(const double *xy, std::size_t n, const double *steps,
-                                 std::vector<double> &near) const {
+bool WallFilter::along(const double *xy, std::size_t n, const double *steps, std::vector<double> &near) const {
     const Grid &g = grid;
     near.assign(n, 0.0);
     bool any_near = false;
@@ -417,9 +410,9 @@ double WallFilter::fraction_near(const double *xy, std::size_t n, const double *
         near[k] = within ? 1.0 : 0.0;
         any_near = any_near || within;
     }
-    if (!any_near) return 0.0; // most segments: no wall in reach, and the integral below would be 0
+    if (!any_near) return false; // most segments: no wall in reach, and the integral below would be 0
     const CurveStats st = curve_statistics(near.data(), n, steps, n - 1);
-    return st.covered_length > 0.0 ? st.integral / st.covered_length : 0.0;
+    return (st.covered_length > 0.0 ? st.integral / st.covered_length : 0.0) > 0.5;
 }
 
 // Points about `spacing` apart along a polyline of n points (at least 3, at most 64), at the middles of equal

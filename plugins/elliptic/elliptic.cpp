@@ -461,6 +461,8 @@ struct Elliptic {
                        const std::vector<double> &deviation, int sign, std::size_t region, const Candidate &cand,
                        Search &search) const;
     bool decide_kept(Found &f, double island_threshold, bool lambda_lines) const;
+    bool on_chaotic_side(const Found &f, double island_threshold) const;
+    bool passes_all_but_deviation(const Found &f, double island_threshold) const;
     // The <d_g> that Alg. 2's test uses (selection_deviation), and the test in words.
     double selection_deviation(const Found &f) const {
         return m_exact_selection ? f.exact_mean_deviation : f.mean_deviation;
@@ -690,17 +692,18 @@ void Elliptic::search_region(const sdk::Host &host, const SearchInputs &inputs, 
     for (ClosedShearline &orbit : map.closed)
         measured.push_back(measure_closed_shearline(inputs.cg, deviation, region, std::move(orbit)));
     if (m_exact_selection && !inputs.lambda_lines) {
-        // In one advection, the region's closed shearlines that the rest of the test would keep: in the usable
-        // field, not on the chaotic side of the island threshold.
-        std::vector<Found *> curves;
-        for (Found &f : measured)
-            if (f.coverage >= min_deviation_coverage && !(m_ftle_filter && !(f.mean_ftle < inputs.island_threshold)))
-                curves.push_back(&f);
-        const std::vector<double> exact =
-            curves.empty()
-                ? std::vector<double>()
-                : exact_deviations(host, inputs.in, std::vector<const Found *>(curves.begin(), curves.end()), inputs.h);
-        for (std::size_t k = 0; k < curves.size(); ++k) curves[k]->exact_mean_deviation = exact[k];
+        // In one advection, the region's closed shearlines that the rest of the test would keep.
+        std::vector<const Found *> curves;
+        std::vector<std::size_t> which;
+        for (std::size_t k = 0; k < measured.size(); ++k)
+            if (passes_all_but_deviation(measured[k], inputs.island_threshold)) {
+                curves.push_back(&measured[k]);
+                which.push_back(k);
+            }
+        if (!curves.empty()) {
+            const std::vector<double> exact = exact_deviations(host, inputs.in, curves, inputs.h);
+            for (std::size_t k = 0; k < which.size(); ++k) measured[which[k]].exact_mean_deviation = exact[k];
+        }
     }
     for (Found &f : measured) {
         if (inputs.lambda_lines) f.lambda = m_lambda;
@@ -722,9 +725,20 @@ bool Elliptic::decide_kept(Found &f, double island_threshold, bool lambda_lines)
     // whether the curve lies in the usable field.
     const bool passes_deviation =
         lambda_lines || (f.coverage >= min_deviation_coverage && selection_deviation(f) < m_max_mean_deviation);
-    const bool chaotic_side = m_ftle_filter && !(f.mean_ftle < island_threshold);
+    const bool chaotic_side = on_chaotic_side(f, island_threshold);
     f.kept = passes_deviation && !chaotic_side;
     return passes_deviation && chaotic_side;
+}
+
+// Step 6's bound: on average on the chaotic side of the island threshold (with ftle_filter).
+bool Elliptic::on_chaotic_side(const Found &f, double island_threshold) const {
+    return m_ftle_filter && !(f.mean_ftle < island_threshold);
+}
+
+// decide_kept's test for a closed shearline but the <d_g> comparison: in the usable field, not on the chaotic side.
+// Only these need the exact <d_g> of selection_deviation exact.
+bool Elliptic::passes_all_but_deviation(const Found &f, double island_threshold) const {
+    return f.coverage >= min_deviation_coverage && !on_chaotic_side(f, island_threshold);
 }
 
 // How a barrier was selected (barriers.json's "selection", as the hyperbolic extractor's).

@@ -2,6 +2,8 @@
 // l(gamma_t1) = int sqrt(lambda1) ds, section 2.2, and the stretching history of eq. `rel_def`).
 #include <geobarrier/curves.hpp>
 
+#include "cell_corners.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -156,6 +158,48 @@ void sample_interleaved_lanes(const Grid &g, const double *fields, const double 
     }
 }
 
+#if defined(__AVX__) && !defined(__AVX512F__)
+// sample_interleaved_lanes<2> on builds with AVX but not AVX-512, whose compiler has no gathers: the cells are located
+// for a block of points, their corners copied (CornerBlock), and the sums then vectorised over the block. The
+// same cell, weights and order of the sum: the same values bit for bit.
+void sample_two_interleaved_blocks(const Grid &g, const double *fields, const double *xy, std::size_t n,
+                                   double *const *out) {
+    const double x0 = g.x_min, y0 = g.y_min, x1 = g.x_max, y1 = g.y_max, dx = g.dx(), dy = g.dy();
+    const double last_j = static_cast<double>(g.nx - 2), last_i = static_cast<double>(g.ny - 2);
+    const std::ptrdiff_t nx = static_cast<std::ptrdiff_t>(g.nx);
+    detail::CornerBlock points;
+    for (std::size_t b0 = 0; b0 < n; b0 += points.size) {
+        const std::size_t m = std::min(points.size, n - b0);
+#pragma GCC ivdep
+        for (std::size_t k = 0; k < m; ++k) {
+            const double px = xy[2 * (b0 + k)], py = xy[2 * (b0 + k) + 1];
+            const bool inside = px >= x0 && px <= x1 && py >= y0 && py <= y1;
+            const double fx = ((inside ? px : x0) - x0) / dx, fy = ((inside ? py : y0) - y0) / dy;
+            const double cj = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fx)), last_j);
+            const double ci = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fy)), last_i);
+            points.u[k] = fx - cj;
+            points.w[k] = fy - ci;
+            points.inside[k] = inside;
+            points.first[k] = 2 * (static_cast<std::ptrdiff_t>(ci) * nx + static_cast<std::ptrdiff_t>(cj));
+        }
+        points.load(fields, 2 * nx, m);
+        // corner[f] and corner[2 + f]: field f at the cell's lower corners; corner[4 + f] and corner[6 + f]: upper.
+#pragma GCC ivdep
+        for (std::size_t k = 0; k < m; ++k) {
+            const double u = points.u[k], v = points.w[k];
+            const double weights[4] = {(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v};
+            for (std::size_t f = 0; f < 2; ++f) {
+                const double c0 = points.corner[f][k], c1 = points.corner[2 + f][k], c2 = points.corner[4 + f][k],
+                             c3 = points.corner[6 + f][k];
+                const double sum = 0.0 + weights[0] * c0 + weights[1] * c1 + weights[2] * c2 + weights[3] * c3;
+                const bool finite = points.inside[k] & ((c0 - c0) + (c1 - c1) + (c2 - c2) + (c3 - c3) == 0.0);
+                out[f][b0 + k] = finite ? sum : nan_value;
+            }
+        }
+    }
+}
+#endif
+
 } // namespace
 
 void sample_interleaved_along(const Grid &grid, const std::vector<double> &fields, std::size_t components,
@@ -171,7 +215,11 @@ void sample_interleaved_along(const Grid &grid, const std::vector<double> &field
     if (components == 1)
         sample_interleaved_lanes<1>(grid, fields.data(), xy.data(), n, out);
     else
+#if defined(__AVX__) && !defined(__AVX512F__)
+        sample_two_interleaved_blocks(grid, fields.data(), xy.data(), n, out);
+#else
         sample_interleaved_lanes<2>(grid, fields.data(), xy.data(), n, out);
+#endif
 }
 
 std::vector<double> segment_lengths(const std::vector<double> &xy, bool closed) {

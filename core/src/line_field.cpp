@@ -2,6 +2,8 @@
 // geodesic strain deviation (paper eq. `gdev_str`, general form) and the orientation-free LineField.
 #include <geobarrier/line_field.hpp>
 
+#include "cell_corners.hpp"
+
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -368,8 +370,7 @@ void LineField::evaluate_lanes(std::size_t n, const double *x, const double *y, 
         p = static_cast<std::ptrdiff_t>(ci) * nx + static_cast<std::ptrdiff_t>(cj);
     };
 #if defined(__AVX512F__)
-    // With AVX-512 the compiler gathers the corners for all lanes of a vector at once (masked loads of the vector
-    // pairs): one loop.
+    // With AVX-512 one loop: the compiler's code for it was as fast on W as copying the corners first (below).
 #pragma GCC ivdep
     for (std::size_t k = 0; k < n; ++k) {
         std::ptrdiff_t p;
@@ -382,27 +383,23 @@ void LineField::evaluate_lanes(std::size_t n, const double *x, const double *y, 
     }
 #else
     // Narrower vectors have no such gathers: the compiler would assemble every corner value of every lane element by
-    // element. So the corners are copied first, lane by lane, each cell row's two vectors as one contiguous load,
-    // and the arithmetic then runs vectorised over lanes on the copies (W on an AVX2 build: the evaluation took
-    // ~15% less time). The same operations in the same order: the same values bit for bit.
-    constexpr std::size_t block = 32;
-    alignas(64) double corner[8][block], lane_u[block], lane_w[block];
-    bool lane_inside[block];
-    for (std::size_t b0 = 0; b0 < n; b0 += block) {
-        const std::size_t m = std::min(block, n - b0);
+    // element. So the corners are copied first (CornerBlock), and the arithmetic then runs vectorised over lanes on
+    // the copies (W on an AVX2 build: the evaluation took ~15% less time, and less again with AVX's transposed loads).
+    // The same operations in the same order: the same values bit for bit.
+    detail::CornerBlock lanes;
+    for (std::size_t b0 = 0; b0 < n; b0 += lanes.size) {
+        const std::size_t m = std::min(lanes.size, n - b0);
         for (std::size_t k = 0; k < m; ++k) {
             std::ptrdiff_t p;
-            locate_lane(b0 + k, p, lane_u[k], lane_w[k], lane_inside[k]);
-            for (int q = 0; q < 4; ++q) {
-                corner[q][k] = v[2 * p + q];
-                corner[4 + q][k] = v[2 * (p + nx) + q];
-            }
+            locate_lane(b0 + k, p, lanes.u[k], lanes.w[k], lanes.inside[k]);
+            lanes.first[k] = 2 * p;
         }
+        lanes.load(v, 2 * nx, m);
 #pragma GCC ivdep
         for (std::size_t k = 0; k < m; ++k) {
-            const double corners[8] = {corner[0][k], corner[1][k], corner[2][k], corner[3][k],
-                                       corner[4][k], corner[5][k], corner[6][k], corner[7][k]};
-            interpolate_lane(lane_u[k], lane_w[k], lane_inside[k], corners, ref_x[b0 + k], ref_y[b0 + k], vx[b0 + k],
+            const double corners[8] = {lanes.corner[0][k], lanes.corner[1][k], lanes.corner[2][k], lanes.corner[3][k],
+                                       lanes.corner[4][k], lanes.corner[5][k], lanes.corner[6][k], lanes.corner[7][k]};
+            interpolate_lane(lanes.u[k], lanes.w[k], lanes.inside[k], corners, ref_x[b0 + k], ref_y[b0 + k], vx[b0 + k],
                              vy[b0 + k], status[b0 + k]);
         }
     }

@@ -251,6 +251,9 @@ struct Row {
     ErrorStats err;
     std::string note;
     json stages = json::array(); // the manifest's per-stage times
+    // Every run's extractor stage over the same run's flow map (rows with an extractor): the spread the least-wall
+    // run's single ratio hides on a shared machine.
+    std::vector<double> extractor_ratios;
 };
 
 std::string fixed(double v, int digits) {
@@ -354,6 +357,9 @@ class Bench {
             double flow_map = nan_value;
             for (const auto &s : manifest["stages"])
                 if (s["stage"] == "flow map") flow_map = s["wall_seconds"].get<double>();
+            for (const auto &s : manifest["stages"])
+                if (s["stage"].get<std::string>().rfind("extractor", 0) == 0)
+                    row.extractor_ratios.push_back(s["wall_seconds"].get<double>() / flow_map);
             if (attempt > 0 && !(r.wall_seconds < row.wall)) {
                 row.flow_map = std::min(row.flow_map, flow_map);
                 continue;
@@ -912,7 +918,8 @@ std::optional<int> parse_options(int argc, char **argv, BenchOptions &o) {
     app.add_option("--suite-n", o.suite_n, "grid points per direction of the accuracy suite (default 101)");
     app.add_option("--program-avx2", o.program_avx2,
                    "the geobarrier program of an AVX2-only build (-march=x86-64-v3) of the same source: section "
-                   "'widths' times W's default with it beside the native build");
+                   "'widths' times W's default with it beside the native build, and 'extraction' W's hyperbolic "
+                   "extractor");
     app.add_flag("--quick", o.quick, "the short run for the docs (a few minutes): no sweep, no double gyre");
     try {
         app.parse(argc, argv);
@@ -1075,6 +1082,20 @@ void extraction_section(Bench &bench, const BenchOptions &o, BenchResults &res) 
         w["extractors"] = json::array({{{"plugin", extractor}}});
         Row wr = bench.run("extraction", std::string("W, ") + extractor, w, {"default integrator", json::object(), 2},
                            {}, nan_value, o.best_of(3));
+        bench.add(wr);
+        res.extraction.push_back(wr);
+    }
+    // The hyperbolic extractor, the costliest on W, on the AVX2-only build as well: its tensor-line evaluation and
+    // sampling take a separate code path there (no AVX-512 gathers).
+    if (!o.program_avx2.empty()) {
+        const fs::path native = bench.program;
+        bench.program = fs::absolute(o.program_avx2);
+        json w = workload_w(o.extraction_n);
+        w["extractors"] = json::array({{{"plugin", "hyperbolic"}}});
+        Row wr = bench.run("extraction", "W, hyperbolic", w,
+                           {"default integrator, AVX2-only build (-march=x86-64-v3)", json::object(), 2}, {}, nan_value,
+                           o.best_of(3));
+        bench.program = native;
         bench.add(wr);
         res.extraction.push_back(wr);
     }
@@ -1243,6 +1264,16 @@ void report_scaling(std::ostream &md, const std::vector<Row> &scaling_rows) {
     std::cout << "scaling 200..2000: flow-map time per point varies by " << fixed(100 * (hi / lo - 1), 0) << "%\n";
 }
 
+// "median (least–most) over n runs" of per-run ratios; "–" for fewer than two runs (the previous column has it).
+std::string ratio_spread(std::vector<double> ratios) {
+    if (ratios.size() < 2) return "–";
+    std::sort(ratios.begin(), ratios.end());
+    const std::size_t n = ratios.size();
+    const double median = n % 2 ? ratios[n / 2] : 0.5 * (ratios[n / 2 - 1] + ratios[n / 2]);
+    return fixed(median, 2) + " (" + fixed(ratios.front(), 2) + "–" + fixed(ratios.back(), 2) + ") over " +
+           std::to_string(n) + " runs";
+}
+
 void report_extraction(std::ostream &md, std::size_t extraction_n, const std::vector<Row> &extraction_rows) {
     if (extraction_rows.empty()) return;
     md << "## Extraction costs\n\nThe paper's hyperbolic (`experiments/duffing-damped-attractor.json`) and "
@@ -1254,12 +1285,15 @@ void report_extraction(std::ostream &md, std::size_t extraction_n, const std::ve
        << " (the default integrator; its eta-lines keep no barrier, so the extractor's time includes the "
           "lambda-line fallback, docs/extractors.md, elliptic step 8), and workload W at "
        << extraction_n << " × " << extraction_n
-       << " with each extractor at its defaults (best of three runs); stage times from the manifest, next to the "
-          "flow map of the same run.\n\n"
-          "| experiment | integrator | wall (s) | stage | seconds | × flow map |\n|---|---|---|---|---|---|\n";
+       << " with each extractor at its defaults (best of three runs), and its hyperbolic extractor again on the "
+          "AVX2-only build of \"Vector widths\"; stage times from the manifest of the least-wall run, next to the "
+          "flow map of the same run. The last column gives, for the extractor, the median and the range of that "
+          "ratio over all of the row's runs: on a shared machine one run's ratio moves by ±0.2.\n\n"
+          "| experiment | integrator | wall (s) | stage | seconds | × flow map | extractor × flow map, every run "
+          "|\n|---|---|---|---|---|---|---|\n";
     for (const Row &r : extraction_rows) {
         if (!r.note.empty()) {
-            md << "| " << r.workload << " | " << r.name << " | – | " << r.note << " | – | – |\n";
+            md << "| " << r.workload << " | " << r.name << " | – | " << r.note << " | – | – | – |\n";
             continue;
         }
         // The flow map of the same run as the stages (r.flow_map is the least over a row's repeats).
@@ -1268,9 +1302,11 @@ void report_extraction(std::ostream &md, std::size_t extraction_n, const std::ve
             if (s["stage"] == "flow map") flow_map = s["wall_seconds"].get<double>();
         for (const auto &s : r.stages) {
             const double t = s["wall_seconds"].get<double>();
+            const bool extractor = s["stage"].get<std::string>().rfind("extractor", 0) == 0;
             md << "| " << r.workload << " | " << r.name << " | " << fixed(r.wall, 2) << " | "
-               << s["stage"].get<std::string>() << " | " << fixed(t, 2) << " | " << fixed(t / flow_map, 2) << " |\n";
-            if (s["stage"].get<std::string>().rfind("extractor", 0) == 0)
+               << s["stage"].get<std::string>() << " | " << fixed(t, 2) << " | " << fixed(t / flow_map, 2) << " | "
+               << (extractor ? ratio_spread(r.extractor_ratios) : "") << " |\n";
+            if (extractor)
                 std::cout << r.workload << " (" << r.name << "): " << s["stage"].get<std::string>() << " "
                           << fixed(t, 2) << " s = " << fixed(t / flow_map, 2) << "x the flow map ("
                           << fixed(flow_map, 2) << " s)\n";

@@ -1,10 +1,12 @@
 // Line fields and Cauchy–Green derivatives: curvatures and gradients on analytic fields (with random sign flips of
 // the stored eigenvectors), and the general strain deviation against the paper's eq. `gdev_str` where
-// lambda1 lambda2 = 1 (analytic field and the undamped Duffing oscillator's own Cauchy–Green field).
+// lambda1 lambda2 = 1 (analytic field and the undamped Duffing oscillator's own Cauchy–Green field). The lane
+// evaluation against the scalar one is test_lane_paths.
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/flow_map.hpp>
 #include <geobarrier/line_field.hpp>
 
+#include "line_fields.hpp"
 #include "test_support.hpp"
 
 #include <doctest/doctest.h>
@@ -14,51 +16,8 @@
 #include <random>
 
 using namespace geobarrier;
-
-namespace {
-
-// Concentric circles around the origin: xi1 = (-y, x)/r is the counter-clockwise tangent, so kappa1 = 1/r; xi2 =
-// Omega xi1 = -(x, y)/r is radial, so kappa2 = 0. lambda2 = exp(x + 2y), lambda1 = 1 / lambda2. The stored
-// vectors get random signs: the derivatives must not see them, except that kappa1 and kappa2 change sign with the
-// orientation at the point itself (xi2 = Omega xi1 flips with xi1), so their sign follows `orientation`.
-CauchyGreenField circles(const Grid &g, unsigned seed, std::vector<double> *orientation = nullptr) {
-    CauchyGreenField cg;
-    cg.grid = g;
-    const std::size_t n = g.size();
-    for (auto *v : {&cg.lambda1, &cg.lambda2, &cg.ftle, &cg.xi1_x, &cg.xi1_y, &cg.xi2_x, &cg.xi2_y}) v->resize(n);
-    cg.mask.assign(n, 0);
-    if (orientation) orientation->resize(n);
-    std::mt19937 rng(seed);
-    std::bernoulli_distribution flip(0.5);
-    for (std::size_t i = 0; i < g.ny; ++i)
-        for (std::size_t j = 0; j < g.nx; ++j) {
-            const std::size_t p = i * g.nx + j;
-            const double x = g.x(j), y = g.y(i), r = std::hypot(x, y);
-            const double s = flip(rng) ? -1.0 : 1.0;
-            if (orientation) (*orientation)[p] = s;
-            cg.xi1_x[p] = -s * y / r;
-            cg.xi1_y[p] = s * x / r;
-            cg.xi2_x[p] = -cg.xi1_y[p];
-            cg.xi2_y[p] = cg.xi1_x[p];
-            cg.lambda2[p] = std::exp(x + 2 * y);
-            cg.lambda1[p] = 1.0 / cg.lambda2[p];
-            cg.ftle[p] = 0.5 * (x + 2 * y);
-        }
-    return cg;
-}
-
-Grid box(double x0, double x1, double y0, double y1, std::size_t nx, std::size_t ny) {
-    Grid g;
-    g.x_min = x0;
-    g.x_max = x1;
-    g.y_min = y0;
-    g.y_max = y1;
-    g.nx = nx;
-    g.ny = ny;
-    return g;
-}
-
-} // namespace
+using geobarrier::test::box;
+using geobarrier::test::circles;
 
 TEST_CASE("the general strain deviation reduces to the paper's eq. gdev_str when lambda1 lambda2 = 1") {
     // Exact algebra: with lambda1 = 1/lambda2, grad lambda1 = -grad lambda2 / lambda2^2.
@@ -151,54 +110,6 @@ TEST_CASE("LineField aligns corners before interpolating and reports unusable ce
     CHECK(f.evaluate(g.x(25) - 0.5 * g.dx(), g.y(25) + 0.5 * g.dy(), 0, 1, vx, vy) == LineStatus::masked);
     CHECK(f.evaluate(g.x(10) + 0.5 * g.dx(), g.y(10) + 0.5 * g.dy(), 0, 1, vx, vy) == LineStatus::singular);
     CHECK(f.evaluate(g.x(12) + 0.5 * g.dx(), g.y(10) + 0.5 * g.dy(), 0, 1, vx, vy) == LineStatus::ok);
-}
-
-TEST_CASE("LineField::evaluate_lanes gives evaluate's status and vector bit for bit") {
-    // The lane evaluation finds a cell's status from NaNs stored for unusable points and runs vectorised; the
-    // scalar one reads the cell codes. Random points inside, on the edges, outside and NaN, around masked and
-    // singular points, with random nonzero references, in a count that is no multiple of the lane chunk.
-    const Grid g = box(0.5, 1.5, 0.2, 1.2, 41, 31);
-    CauchyGreenField cg = circles(g, 5);
-    std::mt19937 rng(17);
-    std::uniform_int_distribution<std::size_t> point(0, g.size() - 1);
-    for (int k = 0; k < 40; ++k) cg.mask[point(rng)] = mask_left_bounds;
-    for (int k = 0; k < 40; ++k) {
-        const std::size_t p = point(rng);
-        cg.lambda1[p] = cg.lambda2[p] * (1 - 1e-5);
-    }
-    const LineField f = LineField::from_cauchy_green(cg, 1, 1e-3);
-    const std::size_t n = 1000;
-    std::uniform_real_distribution<double> xs(0.4, 1.6), ys(0.1, 1.3), ref(-1.0, 1.0);
-    std::vector<double> x(n), y(n), rx(n), ry(n), vx(n), vy(n);
-    for (std::size_t k = 0; k < n; ++k) {
-        x[k] = xs(rng);
-        y[k] = ys(rng);
-        rx[k] = ref(rng);
-        ry[k] = ref(rng);
-    }
-    x[0] = g.x_max; // the far corner belongs to the box
-    y[0] = g.y_max;
-    x[1] = g.x_min;
-    x[2] = std::nan("");
-    y[3] = HUGE_VAL;
-    std::vector<std::uint8_t> status(n);
-    f.evaluate_lanes(n, x.data(), y.data(), rx.data(), ry.data(), vx.data(), vy.data(), status.data());
-    std::size_t counts[4] = {0, 0, 0, 0};
-    for (std::size_t k = 0; k < n; ++k) {
-        double sx = rx[k], sy = ry[k];
-        const LineStatus s = f.evaluate(x[k], y[k], rx[k], ry[k], sx, sy);
-        REQUIRE(static_cast<int>(status[k]) == static_cast<int>(s));
-        ++counts[status[k]];
-        if (s == LineStatus::ok) {
-            CHECK(vx[k] == sx); // bit for bit
-            CHECK(vy[k] == sy);
-        } else {
-            CHECK(vx[k] == rx[k]); // the reference, so that no NaN reaches a lane's next stage
-            CHECK(vy[k] == ry[k]);
-        }
-    }
-    // Every status occurs, so each branch of the lane code was compared.
-    for (std::size_t c = 0; c < 4; ++c) CHECK(counts[c] > 0);
 }
 
 TEST_CASE("general and paper strain deviations agree on the undamped Duffing oscillator's own field") {

@@ -3,6 +3,8 @@
 #include <geobarrier/curves.hpp>
 #include <geobarrier/tensor_lines.hpp>
 
+#include "line_fields.hpp"
+
 #include <doctest/doctest.h>
 
 #include <cmath>
@@ -11,19 +13,9 @@
 #include <string>
 
 using namespace geobarrier;
+using geobarrier::test::box;
 
 namespace {
-
-Grid box(double x0, double x1, double y0, double y1, std::size_t nx, std::size_t ny) {
-    Grid g;
-    g.x_min = x0;
-    g.x_max = x1;
-    g.y_min = y0;
-    g.y_max = y1;
-    g.nx = nx;
-    g.ny = ny;
-    return g;
-}
 
 // Tangents of circles around (cx, cy) with random signs; undefined within `hole` of the centre.
 LineField circle_field(const Grid &g, double cx, double cy, double hole, unsigned seed) {

@@ -19,7 +19,7 @@ namespace geobarrier::detail {
 // q = 0 .. 3: a and b at the cell's left corner, then at its right one, in its lower row and then in its upper row
 // (`row` values further on).
 //
-// Without AVX-512 the compiler has no gathers for the lanes' scattered cells and assembled every corner value element
+// Without AVX-512 the compiler does not gather the lanes' scattered corners: it assembled every corner value element
 // by element. With AVX, each row's four values of four lanes are four contiguous loads, transposed in registers (W on
 // an AVX2 build: the strainline stage took ~11% less time); the values are the same, so every result is the same bit
 // for bit.

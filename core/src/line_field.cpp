@@ -382,10 +382,10 @@ void LineField::evaluate_lanes(std::size_t n, const double *x, const double *y, 
         interpolate_lane(u, w, inside, corners, ref_x[k], ref_y[k], vx[k], vy[k], status[k]);
     }
 #else
-    // Narrower vectors have no such gathers: the compiler would assemble every corner value of every lane element by
-    // element. So the corners are copied first (CornerBlock), and the arithmetic then runs vectorised over lanes on
-    // the copies (W on an AVX2 build: the evaluation took ~15% less time, and less again with AVX's transposed loads).
-    // The same operations in the same order: the same values bit for bit.
+    // With narrower vectors the compiler would assemble every corner value of every lane element by element. So the
+    // corners are copied first (CornerBlock), and the arithmetic then runs vectorised over lanes on the copies (W on an
+    // AVX2 build: the evaluation took ~15% less time, and less again with AVX's transposed loads). The same operations
+    // in the same order: the same values bit for bit.
     detail::CornerBlock lanes;
     for (std::size_t b0 = 0; b0 < n; b0 += lanes.size) {
         const std::size_t m = std::min(lanes.size, n - b0);

@@ -21,7 +21,7 @@ namespace geobarrier::detail {
 //
 // Without AVX-512 the compiler does not gather the lanes' scattered corners: it assembled every corner value element
 // by element. With AVX, each row's four values of four lanes are four contiguous loads, transposed in registers (W on
-// an AVX2 build: the strainline stage took ~11% less time); the values are the same, so every result is the same bit
+// an AVX2 build: the strainline stage took ~16% less time); the values are the same, so every result is the same bit
 // for bit.
 struct CornerBlock {
     // Lanes per block: the tensor-line integrator's lane count, so that one of its stages is one block.

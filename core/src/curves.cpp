@@ -123,79 +123,85 @@ std::vector<double> sample_along(const Grid &grid, const std::vector<double> &fi
 
 namespace {
 
+// The cell of a point for sample_interleaved_along, as bilinear_sample finds it: the floor of the same quotient, the
+// last cell holding the far edge. A point outside the box (or NaN) is located at the box's corner and reported
+// outside, so that a loop over points has no branch and no bad index.
+struct PointLocator {
+    double x0, y0, x1, y1, dx, dy, last_j, last_i;
+    std::ptrdiff_t nx;
+    explicit PointLocator(const Grid &g)
+        : x0(g.x_min), y0(g.y_min), x1(g.x_max), y1(g.y_max), dx(g.dx()), dy(g.dy()),
+          last_j(static_cast<double>(g.nx - 2)), last_i(static_cast<double>(g.ny - 2)),
+          nx(static_cast<std::ptrdiff_t>(g.nx)) {}
+    // The index p of the cell's lower-left grid point and the local coordinates (u, v) in it.
+    void locate(double px, double py, std::ptrdiff_t &p, double &u, double &v, bool &inside) const {
+        inside = px >= x0 && px <= x1 && py >= y0 && py <= y1;
+        const double fx = ((inside ? px : x0) - x0) / dx, fy = ((inside ? py : y0) - y0) / dy;
+        const double cj = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fx)), last_j);
+        const double ci = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fy)), last_i);
+        u = fx - cj;
+        v = fy - ci;
+        p = static_cast<std::ptrdiff_t>(ci) * nx + static_cast<std::ptrdiff_t>(cj);
+    }
+};
+
+// bilinear_sample's value from a cell's corner values c0 .. c3 (p, p + 1, p + nx, p + nx + 1): the same weights and
+// the same order of the sum; NaN outside or when a corner is not finite.
+inline double interpolated_or_nan(double u, double v, bool inside, double c0, double c1, double c2, double c3) {
+    const double weights[4] = {(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v};
+    const double sum = 0.0 + weights[0] * c0 + weights[1] * c1 + weights[2] * c2 + weights[3] * c3;
+    // x - x is 0 for a finite x and NaN for NaN and infinities: one test for the four corners, no call.
+    const bool finite = inside & ((c0 - c0) + (c1 - c1) + (c2 - c2) + (c3 - c3) == 0.0);
+    return finite ? sum : nan_value;
+}
+
 // sample_interleaved_along for a known number of components, written so that the compiler vectorises it over the
-// points (gathers of the corners, no branch): a point outside the box is sampled at the box's corner and then
-// reported NaN. Each value is bilinear_sample's to the bit: the same cell (the floor of the same
-// quotient, the last cell holding the far edge), the same weights and the same order of the sum.
+// points (no branch). Each value is bilinear_sample's to the bit.
 template <std::size_t C>
 void sample_interleaved_lanes(const Grid &g, const double *fields, const double *xy, std::size_t n,
                               double *const *out) {
-    const double x0 = g.x_min, y0 = g.y_min, x1 = g.x_max, y1 = g.y_max, dx = g.dx(), dy = g.dy();
-    const double last_j = static_cast<double>(g.nx - 2), last_i = static_cast<double>(g.ny - 2);
-    const std::ptrdiff_t nx = static_cast<std::ptrdiff_t>(g.nx);
+    const PointLocator cells(g);
+    const std::ptrdiff_t nx = cells.nx;
     double *outputs[C];
     for (std::size_t f = 0; f < C; ++f) outputs[f] = out[f];
 #pragma GCC ivdep
     for (std::size_t k = 0; k < n; ++k) {
-        const double px = xy[2 * k], py = xy[2 * k + 1];
-        const bool inside = px >= x0 && px <= x1 && py >= y0 && py <= y1;
-        const double fx = ((inside ? px : x0) - x0) / dx, fy = ((inside ? py : y0) - y0) / dy;
-        const double cj = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fx)), last_j);
-        const double ci = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fy)), last_i);
-        const double u = fx - cj, v = fy - ci;
-        const std::ptrdiff_t p = static_cast<std::ptrdiff_t>(ci) * nx + static_cast<std::ptrdiff_t>(cj);
-        const std::ptrdiff_t corners[4] = {p, p + 1, p + nx, p + nx + 1};
-        const double weights[4] = {(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v};
+        std::ptrdiff_t p;
+        double u, v;
+        bool inside;
+        cells.locate(xy[2 * k], xy[2 * k + 1], p, u, v, inside);
         for (std::size_t f = 0; f < C; ++f) {
             const double *at = fields + f;
-            const double c0 = at[C * corners[0]], c1 = at[C * corners[1]], c2 = at[C * corners[2]],
-                         c3 = at[C * corners[3]];
-            const double sum = 0.0 + weights[0] * c0 + weights[1] * c1 + weights[2] * c2 + weights[3] * c3;
-            // x - x is 0 for a finite x and NaN for NaN and infinities: one test for the four corners, no call.
-            const bool finite = inside & ((c0 - c0) + (c1 - c1) + (c2 - c2) + (c3 - c3) == 0.0);
-            outputs[f][k] = finite ? sum : nan_value;
+            outputs[f][k] =
+                interpolated_or_nan(u, v, inside, at[C * p], at[C * (p + 1)], at[C * (p + nx)], at[C * (p + nx + 1)]);
         }
     }
 }
 
 #if defined(__AVX__) && !defined(__AVX512F__)
-// sample_interleaved_lanes<2> on builds with AVX but not AVX-512, whose compiler has no gathers: the cells are located
-// for a block of points, their corners copied (CornerBlock), and the sums then vectorised over the block. The
-// same cell, weights and order of the sum: the same values bit for bit.
+// sample_interleaved_lanes<2> on builds with AVX but not AVX-512, whose compiler does not gather the corners: the
+// cells are located for a block of points, their corners copied (CornerBlock), and the sums then vectorised over the
+// block. The same cells and the same arithmetic: the same values bit for bit.
 void sample_two_interleaved_blocks(const Grid &g, const double *fields, const double *xy, std::size_t n,
                                    double *const *out) {
-    const double x0 = g.x_min, y0 = g.y_min, x1 = g.x_max, y1 = g.y_max, dx = g.dx(), dy = g.dy();
-    const double last_j = static_cast<double>(g.nx - 2), last_i = static_cast<double>(g.ny - 2);
-    const std::ptrdiff_t nx = static_cast<std::ptrdiff_t>(g.nx);
+    const PointLocator cells(g);
     detail::CornerBlock points;
     for (std::size_t b0 = 0; b0 < n; b0 += points.size) {
         const std::size_t m = std::min(points.size, n - b0);
 #pragma GCC ivdep
         for (std::size_t k = 0; k < m; ++k) {
-            const double px = xy[2 * (b0 + k)], py = xy[2 * (b0 + k) + 1];
-            const bool inside = px >= x0 && px <= x1 && py >= y0 && py <= y1;
-            const double fx = ((inside ? px : x0) - x0) / dx, fy = ((inside ? py : y0) - y0) / dy;
-            const double cj = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fx)), last_j);
-            const double ci = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fy)), last_i);
-            points.u[k] = fx - cj;
-            points.w[k] = fy - ci;
-            points.inside[k] = inside;
-            points.first[k] = 2 * (static_cast<std::ptrdiff_t>(ci) * nx + static_cast<std::ptrdiff_t>(cj));
+            std::ptrdiff_t p;
+            cells.locate(xy[2 * (b0 + k)], xy[2 * (b0 + k) + 1], p, points.u[k], points.w[k], points.inside[k]);
+            points.first[k] = 2 * p;
         }
-        points.load(fields, 2 * nx, m);
+        points.load(fields, 2 * cells.nx, m);
         // corner[f] and corner[2 + f]: field f at the cell's lower corners; corner[4 + f] and corner[6 + f]: upper.
 #pragma GCC ivdep
-        for (std::size_t k = 0; k < m; ++k) {
-            const double u = points.u[k], v = points.w[k];
-            const double weights[4] = {(1 - u) * (1 - v), u * (1 - v), (1 - u) * v, u * v};
-            for (std::size_t f = 0; f < 2; ++f) {
-                const double c0 = points.corner[f][k], c1 = points.corner[2 + f][k], c2 = points.corner[4 + f][k],
-                             c3 = points.corner[6 + f][k];
-                const double sum = 0.0 + weights[0] * c0 + weights[1] * c1 + weights[2] * c2 + weights[3] * c3;
-                const bool finite = points.inside[k] & ((c0 - c0) + (c1 - c1) + (c2 - c2) + (c3 - c3) == 0.0);
-                out[f][b0 + k] = finite ? sum : nan_value;
-            }
-        }
+        for (std::size_t k = 0; k < m; ++k)
+            for (std::size_t f = 0; f < 2; ++f)
+                out[f][b0 + k] =
+                    interpolated_or_nan(points.u[k], points.w[k], points.inside[k], points.corner[f][k],
+                                        points.corner[2 + f][k], points.corner[4 + f][k], points.corner[6 + f][k]);
     }
 }
 #endif

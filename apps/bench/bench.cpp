@@ -1078,27 +1078,22 @@ void extraction_section(Bench &bench, const BenchOptions &o, BenchResults &res) 
     // Workload W itself with each extractor at its defaults (the runner adds the fields an extractor needs): a
     // user's first run on the paper's first example. Best of five: these stages take about a second each, and five runs
     // give their ratio's spread.
-    for (const char *extractor : {"hyperbolic", "elliptic", "parabolic"}) {
+    const auto w_row = [&](const char *extractor, const std::string &label) {
         json w = workload_w(o.extraction_n);
         w["extractors"] = json::array({{{"plugin", extractor}}});
-        Row wr = bench.run("extraction", std::string("W, ") + extractor, w, {"default integrator", json::object(), 2},
-                           {}, nan_value, o.best_of(5));
+        Row wr = bench.run("extraction", std::string("W, ") + extractor, w, {label, json::object(), 2}, {}, nan_value,
+                           o.best_of(5));
         bench.add(wr);
         res.extraction.push_back(wr);
-    }
+    };
+    for (const char *extractor : {"hyperbolic", "elliptic", "parabolic"}) w_row(extractor, "default integrator");
     // The hyperbolic extractor, the costliest on W, on the AVX2-only build as well: its tensor-line evaluation and
-    // sampling take a separate code path there (no AVX-512 gathers).
+    // sampling take their own code path there (core/src/cell_corners.hpp).
     if (!o.program_avx2.empty()) {
         const fs::path native = bench.program;
         bench.program = fs::absolute(o.program_avx2);
-        json w = workload_w(o.extraction_n);
-        w["extractors"] = json::array({{{"plugin", "hyperbolic"}}});
-        Row wr = bench.run("extraction", "W, hyperbolic", w,
-                           {"default integrator, AVX2-only build (-march=x86-64-v3)", json::object(), 2}, {}, nan_value,
-                           o.best_of(5));
+        w_row("hyperbolic", "default integrator, AVX2-only build (-march=x86-64-v3)");
         bench.program = native;
-        bench.add(wr);
-        res.extraction.push_back(wr);
     }
 }
 

@@ -162,11 +162,12 @@ TEST_CASE("every line_method closes circles within the interpolation error; a ba
 
 TEST_CASE("both ways in a batch: arc lengths optional, the same points either way, joins in place") {
     // Circles around (0.3, 0), seeded above the centre: those of radius < 0.7 close inside the box, larger ones leave
-    // it at both ends.
+    // it at both ends. More seeds than two threads' lanes, so that lanes take a seed's backward branch after its
+    // forward one and then further seeds.
     const Grid g = box(-1, 1, -1, 1, 101, 101);
     const LineField f = circle_field(g, 0.3, 0.0, 0.05, 11);
     std::vector<double> seeds;
-    for (int k = 0; k < 40; ++k) seeds.insert(seeds.end(), {0.31, 0.2 + 0.78 * k / 39.0});
+    for (int k = 0; k < 150; ++k) seeds.insert(seeds.end(), {0.31, 0.2 + 0.78 * k / 149.0});
     TensorLineSettings with_lengths;
     with_lengths.max_length = 3.0;
     const std::vector<TwoWayLine> a = integrate_tensor_lines_both_ways(f, seeds, with_lengths);
@@ -200,6 +201,8 @@ TEST_CASE("both ways in a batch: arc lengths optional, the same points either wa
         const std::size_t seed = a[k].seed_index;
         REQUIRE(seed + 1 == bwd.size());
         REQUIRE(seed + fwd.size() == a[k].size());
+        CHECK(a[k].stop_forward == fwd.stop);
+        CHECK(a[k].stop_backward == bwd.stop);
         for (std::size_t p = 0; p < fwd.size(); ++p) {
             CHECK(a[k].xy[2 * (seed + p)] == fwd.xy[2 * p]);
             CHECK(a[k].xy[2 * (seed + p) + 1] == fwd.xy[2 * p + 1]);

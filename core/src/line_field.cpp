@@ -4,6 +4,7 @@
 
 #include "cell_corners.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -404,6 +405,30 @@ void LineField::evaluate_lanes(std::size_t n, const double *x, const double *y, 
         }
     }
 #endif
+}
+
+// The cells' two rows of corners (p, p + 1 and p + nx, p + nx + 1) are two cache lines apart by a grid row.
+void LineField::prefetch_lanes(std::size_t n, const double *x, const double *y) const {
+    if (m_cell.empty()) return;
+    const Grid &g = m_grid;
+    const double x0 = g.x_min, y0 = g.y_min, inv_dx = m_inv_dx, inv_dy = m_inv_dy;
+    const double last_j = static_cast<double>(g.nx - 2), last_i = static_cast<double>(g.ny - 2);
+    const std::ptrdiff_t nx = static_cast<std::ptrdiff_t>(g.nx);
+    std::ptrdiff_t first[64];
+    for (std::size_t b0 = 0; b0 < n; b0 += 64) {
+        const std::size_t m = std::min<std::size_t>(64, n - b0);
+#pragma GCC ivdep
+        for (std::size_t k = 0; k < m; ++k) {
+            // Clamped into the grid's cells (NaN to the first): any point is a valid hint.
+            const double fx = (x[b0 + k] - x0) * inv_dx, fy = (y[b0 + k] - y0) * inv_dy;
+            const double cx = fx >= 0.0 ? std::min(fx, last_j) : 0.0, cy = fy >= 0.0 ? std::min(fy, last_i) : 0.0;
+            first[k] = static_cast<std::ptrdiff_t>(cy) * nx + static_cast<std::ptrdiff_t>(cx);
+        }
+        for (std::size_t k = 0; k < m; ++k) {
+            __builtin_prefetch(m_v.data() + 2 * first[k]);
+            __builtin_prefetch(m_v.data() + 2 * (first[k] + nx));
+        }
+    }
 }
 
 bool LineField::point_vector(std::size_t i, std::size_t j, double &vx, double &vy) const {

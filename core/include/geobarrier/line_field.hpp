@@ -88,6 +88,9 @@ class LineField {
     // bit wherever evaluate is given a nonzero finite reference.
     void evaluate_lanes(std::size_t n, const double *x, const double *y, const double *ref_x, const double *ref_y,
                         double *vx, double *vy, std::uint8_t *status) const;
+    // A hint, no result: starts loading the cells of points (x[k], y[k]) (any values, NaN included) into the cache,
+    // for evaluate_lanes there soon after. The tensor-line lanes give it where their steps will about end.
+    void prefetch_lanes(std::size_t n, const double *x, const double *y) const;
     // Status only (is there a usable cell around (x, y)?).
     LineStatus status_at(double x, double y) const;
     // The stored (unaligned) unit vector at grid point (i, j) and whether it may be used.

@@ -111,20 +111,6 @@ class RunIndex {
             b = next_b;
         }
     }
-    // Every run of `other` (an index of the same box and r), after this index's own in each bucket.
-    void add_all(const RunIndex &other) {
-        for (const std::size_t b : other.m_filled)
-            for (const Run &run : other.m_buckets[b]) add_run(b, run);
-    }
-    // Empties the index, in time proportional to the buckets filled rather than to all of them (an index of the box
-    // at two grid cells has ~10^5 buckets, and the selection empties one per chunk of candidates).
-    void clear() {
-        for (std::size_t b : m_filled) {
-            m_buckets[b].clear();
-            clear_occupied_around(b);
-        }
-        m_filled.clear();
-    }
     // Sorts every bucket by key(id), ascending (ties by id), for any_near_below.
     template <class Key> void sort_buckets(Key &&key) {
         for (auto &b : m_buckets)
@@ -182,7 +168,6 @@ class RunIndex {
         double x_lo, x_hi, y_lo, y_hi; // bounding box of its points
     };
     void add_run(std::size_t b, const Run &run) {
-        if (m_buckets[b].empty()) m_filled.push_back(b);
         m_buckets[b].push_back(run);
         mark_occupied_around(b);
     }
@@ -193,19 +178,16 @@ class RunIndex {
         return true;
     }
     // Sets the flag of b's 3 x 3 neighbourhood: b and its eight neighbours now have a run in reach.
-    void mark_occupied_around(std::size_t b) { set_around(b, 1); }
-    void clear_occupied_around(std::size_t b) { set_around(b, 0); }
-    void set_around(std::size_t b, std::uint8_t flag) {
+    void mark_occupied_around(std::size_t b) {
         const std::size_t i = b % m_nx, j = b / m_nx;
         for (std::size_t jj = j > 0 ? j - 1 : 0; jj <= std::min(j + 1, m_ny - 1); ++jj)
             for (std::size_t ii = i > 0 ? i - 1 : 0; ii <= std::min(i + 1, m_nx - 1); ++ii)
-                m_occupied_around[jj * m_nx + ii] = flag;
+                m_occupied_around[jj * m_nx + ii] = 1;
     }
     double m_r, m_x0, m_y0;
     std::size_t m_nx = 1, m_ny = 1;
     std::vector<std::vector<Run>> m_buckets;
     std::vector<std::uint8_t> m_occupied_around; // per bucket: 1 when it or a neighbour holds a run
-    std::vector<std::size_t> m_filled;           // the buckets that hold a run
 };
 
 // The fields along the points of a strainline (or of a piece of one), sampled by SegmentMeter::sample: d_g^xi1 at
@@ -884,30 +866,28 @@ std::vector<char> pieces_of_longer(const Grid &g, const std::vector<Strainline> 
     const double cover = cover_distance(g, radius);
     RunIndex distinct(g, cover);
     // In chunks: the probes of a chunk are tested in parallel against the index as it was before the chunk, and in
-    // order only those not near it against the segments the chunk itself added (the same answers as one by one).
+    // order only those not near it again, once the chunk itself added segments (the same answers as one by one: the
+    // index had no point near them before the chunk).
     const std::size_t chunk = 256;
-    RunIndex added(g, cover); // the segments the current chunk added
     for (std::size_t start = 0; start < by_length.size(); start += chunk) {
         const std::size_t end = std::min(by_length.size(), start + chunk);
         std::vector<std::vector<char>> near(end - start);
 #pragma omp parallel for schedule(dynamic)
         for (std::size_t i = start; i < end; ++i) near[i - start] = near_points(distinct, probes[by_length[i]], cover);
-        added.clear();
         bool any_added = false;
         for (std::size_t i = start; i < end; ++i) {
             const std::size_t c = by_length[i];
             std::vector<char> &along = near[i - start];
-            if (any_added) add_near_points(added, probes[c], cover, along);
+            if (any_added) add_near_points(distinct, probes[c], cover, along);
             const std::size_t count = along.size();
             const auto hits = static_cast<std::size_t>(std::count(along.begin(), along.end(), char{1}));
             if (static_cast<double>(hits) >= 0.9 * static_cast<double>(count)) {
                 piece[c] = 1;
                 continue;
             }
-            added.add(first_point(lines, candidates[c]), candidates[c].last - candidates[c].first + 1, c);
+            distinct.add(first_point(lines, candidates[c]), candidates[c].last - candidates[c].first + 1, c);
             any_added = true;
         }
-        distinct.add_all(added); // its runs found once, not again for the index of all
     }
     return piece;
 }

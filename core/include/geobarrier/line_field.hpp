@@ -84,8 +84,8 @@ class LineField {
     // The same for n points at once (the lockstep tensor-line integrator, tensor_lines.cpp): the field at (x[k], y[k])
     // aligned with the nonzero reference (ref_x[k], ref_y[k]), status[k] a LineStatus; where it is not ok, (vx[k],
     // vy[k]) is the reference, so no NaN reaches a lane's next stage. Any input (outside, NaN) is safe. Written
-    // without branches so that the loop vectorises (gathers of the cell corners); a value equals evaluate's bit for
-    // bit wherever evaluate is given a nonzero finite reference.
+    // without branches so that the arithmetic vectorises over the points (the cell corners are loaded point by point);
+    // a value equals evaluate's bit for bit wherever evaluate is given a nonzero finite reference.
     void evaluate_lanes(std::size_t n, const double *x, const double *y, const double *ref_x, const double *ref_y,
                         double *vx, double *vy, std::uint8_t *status) const;
     // A hint, no result: starts loading the cells of points (x[k], y[k]) (any values, NaN included) into the cache,

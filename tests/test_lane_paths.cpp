@@ -50,8 +50,6 @@ TEST_CASE("LineField::evaluate_lanes gives evaluate's status and vector bit for 
     x[2] = std::nan("");
     y[3] = HUGE_VAL;
     std::vector<std::uint8_t> status(n);
-    // The prefetch hint takes all these points (NaN, infinite, outside) and changes nothing below.
-    f.prefetch_lanes(n, x.data(), y.data());
     f.evaluate_lanes(n, x.data(), y.data(), rx.data(), ry.data(), vx.data(), vy.data(), status.data());
     std::size_t counts[4] = {0, 0, 0, 0};
     for (std::size_t k = 0; k < n; ++k) {

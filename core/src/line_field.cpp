@@ -340,6 +340,28 @@ inline void interpolate_lane(double u, double w, bool inside, const double *corn
     status = st;
 }
 
+// The cell of a lane's point for evaluate_lanes and prefetch_lanes: the index p of its first corner (the others are
+// p + 1, p + nx, p + nx + 1) and the local coordinates (u, w), from the field's inverse spacings as locate() finds
+// them (the floor, the last cell also holding the box's far edge). Outside (or NaN) the point is taken at the box's
+// corner and reported outside: no branch, no bad index.
+struct LaneCells {
+    double x0, y0, x1, y1, inv_dx, inv_dy, last_j, last_i;
+    std::ptrdiff_t nx;
+    LaneCells(const Grid &g, double inverse_dx, double inverse_dy)
+        : x0(g.x_min), y0(g.y_min), x1(g.x_max), y1(g.y_max), inv_dx(inverse_dx), inv_dy(inverse_dy),
+          last_j(static_cast<double>(g.nx - 2)), last_i(static_cast<double>(g.ny - 2)),
+          nx(static_cast<std::ptrdiff_t>(g.nx)) {}
+    void locate(double px, double py, std::ptrdiff_t &p, double &u, double &w, bool &inside) const {
+        inside = px >= x0 && px <= x1 && py >= y0 && py <= y1;
+        const double fx = ((inside ? px : x0) - x0) * inv_dx, fy = ((inside ? py : y0) - y0) * inv_dy;
+        const double cj = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fx)), last_j);
+        const double ci = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fy)), last_i);
+        u = fx - cj;
+        w = fy - ci;
+        p = static_cast<std::ptrdiff_t>(ci) * nx + static_cast<std::ptrdiff_t>(cj);
+    }
+};
+
 } // namespace
 
 void LineField::evaluate_lanes(std::size_t n, const double *x, const double *y, const double *ref_x,
@@ -353,23 +375,9 @@ void LineField::evaluate_lanes(std::size_t n, const double *x, const double *y, 
         }
         return;
     }
-    const double x0 = g.x_min, y0 = g.y_min, x1 = g.x_max, y1 = g.y_max, inv_dx = m_inv_dx, inv_dy = m_inv_dy;
-    const double last_j = static_cast<double>(g.nx - 2), last_i = static_cast<double>(g.ny - 2);
-    const std::ptrdiff_t nx = static_cast<std::ptrdiff_t>(g.nx);
+    const LaneCells cells(g, m_inv_dx, m_inv_dy);
+    const std::ptrdiff_t nx = cells.nx;
     const double *v = m_v.data();
-    // Lane k's cell: its first corner's index p (the others are p + 1, p + nx, p + nx + 1) and the local coordinates
-    // (u, w); outside (or NaN) the lane is evaluated at the box's corner and reported outside: no branch, no bad index.
-    const auto locate_lane = [&](std::size_t k, std::ptrdiff_t &p, double &u, double &w, bool &inside) {
-        const double px = x[k], py = y[k];
-        inside = px >= x0 && px <= x1 && py >= y0 && py <= y1;
-        const double fx = ((inside ? px : x0) - x0) * inv_dx, fy = ((inside ? py : y0) - y0) * inv_dy;
-        // As locate(): the cell's index is the floor, the last cell also holds the box's far edge.
-        const double cj = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fx)), last_j);
-        const double ci = std::min(static_cast<double>(static_cast<std::ptrdiff_t>(fy)), last_i);
-        u = fx - cj;
-        w = fy - ci;
-        p = static_cast<std::ptrdiff_t>(ci) * nx + static_cast<std::ptrdiff_t>(cj);
-    };
 #if defined(__AVX512F__)
     // With AVX-512 one loop: the compiler's code for it was as fast on W as copying the corners first (below).
 #pragma GCC ivdep
@@ -377,7 +385,7 @@ void LineField::evaluate_lanes(std::size_t n, const double *x, const double *y, 
         std::ptrdiff_t p;
         double u, w;
         bool inside;
-        locate_lane(k, p, u, w, inside);
+        cells.locate(x[k], y[k], p, u, w, inside);
         const double corners[8] = {v[2 * p],        v[2 * p + 1],        v[2 * p + 2],        v[2 * p + 3],
                                    v[2 * (p + nx)], v[2 * (p + nx) + 1], v[2 * (p + nx) + 2], v[2 * (p + nx) + 3]};
         interpolate_lane(u, w, inside, corners, ref_x[k], ref_y[k], vx[k], vy[k], status[k]);
@@ -392,7 +400,7 @@ void LineField::evaluate_lanes(std::size_t n, const double *x, const double *y, 
         const std::size_t m = std::min(lanes.size, n - b0);
         for (std::size_t k = 0; k < m; ++k) {
             std::ptrdiff_t p;
-            locate_lane(b0 + k, p, lanes.u[k], lanes.w[k], lanes.inside[k]);
+            cells.locate(x[b0 + k], y[b0 + k], p, lanes.u[k], lanes.w[k], lanes.inside[k]);
             lanes.first[k] = 2 * p;
         }
         lanes.load(v, 2 * nx, m);
@@ -407,22 +415,20 @@ void LineField::evaluate_lanes(std::size_t n, const double *x, const double *y, 
 #endif
 }
 
-// The cells' two rows of corners (p, p + 1 and p + nx, p + nx + 1) are two cache lines apart by a grid row.
+// The cells evaluate_lanes will read for these points (the same LaneCells), their two rows of corners (p, p + 1 and
+// p + nx, p + nx + 1) a grid row apart.
 void LineField::prefetch_lanes(std::size_t n, const double *x, const double *y) const {
     if (m_cell.empty()) return;
-    const Grid &g = m_grid;
-    const double x0 = g.x_min, y0 = g.y_min, inv_dx = m_inv_dx, inv_dy = m_inv_dy;
-    const double last_j = static_cast<double>(g.nx - 2), last_i = static_cast<double>(g.ny - 2);
-    const std::ptrdiff_t nx = static_cast<std::ptrdiff_t>(g.nx);
+    const LaneCells cells(m_grid, m_inv_dx, m_inv_dy);
+    const std::ptrdiff_t nx = cells.nx;
     std::ptrdiff_t first[64];
     for (std::size_t b0 = 0; b0 < n; b0 += 64) {
         const std::size_t m = std::min<std::size_t>(64, n - b0);
 #pragma GCC ivdep
         for (std::size_t k = 0; k < m; ++k) {
-            // Clamped into the grid's cells (NaN to the first): any point is a valid hint.
-            const double fx = (x[b0 + k] - x0) * inv_dx, fy = (y[b0 + k] - y0) * inv_dy;
-            const double cx = fx >= 0.0 ? std::min(fx, last_j) : 0.0, cy = fy >= 0.0 ? std::min(fy, last_i) : 0.0;
-            first[k] = static_cast<std::ptrdiff_t>(cy) * nx + static_cast<std::ptrdiff_t>(cx);
+            double u, w;
+            bool inside;
+            cells.locate(x[b0 + k], y[b0 + k], first[k], u, w, inside);
         }
         for (std::size_t k = 0; k < m; ++k) {
             __builtin_prefetch(m_v.data() + 2 * first[k]);

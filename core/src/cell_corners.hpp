@@ -1,6 +1,6 @@
 // The corners of grid cells for many lanes at once, for fields that hold two values per grid point interleaved (a
 // line field's vectors, the hyperbolic extractor's d_g and log lambda1): the loads shared by LineField::evaluate_lanes
-// and sample_interleaved_along on builds without AVX-512.
+// on builds without AVX-512 and sample_interleaved_along on builds with AVX.
 #ifndef GEOBARRIER_CELL_CORNERS_HPP
 #define GEOBARRIER_CELL_CORNERS_HPP
 
@@ -19,8 +19,8 @@ namespace geobarrier::detail {
 // q = 0 .. 3: a and b at the cell's left corner, then at its right one, in its lower row and then in its upper row
 // (`row` values further on).
 //
-// Without AVX-512 the compiler does not gather the lanes' scattered corners: it assembled every corner value element
-// by element. With AVX, each row's four values of four lanes are four contiguous loads, transposed in registers (W on
+// Without AVX-512 (and with it, in the sampler's loop) the compiler does not gather the lanes' scattered corners: it
+// assembled every corner value element by element. With AVX, each row's four values of four lanes are four contiguous loads, transposed in registers (W on
 // an AVX2 build: the strainline stage took ~16% less time); the values are the same, so every result is the same bit
 // for bit.
 struct CornerBlock {

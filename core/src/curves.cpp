@@ -178,10 +178,12 @@ void sample_interleaved_lanes(const Grid &g, const double *fields, const double 
     }
 }
 
-#if defined(__AVX__) && !defined(__AVX512F__)
-// sample_interleaved_lanes<2> on builds with AVX but not AVX-512, whose compiler does not gather the corners: the
-// cells are located for a block of points, their corners copied (CornerBlock), and the sums then vectorised over the
-// block. The same cells and the same arithmetic: the same values bit for bit.
+#if defined(__AVX__)
+// sample_interleaved_lanes<2> on builds with AVX: the cells are located for a block of points, their corners copied
+// (CornerBlock: one load per cell row and field pair, transposed in registers), and the sums then vectorised over the
+// block. The same cells and the same arithmetic: the same values bit for bit. With AVX-512 too: there the compiler's
+// code for the plain loop assembled every corner value element by element, and W's truncation (1000 x 1000, 18
+// million points sampled) took 0.24 s against 0.20 s this way.
 void sample_two_interleaved_blocks(const Grid &g, const double *fields, const double *xy, std::size_t n,
                                    double *const *out) {
     const PointLocator cells(g);
@@ -221,7 +223,7 @@ void sample_interleaved_along(const Grid &grid, const std::vector<double> &field
     if (components == 1)
         sample_interleaved_lanes<1>(grid, fields.data(), xy.data(), n, out);
     else
-#if defined(__AVX__) && !defined(__AVX512F__)
+#if defined(__AVX__)
         sample_two_interleaved_blocks(grid, fields.data(), xy.data(), n, out);
 #else
         sample_interleaved_lanes<2>(grid, fields.data(), xy.data(), n, out);

@@ -20,9 +20,9 @@ namespace geobarrier::detail {
 // (`row` values further on).
 //
 // Without AVX-512 (and with it, in the sampler's loop) the compiler does not gather the lanes' scattered corners: it
-// assembled every corner value element by element. With AVX, each row's four values of four lanes are four contiguous loads, transposed in registers (W on
-// an AVX2 build: the strainline stage took ~16% less time); the values are the same, so every result is the same bit
-// for bit.
+// assembled every corner value element by element. With AVX, each row's four values of four lanes are four contiguous
+// loads, transposed in registers (W on an AVX2 build: the strainline stage took ~16% less time); the values are the
+// same, so every result is the same bit for bit.
 struct CornerBlock {
     // Lanes per block: the tensor-line integrator's lane count, so that one of its stages is one block.
     static constexpr std::size_t size = 32;

@@ -2,7 +2,7 @@
 // that C = I, lambda1 many orders below lambda2, stiff systems and rosenbrock4, tolerances and grids at and past
 // their limits, escaping trajectories, singular points of the line fields, and cancellation. Every bound is derived
 // in the comment beside it.
-#include "resources.hpp"
+#include "experiment/resources.hpp"
 
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/cauchy_green.hpp>

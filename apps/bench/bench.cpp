@@ -1089,7 +1089,7 @@ void extraction_section(Bench &bench, const BenchOptions &o, BenchResults &res) 
     };
     for (const char *extractor : {"hyperbolic", "elliptic", "parabolic"}) w_row(extractor, "default integrator");
     // The hyperbolic extractor, the costliest on W, on the AVX2-only build as well: its tensor-line evaluation and
-    // sampling take their own code path there (core/src/cell_corners.hpp).
+    // sampling take their own code path there (core/src/fields/cell_corners.hpp).
     if (!o.program_avx2.empty()) {
         const fs::path native = bench.program;
         bench.program = fs::absolute(o.program_avx2);

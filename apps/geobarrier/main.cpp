@@ -1,5 +1,5 @@
 // The geobarrier command-line program: run and validate experiments, list plugins.
-#include "mpi.hpp"
+#include "run/mpi.hpp"
 
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/conformance.hpp>

@@ -3,7 +3,7 @@
 #include <geobarrier/equations.hpp>
 
 #include "equations_toolchain.hpp" // configured by core/CMakeLists.txt
-#include "expression.hpp"
+#include "equations/expression.hpp"
 
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>

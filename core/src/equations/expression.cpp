@@ -1,5 +1,5 @@
 // The expression language of the `equations` system: tokenizer, parser, derivative, C++ text (expression.hpp).
-#include "expression.hpp"
+#include "equations/expression.hpp"
 
 #include <geobarrier/errors.hpp>
 #include <geobarrier/plugin.hpp>

@@ -1,6 +1,6 @@
 // The plugin conformance checks of <geobarrier/conformance.hpp>: each check calls the plugin through the same
 // System/Forcing wrappers the runner uses and reports what it found, with the offending values.
-#include "tiles.hpp"
+#include "engine/tiles.hpp"
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/conformance.hpp>
 #include <geobarrier/errors.hpp>

@@ -11,7 +11,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "validation_internal.hpp"
+#include "diagnostics/validation_internal.hpp"
 
 namespace fs = std::filesystem;
 

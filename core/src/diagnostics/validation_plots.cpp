@@ -9,7 +9,7 @@
 #include <array>
 #include <cmath>
 
-#include "validation_internal.hpp"
+#include "diagnostics/validation_internal.hpp"
 
 namespace fs = std::filesystem;
 

@@ -1,13 +1,13 @@
 // Parameter sweeps (see sweep.hpp): parsing and checking the sweep file, running the members in forked processes
 // (or in-process on MPI ranks), resuming, and the summary table and picture.
-#include "mpi.hpp"
+#include "run/mpi.hpp"
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/output.hpp>
 #include <geobarrier/sweep.hpp>
 
-#include "json_reader.hpp"
+#include "experiment/json_reader.hpp"
 
 #include <netcdf.h>
 #include <omp.h>

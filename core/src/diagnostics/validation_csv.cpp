@@ -5,7 +5,7 @@
 
 #include <cmath>
 
-#include "validation_internal.hpp"
+#include "diagnostics/validation_internal.hpp"
 
 namespace geobarrier::validation_detail {
 

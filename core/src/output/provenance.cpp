@@ -1,7 +1,7 @@
 // The manifest's "provenance" object (provenance.hpp): timestamp, host CPU and instruction set, the build's
 // compiler, flags and commit (captured when CMake configured the build), SHA-256 of every plugin file, whether the
 // system plugin's fused step ran, and the files the extractors wrote beside the runner's own.
-#include "provenance.hpp"
+#include "output/provenance.hpp"
 
 #include <geobarrier/errors.hpp>
 

@@ -1,6 +1,6 @@
 // The flow map and Cauchy–Green fields tile by tile (see tiles.hpp).
-#include "tiles.hpp"
-#include "mpi.hpp"
+#include "engine/tiles.hpp"
+#include "run/mpi.hpp"
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 

@@ -1,12 +1,12 @@
 // The experiment runner: computes the stages the requested products and
 // extractors need (and no others), then writes fields.nc, pictures,
 // barriers.json and, last, manifest.json into the output folder.
-#include "progress.hpp"
-#include "provenance.hpp"
+#include "engine/progress.hpp"
+#include "output/provenance.hpp"
 
-#include "mpi.hpp"
-#include "resources.hpp"
-#include "tiles.hpp"
+#include "run/mpi.hpp"
+#include "experiment/resources.hpp"
+#include "engine/tiles.hpp"
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/errors.hpp>

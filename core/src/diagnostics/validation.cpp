@@ -16,7 +16,7 @@
 #include <chrono>
 #include <cmath>
 
-#include "validation_internal.hpp"
+#include "diagnostics/validation_internal.hpp"
 
 namespace fs = std::filesystem;
 using nlohmann::json;

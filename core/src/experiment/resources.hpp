@@ -3,7 +3,7 @@
 #ifndef GEOBARRIER_RESOURCES_HPP
 #define GEOBARRIER_RESOURCES_HPP
 
-#include "tiles.hpp"
+#include "engine/tiles.hpp"
 
 #include <geobarrier/flow_map.hpp>
 #include <geobarrier/grid.hpp>

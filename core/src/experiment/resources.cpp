@@ -1,6 +1,6 @@
 // Memory checks before a run (see resources.hpp): /proc/meminfo and cgroup limits, and a per-point estimate of what
 // the stages hold at their peak.
-#include "resources.hpp"
+#include "experiment/resources.hpp"
 #include <geobarrier/errors.hpp>
 
 #include <algorithm>

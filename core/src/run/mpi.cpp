@@ -1,6 +1,6 @@
 // MPI sessions, the work queue and byte transfers (see mpi.hpp). Without MPI at build time, the single-process
 // versions of the same functions.
-#include "mpi.hpp"
+#include "run/mpi.hpp"
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
 

@@ -2,7 +2,7 @@
 // geodesic strain deviation (paper eq. `gdev_str`, general form) and the orientation-free LineField.
 #include <geobarrier/line_field.hpp>
 
-#include "cell_corners.hpp"
+#include "fields/cell_corners.hpp"
 
 #include <algorithm>
 #include <cmath>

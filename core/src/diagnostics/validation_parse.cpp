@@ -7,8 +7,8 @@
 #include <cmath>
 #include <tuple>
 
-#include "json_reader.hpp"
-#include "validation_internal.hpp"
+#include "experiment/json_reader.hpp"
+#include "diagnostics/validation_internal.hpp"
 
 using nlohmann::json;
 

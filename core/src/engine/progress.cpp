@@ -1,5 +1,5 @@
 // Progress bar drawing: "\r<label> [#####.....]  42%  3.1 s, 4.2 s left".
-#include "progress.hpp"
+#include "engine/progress.hpp"
 
 #include <unistd.h>
 

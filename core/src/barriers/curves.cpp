@@ -2,7 +2,7 @@
 // l(gamma_t1) = int sqrt(lambda1) ds, section 2.2, and the stretching history of eq. `rel_def`).
 #include <geobarrier/curves.hpp>
 
-#include "cell_corners.hpp"
+#include "fields/cell_corners.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -2,8 +2,8 @@
 // numbers of the untiled computation bit for bit, keep only the planned fields, count progress across tiles, and
 // the tiled memory estimate is what the up-front refusal uses. Also the flow map at arbitrary points
 // (flow_map_at_points), which the extractors' advection shares with the grid.
-#include "experiment/resources.hpp"
 #include "engine/tiles.hpp"
+#include "experiment/resources.hpp"
 
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/errors.hpp>

@@ -7,8 +7,8 @@
 #include <cmath>
 #include <tuple>
 
-#include "experiment/json_reader.hpp"
 #include "diagnostics/validation_internal.hpp"
+#include "experiment/json_reader.hpp"
 
 using nlohmann::json;
 

@@ -2,8 +2,8 @@
 // compiling it with this build's toolchain into a per-user cache, and loading it (<geobarrier/equations.hpp>).
 #include <geobarrier/equations.hpp>
 
-#include "equations_toolchain.hpp" // configured by core/CMakeLists.txt
 #include "equations/expression.hpp"
+#include "equations_toolchain.hpp" // configured by core/CMakeLists.txt
 
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>

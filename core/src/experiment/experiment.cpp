@@ -5,9 +5,9 @@
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 
+#include "engine/tiles.hpp"
 #include "experiment/json_reader.hpp"
 #include "experiment/resources.hpp"
-#include "engine/tiles.hpp"
 
 #include <algorithm>
 #include <cmath>

@@ -50,12 +50,15 @@ class Barrier:
 
 class Result:
     """What run() returns: ``fields`` (an xarray.Dataset as fields.nc holds it, or geobarrier.Fields of NumPy arrays
-    without xarray), ``barriers`` (list of Barrier), ``manifest`` (dict, as manifest.json), ``warnings`` (the
+    without xarray), ``barriers`` (list of Barrier), ``candidates`` (list of Barrier: curves an extractor reported
+    but does not assert, barriers.json's "candidates"), ``manifest`` (dict, as manifest.json), ``warnings`` (the
     manifest's), ``output_dir`` and ``files`` (what was written; empty when nothing was)."""
 
     def __init__(self, native, use_xarray=True):
         self.fields = _fields.build(native, use_xarray)
         self.barriers = [Barrier(b) for b in json.loads(native["barriers"])]
+        # Curves an extractor reported but does not assert as barriers (barriers.json's "candidates").
+        self.candidates = [Barrier(b) for b in json.loads(native.get("candidates", "[]"))]
         self.manifest = json.loads(native["manifest"])
         self.warnings = self.manifest.get("warnings", [])
         self.output_dir = native["output_dir"] or None

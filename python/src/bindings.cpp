@@ -181,6 +181,7 @@ py::dict run(const std::string &text, const std::string &file, std::optional<std
     py::dict result;
     result["manifest"] = summary.manifest.dump();
     result["barriers"] = summary.barriers.dump();
+    result["candidates"] = summary.candidates.dump();
     result["attributes"] = summary.field_attributes.dump();
     result["fields"] = fields;
     result["mask"] =

@@ -165,6 +165,7 @@ struct RunSummary {
     std::vector<std::uint8_t> mask;
     nlohmann::json field_attributes; // fields.nc's global attributes
     nlohmann::json barriers = nlohmann::json::array();
+    nlohmann::json candidates = nlohmann::json::array(); // curves an extractor reported but does not assert
 };
 
 RunSummary run_experiment(const ResolvedExperiment &experiment, const RunOptions &options);

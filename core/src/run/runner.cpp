@@ -4,9 +4,9 @@
 #include "engine/progress.hpp"
 #include "output/provenance.hpp"
 
-#include "run/mpi.hpp"
-#include "experiment/resources.hpp"
 #include "engine/tiles.hpp"
+#include "experiment/resources.hpp"
+#include "run/mpi.hpp"
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/errors.hpp>
@@ -343,9 +343,12 @@ ExtractServices advection_services(const ResolvedExperiment &r) {
     return services;
 }
 
-// The barriers the extractors found: as barriers.json items, and as Barrier values for the validation products.
+// The barriers the extractors found: as barriers.json items, and as Barrier values for the validation products. An
+// item an extractor marks "candidate": true is a curve it does not assert as a barrier (too weak by its criterion): it
+// goes to barriers.json's "candidates", not to "barriers", and the validation products do not see it.
 struct FoundBarriers {
     json items = json::array();
+    json candidates = json::array();
     std::vector<Barrier> barriers;
 };
 
@@ -392,6 +395,10 @@ FoundBarriers run_extractors(const ResolvedExperiment &r, const RunOptions &opti
             json item = {{"kind", b.kind}, {"closed", b.closed}, {"extractor", x.info().name}, {"points", points}};
             for (const auto &[name, value] : b.metrics) item[name] = value;
             for (const auto &[name, value] : b.attributes) item[name] = json::parse(value);
+            if (item.value("candidate", false)) {
+                found.candidates.push_back(item);
+                continue;
+            }
             found.items.push_back(item);
             found.barriers.push_back(b);
         }
@@ -457,8 +464,8 @@ StateAxes plane_axes(const ResolvedExperiment &r) {
 
 // Stage 4: fields.nc, the FTLE picture and barriers.json, each written atomically into the staging folder `out`.
 void write_result_files(const ResolvedExperiment &r, const RunOptions &options, const GridStages &grid,
-                        const std::vector<FieldVariable> &variables, const json &barriers, const fs::path &out,
-                        bool plots, RunSummary &summary) {
+                        const std::vector<FieldVariable> &variables, const json &barriers, const json &candidates,
+                        const fs::path &out, bool plots, RunSummary &summary) {
     const Experiment &e = r.experiment;
     if (!variables.empty()) {
         json attributes = {{"title", e.description.empty() ? std::string("geobarrier fields") : e.description},
@@ -494,7 +501,9 @@ void write_result_files(const ResolvedExperiment &r, const RunOptions &options, 
     }
     if (options.write_files && !r.extractors.empty()) {
         const fs::path file = out / "barriers.json";
-        write_text_file(file, json{{"barriers", barriers}}.dump(1) + "\n");
+        json contents = {{"barriers", barriers}};
+        if (!candidates.empty()) contents["candidates"] = candidates;
+        write_text_file(file, contents.dump(1) + "\n");
         summary.files.push_back(file);
     }
 }
@@ -575,12 +584,15 @@ RunSummary run_stages(const ResolvedExperiment &r, const RunOptions &options) {
     const std::vector<FieldVariable> variables = field_variables(e, grid);
     try {
         StageTimer timer(record.stages, "output");
-        write_result_files(r, options, grid, variables, found.items, out, plots, summary);
+        write_result_files(r, options, grid, variables, found.items, found.candidates, out, plots, summary);
     } catch (const IoError &error) {
         throw IoError(staging.final_names(error.what()) + storage_hint(out)); // a full disk shows up as "HDF error"
     }
     record.manifest["provenance"] = detail::run_provenance(r, record.manifest, summary.files, out);
-    if (options.keep_results) keep_results(e, plane_axes(r), grid, variables, found.items, summary);
+    if (options.keep_results) {
+        keep_results(e, plane_axes(r), grid, variables, found.items, summary);
+        summary.candidates = found.candidates;
+    }
     if (!options.write_files) summary.files.clear(); // the validation products' files went to the private folder
     return finish_run(record, options, staging, run_start, std::move(summary));
 }

@@ -10,6 +10,8 @@
 #include <geobarrier/sdk.hpp>
 #include <geobarrier/tensor_lines.hpp>
 
+#include "whole_curves.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -465,6 +467,19 @@ struct AdvectionCheck {
     std::vector<char> was_advected;
 };
 
+// A barrier as reported: one piece the selection chose, or several joined end to end (whole_curves.hpp), with the
+// figures of the whole and the significance test. `significant` curves are barriers; the others are candidates.
+struct ReportedCurve {
+    std::vector<double> xy;
+    std::vector<hyperbolic::JoinedPart> parts; // indices into the selection, in order along the curve
+    std::size_t least_q_part = 0;              // the selection's index of the part of least q
+    double length = 0.0, stretched_length = 0.0, q = 0.0, mean_deviation = 0.0, max_deviation = 0.0;
+    std::size_t probes = 0, dominated = 0;
+    double transverse_ratio = nan_value; // transverse_q_ratio (whole_curves.hpp)
+    double strength = nan_value;         // log q / log q_best (whole_curves)
+    bool significant = false;
+};
+
 struct Hyperbolic {
     static constexpr const char *name = "hyperbolic";
     static constexpr const char *version = "1.0.0";
@@ -503,6 +518,12 @@ struct Hyperbolic {
         string_param("invariant_walls", "", nullptr,
                      "walls that are invariant lines of the flow, comma-separated from left, right, bottom, top, "
                      "mask, box, all: segments along them are reported; along any other wall they are artefacts"),
+        real_param("min_transverse_ratio", 1.0, 0.0, HUGE_VAL, "",
+                   "a barrier is a local minimum of q among its parallel curves: the least q of those 2 grid cells "
+                   "to neighbour_distance away over the least within 2 cells is at least this (transverse_q_ratio)"),
+        real_param("min_strength", 0.9, 0.0, 1.0, "",
+                   "a barrier contracts at least this power of the best barrier's contraction: log q / log q_best "
+                   ">= this (relative_strength); curves failing either test are reported as candidates"),
     };
 
     explicit Hyperbolic(const sdk::Params &p)
@@ -512,7 +533,8 @@ struct Hyperbolic {
           m_max_barriers(static_cast<std::size_t>(p.integer("max_barriers"))), m_singular_gap(p.real("singular_gap")),
           m_route(p.string("route")), m_validate(p.flag("validate")), m_max_gap_fraction(p.real("max_gap_fraction")),
           m_walls(Walls::parse(p.string("invariant_walls"))),
-          m_line_method(tensor_line_method(p.string("line_method"))), m_line_step(p.real("line_step")) {}
+          m_line_method(tensor_line_method(p.string("line_method"))), m_line_step(p.real("line_step")),
+          m_min_transverse_ratio(p.real("min_transverse_ratio")), m_min_strength(p.real("min_strength")) {}
 
     void extract(const sdk::Host &host, const gb_extract_input &in) const;
 
@@ -528,6 +550,7 @@ struct Hyperbolic {
     Walls m_walls;
     TensorLineMethod m_line_method;
     double m_line_step;
+    double m_min_transverse_ratio, m_min_strength;
 
   private:
     std::vector<double> seeds(const Grid &g, const LineField &field, const std::vector<double> *deviation) const;
@@ -546,10 +569,13 @@ struct Hyperbolic {
     Candidates gathered_candidates(const sdk::Host &host, Truncation &truncation, double min_length) const;
     std::vector<Selected> local_minima(const sdk::Host &host, const Grid &g, const std::vector<Strainline> &lines,
                                        const Candidates &found, const SegmentMeter &meter, const Scales &scale) const;
+    std::vector<ReportedCurve> whole_curves(const sdk::Host &host, const CauchyGreenField &cg,
+                                            const std::vector<Strainline> &lines,
+                                            const std::vector<Selected> &selected) const;
     AdvectionCheck advect_barriers(const sdk::Host &host, const gb_extract_input &in, const CauchyGreenField &cg,
-                                   const std::vector<Strainline> &lines, const std::vector<Selected> &selected) const;
+                                   const std::vector<ReportedCurve> &curves) const;
     void draw_strainlines(const gb_extract_input &in, const SegmentMeter &meter, const std::vector<Strainline> &lines,
-                          const std::vector<Selected> &selected) const;
+                          const std::vector<Selected> &selected, const std::vector<ReportedCurve> &curves) const;
 };
 
 // The seed lattice: points (steps_x, steps_y) grid cells apart, starting half a step in from the box's lower
@@ -1052,77 +1078,155 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
     return selected;
 }
 
-// The condition of each barrier's advected length: a polyline whose tangent is off xi1 by theta has an image longer
+// Alg. 1 after step 3, the barriers as wholes (whole_curves.hpp; docs/extractors.md, step 8): the pieces the
+// selection chose, joined where one runs on into another (ends within four grid cells); then each whole is a barrier
+// when it is a local minimum of q among its parallel copies out to the neighbour distance (transverse_q_ratio at
+// least min_transverse_ratio; not rejected where the copies leave the box or meet the mask) and it contracts at
+// least min_strength as strongly as the best (in log q); else it is a candidate. Barriers first, then candidates,
+// each by increasing q of the whole.
+std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const CauchyGreenField &cg,
+                                                    const std::vector<Strainline> &lines,
+                                                    const std::vector<Selected> &selected) const {
+    const Grid &g = cg.grid;
+    const double cell = std::max(g.dx(), g.dy());
+    const double radius = scales(g).radius;
+    std::vector<double> root(g.size());
+    for (std::size_t p = 0; p < g.size(); ++p) root[p] = std::sqrt(cg.lambda1[p]);
+    std::vector<std::vector<double>> pieces(selected.size());
+    for (std::size_t b = 0; b < selected.size(); ++b) pieces[b] = points_of(lines, selected[b].piece);
+    const std::vector<std::vector<hyperbolic::JoinedPart>> chains =
+        hyperbolic::join_end_to_end(pieces, 4.0 * cell, 4.0 * cell);
+    std::vector<ReportedCurve> curves(chains.size());
+#pragma omp parallel for schedule(dynamic)
+    for (std::size_t c = 0; c < chains.size(); ++c) {
+        ReportedCurve &rc = curves[c];
+        rc.parts = chains[c];
+        rc.xy = hyperbolic::chain_points(pieces, chains[c]);
+        double weighted_deviation = 0.0;
+        rc.least_q_part = chains[c].front().index;
+        for (const hyperbolic::JoinedPart &part : chains[c]) {
+            const Selected &s = selected[part.index];
+            rc.length += s.piece.length;
+            rc.stretched_length += s.piece.stretched_length;
+            weighted_deviation += s.piece.mean_deviation * s.piece.length;
+            rc.max_deviation = std::max(rc.max_deviation, s.piece.max_deviation);
+            rc.probes += s.probes;
+            rc.dominated += s.dominated;
+            if (s.piece.q < selected[rc.least_q_part].piece.q) rc.least_q_part = part.index;
+        }
+        rc.q = rc.stretched_length / rc.length;
+        rc.mean_deviation = weighted_deviation / rc.length;
+        rc.transverse_ratio =
+            hyperbolic::transverse_q_ratio(g, root, cg.mask, rc.xy, cell, 2.0 * cell, std::max(radius, 3.0 * cell));
+        rc.significant =
+            std::isnan(rc.transverse_ratio) || rc.transverse_ratio >= m_min_transverse_ratio * (1.0 - 1e-9);
+    }
+    // The contraction test against the best local minimum: a hyperbolic barrier contracts exponentially in the
+    // horizon (q ~ exp(-lambda T)), a curve shaped by shear only algebraically (q ~ 1 / (s T)), so its log q is a
+    // small fraction of the best's. Where even the best is not contracted (q_best >= 1) nothing is hyperbolic.
+    double q_best = HUGE_VAL;
+    for (const ReportedCurve &rc : curves)
+        if (rc.significant) q_best = std::min(q_best, rc.q);
+    for (ReportedCurve &rc : curves) {
+        rc.strength = q_best < 1.0 ? std::log(rc.q) / std::log(q_best) : nan_value;
+        rc.significant = rc.significant && rc.strength >= m_min_strength;
+    }
+    std::stable_sort(curves.begin(), curves.end(), [](const ReportedCurve &a, const ReportedCurve &b) {
+        if (a.significant != b.significant) return a.significant;
+        return a.q < b.q;
+    });
+    const auto barriers = static_cast<std::size_t>(
+        std::count_if(curves.begin(), curves.end(), [](const ReportedCurve &rc) { return rc.significant; }));
+    host.info("" + std::to_string(selected.size()) + " pieces joined into " + std::to_string(curves.size()) +
+              " curves: " + std::to_string(barriers) +
+              " barriers (local minima of q among their parallels, ratio at least " + format(m_min_transverse_ratio) +
+              ", log q at least " + format(m_min_strength) + " of the best's), " +
+              std::to_string(curves.size() - barriers) + " candidates");
+    return curves;
+}
+
+// The condition of each curve's advected length: a polyline whose tangent is off xi1 by theta has an image longer
 // than int sqrt(lambda1) ds by about kappa^2 theta^2 / 2 relatively, kappa = sqrt(lambda2 / lambda1): the curve
 // advection then measures the polyline's discretisation error (theta ~ 5e-4 on a grid of h = 0.02), amplified, and
 // two builds that round differently disagree on it (38.4 against 56.1 for one barrier).
-std::vector<double> stretching_conditions(const CauchyGreenField &cg, const std::vector<Strainline> &lines,
-                                          const std::vector<Selected> &selected) {
+std::vector<double> stretching_conditions(const CauchyGreenField &cg, const std::vector<ReportedCurve> &curves) {
     const Grid &g = cg.grid;
     std::vector<double> log_condition(g.size());
     for (std::size_t p = 0; p < g.size(); ++p) log_condition[p] = 0.5 * std::log(cg.lambda2[p] / cg.lambda1[p]);
-    std::vector<double> condition(selected.size(), HUGE_VAL);
-    for (std::size_t b = 0; b < selected.size(); ++b) {
-        const CurveStats cs =
-            curve_statistics(points_of(lines, selected[b].piece),
-                             sample_along(g, log_condition, cg.mask, points_of(lines, selected[b].piece)));
+    std::vector<double> condition(curves.size(), HUGE_VAL);
+    for (std::size_t b = 0; b < curves.size(); ++b) {
+        const CurveStats cs = curve_statistics(curves[b].xy, sample_along(g, log_condition, cg.mask, curves[b].xy));
         if (cs.finite_points) condition[b] = std::exp(cs.max);
     }
     return condition;
 }
 
-// Advects the barriers whose condition is at most max_condition to t1 (when `validate`); the others get no advected
-// figures, their stretching_condition says why.
+// Advects the barriers (not the candidates) whose condition is at most max_condition to t1 (when `validate`); the
+// others get no advected figures, their stretching_condition says why.
 AdvectionCheck Hyperbolic::advect_barriers(const sdk::Host &host, const gb_extract_input &in,
-                                           const CauchyGreenField &cg, const std::vector<Strainline> &lines,
-                                           const std::vector<Selected> &selected) const {
+                                           const CauchyGreenField &cg, const std::vector<ReportedCurve> &curves) const {
     AdvectionCheck check;
-    check.condition = stretching_conditions(cg, lines, selected);
-    check.advected.resize(selected.size());
-    check.was_advected.assign(selected.size(), 0);
-    if (!m_validate || selected.empty()) return check;
+    check.condition = stretching_conditions(cg, curves);
+    check.advected.resize(curves.size());
+    check.was_advected.assign(curves.size(), 0);
+    if (!m_validate || curves.empty()) return check;
     const AdvectPointsFn advect = [&](const std::vector<double> &pts, std::vector<double> &out,
                                       std::vector<std::uint8_t> &m) { host.advect(pts, in.t0, in.t1, out, m); };
     CurveAdvectionSettings cs;
     cs.max_gap_fraction = m_max_gap_fraction;
-    std::vector<std::vector<double>> curves;
+    std::vector<std::vector<double>> to_advect;
     std::vector<std::size_t> which;
-    for (std::size_t b = 0; b < selected.size(); ++b)
+    std::size_t barriers = 0;
+    for (std::size_t b = 0; b < curves.size(); ++b) {
+        if (!curves[b].significant) continue;
+        ++barriers;
         if (check.condition[b] <= max_condition) {
-            curves.push_back(points_of(lines, selected[b].piece));
+            to_advect.push_back(curves[b].xy);
             which.push_back(b);
         }
+    }
     const std::vector<AdvectedCurve> images =
-        advect_curves(curves, std::vector<bool>(curves.size(), false), advect, cs);
+        advect_curves(to_advect, std::vector<bool>(to_advect.size(), false), advect, cs);
     for (std::size_t k = 0; k < which.size(); ++k) {
         check.advected[which[k]] = images[k];
         check.was_advected[which[k]] = 1;
     }
-    if (which.size() < selected.size())
-        host.info("" + std::to_string(selected.size() - which.size()) + " barriers not advected: condition " +
+    if (which.size() < barriers)
+        host.info("" + std::to_string(barriers - which.size()) + " barriers not advected: condition " +
                   "sqrt(lambda2/lambda1) above " + format(max_condition) + ", the advected length would " +
                   "measure the polyline's tangent error");
     return check;
 }
 
-// The barriers handed to the host, least q first, with their figures and attributes, and the log's summary line.
-void report_barriers(const sdk::Host &host, const std::vector<Strainline> &lines,
-                     const std::vector<Segment> &candidates, const std::vector<Selected> &selected,
+// The selection attribute of a reported curve: how it came out of the selection.
+std::string selection_of(const ReportedCurve &rc, const std::vector<Selected> &selected) {
+    if (rc.parts.size() > 1) return "\"joined\"";
+    return selected[rc.parts.front().index].remainder ? "\"remainder\"" : "\"local-minimum\"";
+}
+
+// The curves handed to the host, barriers (least q first) then candidates, with their figures and attributes, and
+// the log's summary line.
+void report_barriers(const sdk::Host &host, const std::vector<Segment> &candidates,
+                     const std::vector<Selected> &selected, const std::vector<ReportedCurve> &curves,
                      const AdvectionCheck &check, bool backward) {
-    for (std::size_t b = 0; b < selected.size(); ++b) {
-        const Selected &p = selected[b];
-        const Segment &s = p.piece;
+    for (std::size_t b = 0; b < curves.size(); ++b) {
+        const ReportedCurve &rc = curves[b];
         std::vector<std::pair<std::string, double>> metrics = {
-            {"length", s.length},
-            {"relative_stretching", s.q},
-            {"stretched_length", s.stretched_length},
-            {"mean_geodesic_deviation", s.mean_deviation},
-            {"max_geodesic_deviation", s.max_deviation},
+            {"length", rc.length},
+            {"relative_stretching", rc.q},
+            {"stretched_length", rc.stretched_length},
+            {"mean_geodesic_deviation", rc.mean_deviation},
+            {"max_geodesic_deviation", rc.max_deviation},
             {"rank", static_cast<double>(b + 1)},
-            {"neighbour_probes", static_cast<double>(p.probes)},
-            {"probes_with_smaller_q", static_cast<double>(p.dominated)},
+            {"pieces", static_cast<double>(rc.parts.size())},
+            {"neighbour_probes", static_cast<double>(rc.probes)},
+            {"probes_with_smaller_q", static_cast<double>(rc.dominated)},
         };
-        if (p.remainder) metrics.push_back({"segment_relative_stretching", candidates[p.candidate].q});
+        if (std::isfinite(rc.transverse_ratio)) metrics.push_back({"transverse_q_ratio", rc.transverse_ratio});
+        if (std::isfinite(rc.strength)) metrics.push_back({"relative_strength", rc.strength});
+        const Selected &single = selected[rc.parts.front().index];
+        if (rc.parts.size() == 1 && single.remainder)
+            metrics.push_back({"segment_relative_stretching", candidates[single.candidate].q});
         if (std::isfinite(check.condition[b])) metrics.push_back({"stretching_condition", check.condition[b]});
         if (check.was_advected[b]) {
             const AdvectedCurve &a = check.advected[b];
@@ -1130,51 +1234,55 @@ void report_barriers(const sdk::Host &host, const std::vector<Strainline> &lines
             metrics.push_back({"advected_relative_stretching", a.length1 / a.length0});
             metrics.push_back({"advected_points", static_cast<double>(a.xy1.size() / 2)});
         }
-        host.add_barrier("hyperbolic", false, points_of(lines, s), metrics);
+        host.add_barrier("hyperbolic", false, rc.xy, metrics);
         std::vector<std::pair<std::string, std::string>> attributes = {
             {backward ? "attracting" : "repelling", "true"},
-            {"global_minimum", b == 0 ? "true" : "false"},
-            {"selection", p.remainder ? "\"remainder\"" : "\"local-minimum\""}};
+            {"global_minimum", b == 0 && rc.significant ? "true" : "false"},
+            {"selection", selection_of(rc, selected)}};
+        if (!rc.significant) attributes.push_back({"candidate", "true"});
         if (check.was_advected[b])
             attributes.push_back({"advection_converged", check.advected[b].converged ? "true" : "false"});
         host.set_barrier_attributes(attributes);
     }
-    if (!selected.empty()) {
-        const Segment &s = selected[0].piece;
-        std::string line = "global minimum q = " + format(s.q) + ", length " + format(s.length);
+    if (!curves.empty() && curves[0].significant) {
+        const ReportedCurve &rc = curves[0];
+        std::string line = "global minimum q = " + format(rc.q) + ", length " + format(rc.length);
         if (check.was_advected[0])
             line += "; advected length " + format(check.advected[0].length1) + " vs int sqrt(lambda1) ds " +
-                    format(s.stretched_length);
+                    format(rc.stretched_length);
         host.info(line);
     } else {
-        host.warn("no barrier found; try a smaller min_length, a larger max_deviation or a denser seed "
-                  "lattice");
+        host.warn("no barrier found" + std::string(curves.empty() ? "" : " (only candidates)") +
+                  "; try a smaller min_length, a larger max_deviation or a denser seed lattice");
     }
 }
 
-// The picture barriers.png: the FTLE with the barriers, the least-stretching one red.
-void draw_barriers(const gb_extract_input &in, const CauchyGreenField &cg, const std::vector<Strainline> &lines,
-                   const std::vector<Selected> &selected, bool backward) {
+// The picture barriers.png: the FTLE with the barriers, the least-stretching one red, candidates thin grey.
+void draw_barriers(const gb_extract_input &in, const CauchyGreenField &cg, const std::vector<ReportedCurve> &curves,
+                   bool backward) {
     const std::string which = backward ? "attracting" : "repelling";
     FieldPlot fp;
-    fp.title = "FTLE and " + which + " hyperbolic barriers, t = " + format(in.t0) + " to " + format(in.t1);
+    fp.title =
+        "FTLE and " + which + " hyperbolic barriers (candidates grey), t = " + format(in.t0) + " to " + format(in.t1);
     fp.colorbar_label = "FTLE";
     fp.x_label = sdk::axis_label(in, 0); // "name [unit]" of the system's states (ABI 1.2)
     fp.y_label = sdk::axis_label(in, 1);
-    for (std::size_t b = selected.size(); b-- > 0;) {
+    for (std::size_t b = curves.size(); b-- > 0;) {
         PlotCurve c;
-        c.xy = points_of(lines, selected[b].piece);
-        c.color = b == 0 ? "red" : "white";
-        c.width = b == 0 ? 3.0 : 1.5;
+        c.xy = curves[b].xy;
+        const bool best = b == 0 && curves[b].significant;
+        c.color = best ? "red" : curves[b].significant ? "white" : "grey";
+        c.width = best ? 3.0 : curves[b].significant ? 1.5 : 0.75;
         fp.curves.push_back(c);
     }
     plot_field_png(std::filesystem::path(in.output_dir) / "barriers.png", cg.grid, cg.ftle, cg.mask, fp);
 }
 
 // The picture strainlines.png, the paper's figure strainline-ex2: all strainlines grey, the least-stretching barrier
-// red, the points of its strainline with d_g >= epsilon black.
+// red on the strainline of its part of least q, the points of that strainline with d_g >= epsilon black.
 void Hyperbolic::draw_strainlines(const gb_extract_input &in, const SegmentMeter &meter,
-                                  const std::vector<Strainline> &lines, const std::vector<Selected> &selected) const {
+                                  const std::vector<Strainline> &lines, const std::vector<Selected> &selected,
+                                  const std::vector<ReportedCurve> &curves) const {
     const Grid &g = meter.grid;
     XYPlot xp;
     xp.title = "strainlines (grey), least-stretching barrier (red), d_g > " + format(m_epsilon) + " (black)";
@@ -1200,19 +1308,18 @@ void Hyperbolic::draw_strainlines(const gb_extract_input &in, const SegmentMeter
         s.width = 0.5;
         xp.series.push_back(std::move(s));
     }
-    if (!selected.empty()) {
-        const Segment &best = selected[0].piece;
-        const Strainline &parent = lines[best.line];
+    if (!curves.empty() && curves[0].significant) {
+        const Strainline &parent = lines[selected[curves[0].least_q_part].piece.line];
         PlotSeries full;
         full.xy = parent.xy;
         full.color = "red";
         full.width = 1.0;
         xp.series.push_back(full);
         PlotSeries seg;
-        seg.xy = points_of(lines, best);
+        seg.xy = curves[0].xy;
         seg.color = "red";
         seg.width = 3.0;
-        seg.label = "barrier, q = " + format(best.q);
+        seg.label = "barrier, q = " + format(curves[0].q);
         xp.series.push_back(seg);
         PlotSeries above;
         above.style = PlotSeries::Style::points;
@@ -1232,7 +1339,8 @@ void Hyperbolic::draw_strainlines(const gb_extract_input &in, const SegmentMeter
 }
 
 // Alg. 1 in stages: strainlines (step 1), their segments with d_g^xi1 < epsilon and q (step 2), the wall filter, the
-// disjoint local minima of q (step 3) ranked by q, the advection check, the report and the pictures.
+// disjoint local minima of q (step 3), joined into whole curves and tested for significance (whole_curves),
+// ranked by q, the advection check, the report and the pictures.
 void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) const {
     const CauchyGreenField cg = cauchy_green_from_input(in);
     const Grid &g = cg.grid;
@@ -1271,14 +1379,16 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     if (host.progress(0.7)) throw std::runtime_error("stopped by the user");
     const std::vector<Selected> selected = local_minima(host, g, lines, found, meter, scale);
     lap("selection");
-    const AdvectionCheck check = advect_barriers(host, in, cg, lines, selected);
+    const std::vector<ReportedCurve> curves = whole_curves(host, cg, lines, selected);
+    lap("whole curves");
+    const AdvectionCheck check = advect_barriers(host, in, cg, curves);
     lap("advection");
     host.info("stages: " + timings);
     if (host.progress(0.9)) throw std::runtime_error("stopped by the user");
-    report_barriers(host, lines, candidates, selected, check, backward);
+    report_barriers(host, candidates, selected, curves, check, backward);
     if (!in.plots) return;
-    draw_barriers(in, cg, lines, selected, backward);
-    draw_strainlines(in, meter, lines, selected);
+    draw_barriers(in, cg, curves, backward);
+    draw_strainlines(in, meter, lines, selected, curves);
 }
 
 } // namespace

@@ -1,0 +1,121 @@
+// The hyperbolic extractor's whole-curve stage (whole_curves.hpp) on polylines and fields whose answer is known by
+// construction: pieces of one line or circle joined, neighbours that merely end near each other not joined, and a
+// valley of stretching told from a slope.
+#include "whole_curves.hpp"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <vector>
+
+using geobarrier::Grid;
+using geobarrier::hyperbolic::chain_points;
+using geobarrier::hyperbolic::join_end_to_end;
+using geobarrier::hyperbolic::JoinedPart;
+using geobarrier::hyperbolic::transverse_q_ratio;
+
+namespace {
+
+// Points from (x0, y0) to (x1, y1), `n` of them.
+std::vector<double> segment(double x0, double y0, double x1, double y1, int n) {
+    std::vector<double> xy;
+    for (int k = 0; k < n; ++k) {
+        const double s = static_cast<double>(k) / (n - 1);
+        xy.push_back(x0 + s * (x1 - x0));
+        xy.push_back(y0 + s * (y1 - y0));
+    }
+    return xy;
+}
+
+// An arc of the unit circle from angle a0 to a1.
+std::vector<double> arc(double a0, double a1, int n) {
+    std::vector<double> xy;
+    for (int k = 0; k < n; ++k) {
+        const double a = a0 + (a1 - a0) * k / (n - 1);
+        xy.push_back(std::cos(a));
+        xy.push_back(std::sin(a));
+    }
+    return xy;
+}
+
+} // namespace
+
+TEST_CASE("pieces of one line laid end to end with a small gap are one curve, whichever way each runs") {
+    const double join = 0.04, tangent = 0.04;
+    // Three pieces of y = 0.5 x, the middle one reversed, gaps of 0.01 between them, given out of order.
+    const std::vector<std::vector<double>> pieces = {
+        segment(0.41, 0.205, 0.6, 0.3, 20), segment(0.4, 0.2, 0.21, 0.105, 20), segment(0.0, 0.0, 0.2, 0.1, 20)};
+    const auto chains = join_end_to_end(pieces, join, tangent);
+    REQUIRE(chains.size() == 1);
+    REQUIRE(chains[0].size() == 3);
+    const std::vector<double> xy = chain_points(pieces, chains[0]);
+    // The points run monotonically along the line from one end to the other.
+    const double sign = xy[2] > xy[0] ? 1.0 : -1.0;
+    for (std::size_t k = 1; k < xy.size() / 2; ++k) CHECK(sign * (xy[2 * k] - xy[2 * k - 2]) > 0.0);
+    CHECK(std::abs(std::abs(xy[0] - xy[xy.size() - 2]) - 0.6) < 1e-12);
+}
+
+TEST_CASE("curves that end near each other but do not run on into each other stay apart") {
+    const double join = 0.05, tangent = 0.04;
+    SUBCASE("side by side, ending at the same place (a hairpin would join them)") {
+        const std::vector<std::vector<double>> pieces = {segment(0.0, 0.0, 0.5, 0.0, 30),
+                                                         segment(0.5, 0.02, 0.0, 0.02, 30)};
+        CHECK(join_end_to_end(pieces, join, tangent).size() == 2);
+    }
+    SUBCASE("at a right angle") {
+        const std::vector<std::vector<double>> pieces = {segment(0.0, 0.0, 0.5, 0.0, 30),
+                                                         segment(0.51, 0.01, 0.51, 0.5, 30)};
+        CHECK(join_end_to_end(pieces, join, tangent).size() == 2);
+    }
+    SUBCASE("in line but farther apart than the join distance") {
+        const std::vector<std::vector<double>> pieces = {segment(0.0, 0.0, 0.5, 0.0, 30),
+                                                         segment(0.56, 0.0, 1.0, 0.0, 30)};
+        CHECK(join_end_to_end(pieces, join, tangent).size() == 2);
+    }
+}
+
+TEST_CASE("the arcs of a whole circle join into one open chain, not a loop") {
+    const double pi = std::acos(-1.0);
+    const std::vector<std::vector<double>> pieces = {arc(0.0, 2.0, 60), arc(2.01, 4.0, 60),
+                                                     arc(4.01, 2 * pi - 0.01, 60)};
+    const auto chains = join_end_to_end(pieces, 0.05, 0.05);
+    REQUIRE(chains.size() == 1);
+    CHECK(chains[0].size() == 3);
+}
+
+TEST_CASE("transverse_q_ratio: above 1 in a valley of sqrt(lambda1), below 1 on its flank, NaN along the edge") {
+    Grid g;
+    g.nx = g.ny = 101;
+    const double h = g.dx();
+    std::vector<double> root(g.size());
+    // A valley along y = 0.3 + 0.1 x, three cells wide, on a background that rises with y.
+    for (std::size_t i = 0; i < g.ny; ++i)
+        for (std::size_t j = 0; j < g.nx; ++j) {
+            const double d = g.y(i) - 0.3 - 0.1 * g.x(j);
+            root[i * g.nx + j] = 1.0 - 0.5 * std::exp(-d * d / (9 * h * h)) + 0.2 * g.y(i);
+        }
+    const std::vector<std::uint8_t> no_mask;
+    const double near = 2 * h, far = 10 * h;
+    CHECK(transverse_q_ratio(g, root, no_mask, segment(0.1, 0.31, 0.9, 0.39, 50), h, near, far) > 1.1);
+    // Off the valley floor by one cell: still within `near` of the least stretched parallel.
+    CHECK(transverse_q_ratio(g, root, no_mask, segment(0.1, 0.32, 0.9, 0.40, 50), h, near, far) > 1.1);
+    // Parallel to the valley, 0.1 above it: the copies towards the valley are less stretched.
+    CHECK(transverse_q_ratio(g, root, no_mask, segment(0.1, 0.41, 0.9, 0.49, 50), h, near, far) < 0.9);
+    // 0.3 above it, out of the valley's reach: the background's slope alone, the copy below less stretched.
+    CHECK(transverse_q_ratio(g, root, no_mask, segment(0.1, 0.61, 0.9, 0.69, 50), h, near, far) < 1.0);
+    // Along the bottom edge: the copies below leave the box.
+    CHECK(std::isnan(transverse_q_ratio(g, root, no_mask, segment(0.1, 0.0, 0.9, 0.0, 50), h, near, far)));
+    // A masked band across the valley leaves those points out of every copy.
+    std::vector<std::uint8_t> mask(g.size(), 0);
+    for (std::size_t i = 0; i < g.ny; ++i)
+        for (std::size_t j = 0; j < 30; ++j) mask[i * g.nx + j] = 1;
+    CHECK(transverse_q_ratio(g, root, mask, segment(0.1, 0.31, 0.9, 0.39, 50), h, near, far) > 1.1);
+}
+
+TEST_CASE("transverse_q_ratio: in a uniform field every parallel is as stretched (ratio 1)") {
+    Grid g;
+    g.nx = g.ny = 51;
+    const std::vector<double> root(g.size(), 0.4);
+    const double ratio = transverse_q_ratio(g, root, {}, segment(0.3, 0.3, 0.7, 0.6, 40), g.dx(), 2 * g.dx(), 0.1);
+    CHECK(ratio == doctest::Approx(1.0).epsilon(1e-12));
+}

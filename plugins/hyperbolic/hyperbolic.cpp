@@ -491,7 +491,7 @@ struct Hyperbolic {
         real_param("max_deviation", 1e-3, 0.0, HUGE_VAL, "1/state",
                    "epsilon: strainlines are truncated where d_g^xi1 >= this (paper: 1e-3, 1e-5)"),
         real_param("seed_distance", 0.0, 0.0, HUGE_VAL, "state",
-                   "distance between neighbouring seeds of the seed lattice; 0 = 1/75 of the box's longer side"),
+                   "distance between neighbouring seeds of the seed lattice; 0 = 1/50 of the box's longer side"),
         integer_param("seed_spacing", 0, 0, 1e6,
                       "grid cells between neighbouring seeds, overriding seed_distance; 0 = use seed_distance"),
         real_param("max_length", 0.0, 0.0, HUGE_VAL, "state",
@@ -555,7 +555,7 @@ struct Hyperbolic {
   private:
     std::vector<double> seeds(const Grid &g, const LineField &field, const std::vector<double> *deviation) const;
     double seed_distance(const Grid &g) const {
-        return m_seed_distance > 0 ? m_seed_distance : std::max(g.x_max - g.x_min, g.y_max - g.y_min) / 75.0;
+        return m_seed_distance > 0 ? m_seed_distance : std::max(g.x_max - g.x_min, g.y_max - g.y_min) / 50.0;
     }
     std::vector<Strainline> direct_strainlines(const sdk::Host &host, const CauchyGreenField &cg,
                                                const std::vector<double> &deviation, const Scales &scale,
@@ -598,11 +598,12 @@ std::vector<double> seed_lattice(const Grid &g, double steps_x, double steps_y, 
     return seeds;
 }
 
-// The seeds: a lattice seed_distance apart in state units (by default 1/75 of the box's longer side), so that
+// The seeds: a lattice seed_distance apart in state units (by default 1/50 of the box's longer side), so that
 // their number, and with it the extraction's cost, does not grow with the grid; seed_spacing > 0 asks for a
-// lattice in grid cells instead. The default is the lattice of 8 cells of the 601 x 401 damped-Duffing grid the
-// extractor was validated on (docs/extractors.md); about ten seeds fall in each neighbourhood disc of the
-// selection rule.
+// lattice in grid cells instead. The default is 12 cells of the 601 x 401 damped-Duffing grid; about four seeds fall
+// in each neighbourhood disc of the selection rule. It was 1/75 until whole curves were joined (whole_curves.hpp):
+// since then the coarser lattice finds the same barriers on the suite's cases at a third of the cost
+// (docs/extractors.md, step 1).
 std::vector<double> Hyperbolic::seeds(const Grid &g, const LineField &field,
                                       const std::vector<double> *deviation) const {
     if (m_seed_spacing > 0) {

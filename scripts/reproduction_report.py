@@ -643,7 +643,7 @@ def main():
             g.text("The paper's ⟨d_g⟩ falls from 0.60 to 0.24 for the barrier it follows. Ours (exact tensors): " +
                    "; ".join(verdicts) + ". The grid's ⟨d_g⟩ does not fall: it is built from grid derivatives of λ "
                    "and ξ, which lose accuracy next to the chaotic layer as T grows (its 12π value changes with the "
-                   "grid, the exact one does not; docs/extractors.md, elliptic, convergence study). The values "
+                   "grid, the exact one does not; docs/extractor-measurements.md, elliptic, convergence study). The values "
                    "differ from the paper's because we evaluate eq. `dg_shr` in its general form; the left island's "
                    "8π barrier is no closed shearline of the 10π field (its band ends inside it there). Our grid is "
                    f"{grid_text(source)} over the paper's box, not 1000 × 1000.")

@@ -129,7 +129,7 @@ TEST_CASE("exact circular shear field: the coarsened field and the Richardson-ex
     // shearlines of the exact field (circles, P(sigma) = sigma) must stay circles to the bound of the grid's own
     // (resolution gap plus the bilinear drift over one turn), and each reports its extrapolated gap. (Here the
     // O(h^2) interpolation error cancels over a turn by symmetry, so the return gap is integration noise and
-    // extrapolation has nothing to gain; paper case 1 is where it does: see docs/extractors.md.)
+    // extrapolation has nothing to gain; paper case 1 is where it does: see docs/extractor-measurements.md.)
     Grid g;
     g.x_min = g.y_min = -1.0;
     g.x_max = g.y_max = 1.0;
@@ -380,7 +380,7 @@ void check_forced_duffing(int nx, int ny, int launch_points) {
         right = right || around_right;
         // Every member, not only the outermost, stays near its own Poincare iterates: the inner members are closed
         // shearlines of the 8 pi field not yet converged to KAM curves and drift up to 12% of their size
-        // (docs/extractors.md), while a closed curve in the chaotic layer or across the separatrix drifts by its
+        // (docs/extractor-measurements.md), while a closed curve in the chaotic layer or across the separatrix drifts by its
         // whole size. (Not <d_g> < 0.7: that is the extractor's own keep threshold.)
         CHECK(barrier["poincare_drift_median"].get<double>() < 0.15);
         // Conservative flow: the enclosed area is kept; the arclength too, by the theory (paper: within 1.5%).

@@ -30,7 +30,7 @@ double nearest(double x, double y, const std::vector<double> &px, const std::vec
 
 TEST_CASE("damped Duffing: the least-stretching attracting barrier lies on the chaotic attractor") {
     // The shipped experiment, on a 301 x 201 grid (half the file's resolution in each direction) to keep the test
-    // short; GEOBARRIER_FULL_GRID=1 runs the file's own grid (the figures of docs/extractors.md).
+    // short; GEOBARRIER_FULL_GRID=1 runs the file's own grid (the figures of docs/extractor-measurements.md).
     Experiment e = load_experiment(test::source_dir() / "experiments" / "duffing-damped-attractor.json");
     json j = e.source;
     const char *full = std::getenv("GEOBARRIER_FULL_GRID");

@@ -8,7 +8,7 @@ pair against the definition computed by brute force (every point against every s
 The real pair (workload_w*.json): the first four barriers of workload W (x'' = x - x^3 + 0.08 cos t, forward
 T = 8 pi, 1000 x 1000, the hyperbolic extractor's defaults) and of the same run with the hyperbolic parameter
 "line_step" 0.006, every 8th point of each barrier (and its last). The two barrier sets lie up to hundreds of grid
-spacings apart (docs/extractors.md, "How well the hyperbolic barrier set is determined").
+spacings apart (docs/extractor-measurements.md, "How well the hyperbolic barrier set is determined").
 
 Run by ctest (tests/CMakeLists.txt) or directly: python3 tests/scripts/test_compare_barriers.py
 """

@@ -1,0 +1,270 @@
+"""The barrier accuracy suite (scripts/barrier_suite.py, scripts/barrier-accuracy): its scorer on constructed curves,
+its ground truth against what it must satisfy, and the hyperbolic extractor against the issue's thresholds.
+
+- Scorer: a barrier on the truth has precision 1, one moved by twice the tolerance precision 0, a truth branch
+  reported in two halves counts 2 pieces, candidates are not scored, the distances are exact (brute force).
+- Truth: the analytic separatrices lie on their energy levels; the unforced Duffing stable manifold grown by
+  grow_branch lies on H = 0 and covers both loops; workload W's saddle orbit is a fixed point of the period map to
+  1e-9 (checked by a plain integration over one period), and its grown stable manifold's points do reach the
+  saddle orbit; the double gyre's orbit sits on the wall; the Van der Pol cycle closes.
+- End to end (QUICK cases, whose truth costs under a second; the others, whose manifolds take minutes to grow the
+  first time, with BARRIER_ACCURACY_ALL=1): geobarrier run on the small grid, then precision >= 0.95,
+  recall >= 0.9, at most 2 pieces per branch and the rank-1 barrier on the truth, for every case expected to pass.
+
+Run: /usr/bin/python3 -m pytest -q tests/scripts/test_barrier_accuracy.py (GEOBARRIER_BIN names the program;
+default build/bin/geobarrier). Needs numpy, scipy and pytest (Debian's python3-scipy, python3-pytest).
+"""
+import math
+import os
+import sys
+
+import numpy as np
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.dirname(os.path.dirname(HERE))
+sys.path.insert(0, os.path.join(ROOT, "scripts"))
+import barrier_suite as bs  # noqa: E402
+
+BIN = os.environ.get("GEOBARRIER_BIN", bs.DEFAULT_BIN)
+QUICK = ["duffing-unforced-forward", "duffing-unforced-backward", "pendulum-unforced-forward", "double-gyre-forward"]
+ALL = os.environ.get("BARRIER_ACCURACY_ALL") == "1"
+BOX = ((-2.0, 2.0), (-1.0, 1.0))
+TOL = 0.02
+
+
+def doc_of(*curves, ranks=None, candidates=()):
+    """A barriers.json document with the given polylines as barriers (rank 1 first)."""
+    barriers = []
+    for i, c in enumerate(curves):
+        r = (ranks[i] if ranks else i + 1)
+        barriers.append({"kind": "hyperbolic", "closed": False, "points": np.asarray(c).tolist(), "rank": r,
+                         "global_minimum": r == 1})
+    return {"barriers": barriers,
+            "candidates": [{"kind": "hyperbolic", "closed": False, "points": np.asarray(c).tolist(),
+                            "candidate": True} for c in candidates]}
+
+
+def arc(n=400):
+    """A half circle of radius 0.8 in BOX."""
+    a = np.linspace(0, math.pi, n)
+    return np.stack([0.8 * np.cos(a), 0.8 * np.sin(a)], axis=1)
+
+
+def line(x0, y0, x1, y1, n=200):
+    s = np.linspace(0, 1, n)[:, None]
+    return np.array([x0, y0]) * (1 - s) + np.array([x1, y1]) * s
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# The scorer.
+
+def test_barrier_on_the_truth_scores_one():
+    truth = [("arc", arc()), ("segment", line(-1.5, -0.5, 1.5, -0.5))]
+    r = bs.score(doc_of(arc(97), line(-1.5, -0.5, 1.5, -0.5, 7)), truth, TOL, BOX)
+    assert r["precision"] == pytest.approx(1.0)
+    assert r["recall"] == pytest.approx(1.0)
+    assert r["pieces_per_branch"] == {"arc": 1, "segment": 1}
+    assert r["top_on_truth"] and r["passes"]
+
+
+def test_barrier_moved_by_twice_the_tolerance_scores_zero():
+    truth = [("segment", line(-1.5, 0.0, 1.5, 0.0))]
+    r = bs.score(doc_of(line(-1.5, 2 * TOL, 1.5, 2 * TOL)), truth, TOL, BOX)
+    assert r["precision"] == 0.0 and r["recall"] == 0.0
+    assert r["pieces_per_branch"] == {"segment": 0}
+    assert not r["top_on_truth"] and not r["passes"]
+
+
+def test_partial_cover_measures_length_shares():
+    truth = [("segment", line(-1.5, 0.0, 1.5, 0.0))]
+    # A barrier along the first third of the truth, then 1.0 more off it: precision 1/2, recall 1/3.
+    barrier = np.vstack([line(-1.5, 0.0, -0.5, 0.0), line(-0.5, 0.5, 0.5, 0.5)])
+    r = bs.score(doc_of(barrier), truth, TOL, BOX)
+    # The joint from (-0.5, 0) to (-0.5, 0.5) is 0.5 long and within TOL for its first TOL: precision ~ 1.02 / 2.5.
+    assert r["precision"] == pytest.approx((1.0 + TOL) / 2.5, abs=2e-3)
+    # The truth is within TOL of the barrier's end for TOL beyond it.
+    assert r["recall"] == pytest.approx((1.0 + TOL) / 3.0, abs=2e-3)
+    assert r["pieces_per_branch"] == {"segment": 0}
+
+
+def test_two_halves_count_two_pieces():
+    truth = [("arc", arc())]
+    a = arc(400)
+    r = bs.score(doc_of(a[:200], a[200:]), truth, TOL, BOX)
+    assert r["pieces_per_branch"] == {"arc": 2}
+    assert r["precision"] == pytest.approx(1.0) and r["recall"] == pytest.approx(1.0)
+    # Three pieces exceed the threshold.
+    r = bs.score(doc_of(a[:130], a[130:270], a[270:]), truth, TOL, BOX)
+    assert r["max_pieces"] == 3 and not r["passes"]
+
+
+def test_top_is_the_rank_one_barrier_and_candidates_are_not_scored():
+    truth = [("arc", arc())]
+    off = line(-1.5, -0.9, 1.5, -0.9)
+    r = bs.score(doc_of(arc(50), off, ranks=[2, 1], candidates=[off]), truth, TOL, BOX)
+    assert r["barriers"] == 2 and r["candidates"] == 1
+    assert not r["top_on_truth"]
+    assert r["top_share"] == 0.0
+    length_arc, length_off = 0.8 * math.pi, 3.0
+    assert r["precision"] == pytest.approx(length_arc / (length_arc + length_off), abs=2e-3)
+
+
+def test_truth_outside_the_box_is_not_asked_for():
+    truth = [("long", line(-3.0, 0.0, 3.0, 0.0))]
+    r = bs.score(doc_of(line(-2.0, 0.0, 2.0, 0.0)), truth, TOL, BOX)
+    assert r["recall"] == pytest.approx(1.0)
+    assert r["truth_length_in_box"] == pytest.approx(4.0, abs=TOL / 4)
+
+
+def test_growth_fractions_cut_the_truth_by_entry_time():
+    pts = line(-1.5, 0.0, 1.5, 0.0, 301)
+    entry = np.linspace(0.0, 10.0, 301)  # entry time grows along the branch; horizon 10
+    r = bs.score(doc_of(line(-1.5, 0.0, 0.0, 0.0)), [("b", pts, entry)], TOL, BOX, horizon=10.0)
+    assert r["recall"] == pytest.approx(0.5, abs=0.01)
+    assert r["recall_at"]["0.5"] == pytest.approx(1.0, abs=0.01)
+    assert r["recall_at"]["0.25"] == pytest.approx(1.0, abs=0.01)
+    # The truth at 0.25 ends at x = -0.75: the barrier is within TOL of it up to x = -0.75 + TOL.
+    assert r["precision_at"]["0.25"] == pytest.approx((0.75 + TOL) / 1.5, abs=3e-3)
+
+
+def test_curve_distances_are_exact():
+    rng = np.random.default_rng(3)
+    curves = [arc(37), line(-1.0, -0.8, 1.2, 0.3, 5)]
+    cs = bs.CurveSet(curves, 0.01)
+    P = rng.uniform([-2, -1], [2, 1], size=(300, 2))
+
+    def brute(p):
+        best = math.inf
+        for c in curves:
+            for a, b in zip(c[:-1], c[1:]):
+                u = b - a
+                t = min(1.0, max(0.0, float(np.dot(p - a, u) / np.dot(u, u))))
+                best = min(best, float(np.hypot(*(p - a - t * u))))
+        return best
+    expected = np.array([brute(p) for p in P])
+    assert np.allclose(cs.distance(P), expected, atol=1e-12)
+
+
+def test_clip_to_box_splits_runs():
+    poly = line(-3.0, 0.0, 3.0, 0.0, 61)
+    poly[30] = [0.0, 5.0]  # one point outside in the middle
+    runs = bs.clip_to_box(poly, BOX)
+    assert len(runs) == 2
+    assert all(np.all(np.abs(r[:, 0]) <= 2.0) for r in runs)
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# The ground truth.
+
+def energy_duffing(p):
+    return p[:, 1] ** 2 / 2 - p[:, 0] ** 2 / 2 + p[:, 0] ** 4 / 4
+
+
+def test_analytic_duffing_loops_have_zero_energy():
+    for _, loop in bs.duffing_loops(bs.CASES["duffing-unforced-forward"]):
+        assert np.max(np.abs(energy_duffing(loop))) < 1e-12
+
+
+def test_analytic_pendulum_separatrices_have_the_saddles_energy():
+    branches = bs.pendulum_separatrices(bs.CASES["pendulum-unforced-forward"])
+    assert len(branches) == 6
+    for _, b in branches:
+        assert np.max(np.abs(b[:, 1] ** 2 / 2 - np.cos(b[:, 0]) - 1.0)) < 1e-12
+
+
+def test_grown_unforced_duffing_manifold_lies_on_the_loops():
+    case = bs.CASES["duffing-unforced-forward"]
+    system = bs.system_of(case.experiment)
+    saddle = bs.find_saddle(system, [0.01, -0.01], 0.0)
+    assert np.linalg.norm(saddle.point) < 1e-14
+    assert saddle.stable_exponent == pytest.approx(-1.0) and saddle.unstable_exponent == pytest.approx(1.0)
+    grown = []
+    for sign in (1, -1):
+        # Grown for 8 time units from the 0.1-ball (12.6 from rho = 1e-3): nearly once round the loop. Longer, the
+        # curve would come back to the saddle closer than its start points' rounding, and its images beyond would
+        # be rounding noise (a homoclinic loop is not transverse).
+        poly, entry = bs.grow_branch(system, saddle, "stable", sign, 0.0, 8.0, 0.1, case.tol / 4)
+        # rho = 1e-3 along the eigenvector: H = O(rho^3) there, and the flow keeps H.
+        assert np.nanmax(np.abs(energy_duffing(poly))) < 1e-6
+        # No gap wider than max_gap (but where the curve is broken: it came back to the saddle and split).
+        assert np.nanmax(np.hypot(*(poly[1:] - poly[:-1]).T)) <= case.tol / 4 + 1e-12
+        grown.append(("b", poly, entry))
+    # Together they cover both analytic loops but their ends' last ~0.03 at the saddle.
+    loops = bs.duffing_loops(case)
+    r = bs.score(doc_of(*[p for _, p, _ in grown]), loops, case.tol, case.box)
+    assert r["recall"] > 0.99 and r["precision"] > 0.999
+
+
+def test_workload_w_saddle_orbit_is_a_fixed_point_of_the_period_map():
+    case = bs.CASES["duffing-forced-w"]
+    system = bs.system_of(case.experiment)
+    saddle = bs.find_saddle(system, case.truth_params["guess"], 0.0)
+    # Without the variational equations (the saddle repels by e^{2 pi} per period: tight tolerances).
+    image = bs.flow(system, [saddle.point], 0.0, 2 * math.pi, rtol=1e-13, atol=1e-15)[0]
+    assert np.linalg.norm(image - saddle.point) < 1e-9
+    assert saddle.residual < 1e-9
+    assert np.linalg.norm(saddle.point - [-0.04, 0.0]) < 0.01  # near the linear response -(A/2) cos t
+    assert saddle.stable_exponent < -0.9 and saddle.unstable_exponent > 0.9
+
+
+def test_workload_w_grown_stable_manifold_reaches_the_saddle_orbit():
+    case = bs.CASES["duffing-forced-w"]
+    system = bs.system_of(case.experiment)
+    saddle = bs.find_saddle(system, case.truth_params["guess"], 0.0)
+    poly, entry = bs.grow_branch(system, saddle, "stable", 1, 0.0, 2 * math.pi, 0.1, case.tol / 4)
+    # Points that enter the 0.1-ball within one period lie within 0.1 e^{-2 pi} of the orbit two periods on, up to
+    # their error transverse to the manifold times e^{4 pi}.
+    chosen = poly[np.linspace(2, len(poly) - 1, 40).astype(int)]
+    later = bs.flow(system, chosen, 0.0, 4 * math.pi)
+    assert np.max(np.hypot(*(later - saddle.point).T)) < 0.01
+    # ... while points beside the manifold (0.02 off along the unstable direction) do not.
+    beside = bs.flow(system, chosen[len(chosen) // 2:][:5] + 0.02 * saddle.unstable, 0.0, 4 * math.pi)
+    assert np.min(np.hypot(*(beside - saddle.point).T)) > 0.05
+
+
+def test_double_gyre_orbit_sits_on_the_wall():
+    case = bs.CASES["double-gyre-forward"]
+    system = bs.system_of(case.experiment)
+    guess = bs.wall_fixed_point(system, 0.0, *case.truth_params["wall_bracket"])
+    saddle = bs.find_saddle(system, guess, 0.0)
+    assert saddle.point[1] == 0.0 and 0.9 < saddle.point[0] < 1.3
+    # The orbit repels along the wall by e^{9.9} per period: the plain check needs the tightest tolerances.
+    image = bs.flow(system, [saddle.point], 0.0, 10.0, rtol=1e-13, atol=1e-15)[0]
+    assert np.linalg.norm(image - saddle.point) < 1e-9
+    assert abs(saddle.stable[0]) < 1e-9  # the stable direction is normal to the invariant wall
+
+
+def test_van_der_pol_cycle_closes():
+    case = bs.CASES["van-der-pol-backward"]
+    (_, cyc), = bs.limit_cycle(case)
+    assert np.linalg.norm(cyc[0] - cyc[-1]) == 0.0
+    assert 1.9 < np.max(cyc[:, 0]) < 2.1  # mu = 1: amplitude about 2.01
+    assert len(bs.clip_to_box(cyc, case.box)) == 1
+
+
+# ---------------------------------------------------------------------------------------------------------------
+# End to end: the extractor against the thresholds.
+
+def end_to_end_cases():
+    out = []
+    for name, case in bs.CASES.items():
+        if not case.expected_to_pass:
+            continue
+        marks = [] if name in QUICK or ALL else [pytest.mark.skip(reason="truth takes minutes to grow the first "
+                                                                         "time; BARRIER_ACCURACY_ALL=1 runs it")]
+        out.append(pytest.param(name, marks=marks, id=name))
+    return out
+
+
+@pytest.mark.parametrize("name", end_to_end_cases())
+def test_extractor_meets_the_thresholds(name, tmp_path):
+    if not os.access(BIN, os.X_OK):
+        pytest.skip(f"no geobarrier program at {BIN}")
+    case = bs.CASES[name]
+    r = bs.evaluate(case, BIN, "small", str(tmp_path))
+    summary = bs.table_row(r)
+    assert r["precision"] >= bs.THRESHOLDS["precision"], summary
+    assert r["recall"] >= bs.THRESHOLDS["recall"], summary
+    assert r["max_pieces"] <= bs.THRESHOLDS["pieces"], summary
+    assert r["top_on_truth"], summary

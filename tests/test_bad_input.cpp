@@ -314,7 +314,20 @@ std::vector<Case> values_battery() {
     return cases;
 }
 
-// Plugins: unknown, of another ABI, not a library, failing, without the Jacobian a setting needs.
+// A folder holding one plugin library cut in half (a copy interrupted, a full disk): the loader would map its missing
+// half and die of SIGBUS on the first touch; it is refused before it is mapped (core/src/plugins/library_check.hpp).
+fs::path truncated_library_folder() {
+    static const fs::path folder = [] {
+        const fs::path f = scratch() / "truncated-plugins";
+        fs::create_directories(f);
+        const std::string whole = read_file(geobarrier::test::plugin_dir() / "geobarrier-duffing.so");
+        std::ofstream(f / "geobarrier-duffing.so", std::ios::binary) << whole.substr(0, whole.size() / 2);
+        return f;
+    }();
+    return folder;
+}
+
+// Plugins: unknown, of another ABI, not a library, cut short, failing, without the Jacobian a setting needs.
 std::vector<Case> plugin_battery() {
     const std::string nan_lib = (bad_plugin_dir / "geobarrier-bad-input.so").string();
     const std::string throwing_entry = (bad_plugin_dir / "geobarrier-entry-throws.so").string();
@@ -334,6 +347,15 @@ std::vector<Case> plugin_battery() {
                       j["system"] = {{"plugin", not_a_library}};
                   },
                   2, {"/system/plugin", "not-a-plugin.so", "not a loadable shared library"}));
+    const std::string truncated = (truncated_library_folder() / "geobarrier-duffing.so").string();
+    add(json_case("a truncated library in a plugin folder",
+                  [](json &j) { j["plugin_paths"] = {truncated_library_folder().string()}; }, 2,
+                  {truncated, "not a loadable shared library (truncated: its loadable segment"}));
+    add(json_case("a truncated library named by path",
+                  [truncated](json &j) {
+                      j["system"] = {{"plugin", truncated}};
+                  },
+                  2, {"/system/plugin", truncated, "truncated"}));
     add(json_case("a plugin whose entry function throws",
                   [throwing_entry](json &j) {
                       j["system"] = {{"plugin", throwing_entry}};
@@ -530,6 +552,34 @@ TEST_CASE("bad-input battery: exit code, one line naming the problem and where, 
     }
     MESSAGE(cases.size() << " bad inputs tried through the program");
     CHECK(cases.size() >= 50);
+}
+
+TEST_CASE("a truncated library in a plugin folder: every command exits 2 naming it, none dies of a signal") {
+    // Before the check, each of these died of SIGBUS (exit 135) with no message: dlopen mapped the missing half.
+    const fs::path dir = scratch() / "truncated-commands";
+    fs::create_directories(dir);
+    const std::string folder = truncated_library_folder().string(),
+                      library = (truncated_library_folder() / "geobarrier-duffing.so").string();
+    json j = base_experiment();
+    j["plugin_paths"] = {folder};
+    std::ofstream(dir / "exp.json") << j.dump(2);
+    const std::string program = geobarrier::test::geobarrier_program().string();
+    for (const std::string &command : {program + " validate exp.json", program + " run exp.json --out out --quiet",
+                                       program + " plugins --plugin-path '" + folder + "'",
+                                       program + " plugins --json --plugin-path '" + folder + "'",
+                                       program + " check-plugin --all --plugin-path '" + folder + "'",
+                                       "GEOBARRIER_PLUGIN_PATH='" + folder + "' " + program + " plugins"}) {
+        CAPTURE(command);
+        const int raw = std::system(("cd '" + dir.string() + "' && " + command + " >stdout.txt 2>stderr.txt").c_str());
+        const std::string err = read_file(dir / "stderr.txt");
+        CAPTURE(err);
+        CHECK(WIFEXITED(raw));
+        CHECK(WEXITSTATUS(raw) == 2);
+        CHECK(read_file(dir / "stdout.txt").empty());
+        CHECK(std::count(err.begin(), err.end(), '\n') == 1);
+        CHECK(err.rfind("geobarrier: error: " + library + ": not a loadable shared library (truncated: ", 0) == 0);
+        CHECK_FALSE(fs::exists(dir / "out"));
+    }
 }
 
 TEST_CASE("bad-input battery: a really full disk (a 64 KiB tmpfs in a user namespace), where unshare allows it") {

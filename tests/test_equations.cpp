@@ -386,3 +386,34 @@ TEST_CASE("equations: a killed compile's temporary files are removed once they a
     CHECK_FALSE(fs::exists(stale));
     CHECK(fs::exists(recent)); // perhaps a compile running now
 }
+
+TEST_CASE("equations: a truncated library in the cache is refused before it is mapped, and built afresh") {
+    // Compiled by another process (this one must not have it mapped: cutting a file short under a live mapping is a
+    // SIGBUS of its own), then cut in half as a copy interrupted or a power cut before the write reached the disk.
+    ScopedCache cache("truncated");
+    fs::create_directories(cache.folder / "work");
+    json j = {{"system", {{"plugin", "equations"}, {"params", duffing_params()}}},
+              {"forcing", {{"plugin", "cosine"}}},
+              {"grid", {{"x", {-1, 1}}, {"y", {-1, 1}}, {"n", {5, 5}}}},
+              {"time", {{"t0", 0}, {"t1", 1}}},
+              {"products", {"ftle"}}};
+    std::ofstream(cache.folder / "work" / "exp.json") << j.dump(2);
+    const std::string validate = "cd '" + (cache.folder / "work").string() + "' && " +
+                                 test::geobarrier_program().string() + " validate exp.json >/dev/null 2>&1";
+    REQUIRE(std::system(validate.c_str()) == 0);
+    REQUIRE(cache.files(".so") == 1);
+    fs::path library;
+    for (const auto &e : fs::directory_iterator(cache.folder))
+        if (e.path().extension() == ".so") library = e.path();
+    const auto whole = fs::file_size(library);
+    fs::resize_file(library, whole / 2);
+
+    const int status = std::system(validate.c_str()); // died of SIGBUS before the check
+    CHECK(WIFEXITED(status));
+    CHECK(WEXITSTATUS(status) == 0);
+    CHECK(fs::file_size(library) == whole);
+    fs::resize_file(library, whole / 3);
+    const equations::Compiled again = equations::compile(duffing_params(), "/system/params");
+    CHECK(again.record["cached"] == false);
+    CHECK(fs::file_size(library) == whole);
+}

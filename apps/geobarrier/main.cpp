@@ -26,7 +26,7 @@ using namespace geobarrier;
 
 namespace {
 
-// Exit codes: 0 success, 1 the computation failed, 2 bad input (experiment or command line).
+// Exit codes: 0 success, 1 the computation failed, 2 bad input (experiment, command line, a damaged plugin library).
 constexpr int exit_failure = 1;
 constexpr int exit_bad_input = 2;
 
@@ -366,6 +366,12 @@ std::string command_line_error(const CLI::App &app, const CLI::ParseError &error
            " --help)";
 }
 
+// Every error is one line on stderr, whatever a plugin's message holds.
+std::string one_line(std::string text) {
+    std::replace(text.begin(), text.end(), '\n', ' ');
+    return text;
+}
+
 } // namespace
 
 int main(int argc, char **argv) {
@@ -436,11 +442,6 @@ int main(int argc, char **argv) {
     if (mpi::rank() != 0) quiet = true;
     setup_logging(quiet, verbose);
     install_signal_handlers(); // SIGINT/SIGTERM stop a run cleanly, exit code 128 + signal (cancel.hpp)
-    // Every error is one line on stderr, whatever a plugin's message holds.
-    const auto one_line = [](std::string text) {
-        std::replace(text.begin(), text.end(), '\n', ' ');
-        return text;
-    };
     // Failures leave without the exit handlers: HDF5's (Debian 12: HDF5 1.10, netCDF 4.9) crashes with SIGSEGV when a
     // NetCDF file failed to close on a full disk. Every file of ours is closed or removed by then.
     const auto fail = [](int code) {
@@ -471,6 +472,9 @@ int main(int argc, char **argv) {
     } catch (const Cancelled &e) {
         return interrupted(e.signal(), e.what());
     } catch (const ConfigError &e) {
+        if (mpi::rank() == 0) std::cerr << "geobarrier: error: " << one_line(e.what()) << "\n";
+        return fail(exit_bad_input);
+    } catch (const LibraryFileError &e) { // a truncated or foreign library in a plugin folder: bad input too
         if (mpi::rank() == 0) std::cerr << "geobarrier: error: " << one_line(e.what()) << "\n";
         return fail(exit_bad_input);
     } catch (const std::bad_alloc &) {

@@ -3,6 +3,7 @@ with the JSON path in .path and in the message, or another geobarrier.Error for 
 the interpreter survives every one, and the output folder stays empty."""
 
 import copy
+import re
 
 import pytest
 
@@ -156,3 +157,16 @@ def test_validate_summarises_a_good_experiment():
     assert summary["system"] == "duffing" and summary["forcing"] == "cosine"
     assert summary["grid"] == [11, 9] and summary["products"] == ["ftle"]
     assert summary["resolved"]["system"]["params"] == {"alpha": 1.0, "beta": 1.0, "delta": 0.0}
+
+
+def test_a_truncated_library_in_a_plugin_folder_raises_plugin_error(tmp_path):
+    # dlopen would map its missing half and kill the interpreter with SIGBUS; it is refused before it is mapped.
+    whole = (TEST_PLUGIN_DIR / "geobarrier-rigid-rotation.so").read_bytes()
+    library = tmp_path / "geobarrier-rigid-rotation.so"
+    library.write_bytes(whole[:len(whole) // 2])
+    expected = re.escape(f"{library}: not a loadable shared library (truncated: ")
+    for call in (lambda: geobarrier.plugins([tmp_path]),
+                 lambda: geobarrier.validate(dict(BASE, plugin_paths=[str(tmp_path)])),
+                 lambda: geobarrier.run(dict(BASE, plugin_paths=[str(tmp_path)]))):
+        with pytest.raises(geobarrier.PluginError, match=expected):
+            call()

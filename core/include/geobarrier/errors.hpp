@@ -31,6 +31,14 @@ class PluginError : public Error {
     using Error::Error;
 };
 
+// A library file refused before it was mapped (truncated, unreadable, another machine's: plugins/library_check.hpp),
+// wherever it was found: bad input, as an experiment's error is (the program exits with 2). A plugin folder scan, which
+// skips the files that are not libraries with a warning, does not skip these: what() reads "<file>: <reason>".
+class LibraryFileError : public PluginError {
+  public:
+    using PluginError::PluginError;
+};
+
 // A numerical stage that cannot give a trustworthy answer.
 class NumericalError : public Error {
   public:

@@ -77,7 +77,8 @@ struct PluginHandle {
 // Loads one plugin library and returns every plugin it declares. Throws
 // PluginError "<file>: <reason>" for a file that is not a loadable library, has
 // no entry symbol, was built for another ABI major version, or declares
-// malformed descriptors.
+// malformed descriptors; LibraryFileError (errors.hpp) for a file refused before it is mapped (truncated, unreadable,
+// another machine's).
 std::vector<PluginHandle> load_plugin_library(const std::filesystem::path &file);
 
 // Parameter values validated against a schema, in declaration order.

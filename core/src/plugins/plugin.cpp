@@ -1,5 +1,7 @@
 // Loading plugin libraries (Boost.DLL), checking what they declare, validating
 // parameters against their schemas, and the wrappers that call across the ABI.
+#include "plugins/library_check.hpp"
+
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/plugin.hpp>
@@ -235,6 +237,12 @@ std::vector<PluginHandle> load_plugin_library(const fs::path &file) {
     std::error_code ec;
     if (!fs::exists(file, ec)) throw PluginError(where + "no such file");
     if (!fs::is_regular_file(file, ec)) throw PluginError(where + "not a regular file");
+    // Before dlopen maps it: a library cut short would be mapped beyond its end and kill the process (SIGBUS).
+    const LibraryFileCheck checked = check_library_file(file);
+    if (checked.problem == LibraryFileProblem::damaged)
+        throw LibraryFileError(where + "not a loadable shared library (" + checked.reason + ")");
+    if (checked.problem == LibraryFileProblem::not_elf)
+        throw PluginError(where + "not a loadable shared library (" + checked.reason + ")");
 
     std::lock_guard<std::mutex> lock(load_mutex());
     boost::dll::shared_library lib;
@@ -780,6 +788,8 @@ void PluginRegistry::add_library(const fs::path &file, bool strict) const {
     std::vector<PluginHandle> found;
     try {
         found = load_plugin_library(file);
+    } catch (const LibraryFileError &) {
+        throw; // a damaged library is refused, not skipped: whoever put it there meant it to be loaded
     } catch (const PluginError &e) {
         if (strict) throw;
         m_warnings.push_back(e.what());

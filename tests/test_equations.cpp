@@ -387,6 +387,35 @@ TEST_CASE("equations: a killed compile's temporary files are removed once they a
     CHECK(fs::exists(recent)); // perhaps a compile running now
 }
 
+TEST_CASE("equations: a cache folder others could write is refused, naming it and why") {
+    ScopedCache cache("private");
+    const json p = duffing_params();
+    CHECK(equations::compile(p, "/system/params").record["cached"] == false);
+    // Created private: only its owner may put a library there.
+    CHECK((fs::status(cache.folder).permissions() & (fs::perms::group_write | fs::perms::others_write)) ==
+          fs::perms::none);
+
+    const auto refusal = [&](fs::perms mode) {
+        fs::permissions(cache.folder, mode);
+        std::string message;
+        try {
+            equations::compile(p, "/system/params");
+        } catch (const IoError &e) {
+            message = e.what();
+        }
+        fs::permissions(cache.folder, fs::perms::owner_all);
+        return message;
+    };
+    const std::string world = refusal(fs::perms::all);
+    CHECK(contains(world,
+                   "the equations cache folder " + cache.folder.string() + " is writable by every user (mode 0777)"));
+    CHECK(contains(world, "another user could put a library there that geobarrier would load"));
+    CHECK(contains(world, "chmod go-w"));
+    CHECK(world.find('\n') == std::string::npos);
+    const std::string group = refusal(fs::perms::owner_all | fs::perms::group_all);
+    CHECK(contains(group, "is writable by its group (mode 0770)"));
+}
+
 TEST_CASE("equations: a truncated library in the cache is refused before it is mapped, and built afresh") {
     // Compiled by another process (this one must not have it mapped: cutting a file short under a live mapping is a
     // SIGBUS of its own), then cut in half as a copy interrupted or a power cut before the write reached the disk.

@@ -12,6 +12,7 @@
 
 #include <fcntl.h>
 #include <spawn.h>
+#include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -20,6 +21,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
@@ -395,11 +397,28 @@ int run_compiler(const Toolchain &tc, const std::vector<std::string> &args, cons
     return status;
 }
 
-// Writes `text` to `file` through a temporary file and a rename.
+// Flushes a file's (or a folder's) contents to the disk: a file renamed into the cache must be whole there after a
+// power cut, not a name over missing blocks (the loader would map them: SIGBUS).
+void sync_to_disk(const fs::path &path) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    const bool ok = fd >= 0 && ::fsync(fd) == 0;
+    const int error = errno;
+    if (fd >= 0) ::close(fd);
+    if (!ok)
+        throw IoError(path.string() + ": cannot write to the disk (" + std::strerror(error) +
+                      "); its file system may be full");
+}
+
+// Writes `text` to `file` through a temporary file, synced, and a rename.
 void write_atomically(const fs::path &file, const std::string &text, TemporaryFiles &temps) {
     const fs::path temp = file.string() + ".tmp" + std::to_string(::getpid()) + "-" + std::to_string(temp_counter++);
     temps.files.push_back(temp);
-    std::ofstream(temp, std::ios::binary) << text;
+    {
+        std::ofstream out(temp, std::ios::binary);
+        out << text;
+        if (!out.flush()) throw IoError(temp.string() + ": cannot write the cache entry's description");
+    }
+    sync_to_disk(temp);
     fs::rename(temp, file);
 }
 
@@ -456,8 +475,41 @@ double build(const Definition &d, const Toolchain &tc, const fs::path &folder, c
     }
     fs::rename(source, folder / (key + ".cpp"));
     write_atomically(folder / (key + ".json"), description.dump(2) + "\n", temps);
+    sync_to_disk(library); // on the disk before its name is: never a published name over unwritten blocks
     fs::rename(library, folder / (key + ".so")); // last: its presence marks a complete entry
+    sync_to_disk(folder);                        // the rename itself
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+}
+
+// Creates the cache folder (its last component private, 0700) unless it exists, and refuses one that another user
+// could write: whatever carries a hash's name there is loaded and run.
+void prepare_cache_folder(const fs::path &folder) {
+    const std::string advice = "; set GEOBARRIER_EQUATIONS_CACHE to a folder of your own that only you can write";
+    std::error_code ec;
+    if (!folder.parent_path().empty()) fs::create_directories(folder.parent_path(), ec);
+    struct stat st {};
+    if (!ec && ::mkdir(folder.c_str(), 0700) != 0 && errno != EEXIST)
+        ec = std::error_code(errno, std::generic_category());
+    if (!ec && ::stat(folder.c_str(), &st) != 0) ec = std::error_code(errno, std::generic_category());
+    if (!ec && !S_ISDIR(st.st_mode)) ec = std::make_error_code(std::errc::not_a_directory);
+    if (ec)
+        throw IoError("cannot create the equations cache folder " + folder.string() + " (" + ec.message() + ")" +
+                      advice);
+    const auto octal = [](unsigned mode) {
+        char text[8];
+        std::snprintf(text, sizeof text, "%04o", mode & 07777U);
+        return std::string(text);
+    };
+    if (st.st_uid != ::geteuid())
+        throw IoError("the equations cache folder " + folder.string() + " belongs to user " +
+                      std::to_string(st.st_uid) + ", not to this user (" + std::to_string(::geteuid()) +
+                      "), who could put a library there that geobarrier would load" + advice);
+    if ((st.st_mode & (S_IWGRP | S_IWOTH)) != 0)
+        throw IoError("the equations cache folder " + folder.string() + " is writable by " +
+                      ((st.st_mode & S_IWOTH) != 0 ? "every user" : "its group") + " (mode " + octal(st.st_mode) +
+                      "): another user could put a library there that geobarrier would load; make it private "
+                      "(chmod go-w " +
+                      folder.string() + ")" + advice);
 }
 
 } // namespace
@@ -490,11 +542,8 @@ Compiled compile(const json &params, const std::string &json_path) {
                         {"include", tc.include_dir.string()},
                         {"geobarrier", GEOBARRIER_VERSION}};
 
+    prepare_cache_folder(folder);
     std::error_code ec;
-    fs::create_directories(folder, ec);
-    if (ec || !fs::is_directory(folder))
-        throw IoError("cannot create the equations cache folder " + folder.string() + " (" + ec.message() +
-                      "); set GEOBARRIER_EQUATIONS_CACHE to a writable folder");
     bool cached = fs::exists(library, ec);
     double seconds = 0.0;
     std::vector<PluginHandle> handles;

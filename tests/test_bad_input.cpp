@@ -327,7 +327,8 @@ fs::path truncated_library_folder() {
     return folder;
 }
 
-// Plugins: unknown, of another ABI, not a library, cut short, failing, without the Jacobian a setting needs.
+// Plugins: unknown, of another ABI, not a library, cut short, failing, declaring too much, without the Jacobian a
+// setting needs.
 std::vector<Case> plugin_battery() {
     const std::string nan_lib = (bad_plugin_dir / "geobarrier-bad-input.so").string();
     const std::string throwing_entry = (bad_plugin_dir / "geobarrier-entry-throws.so").string();
@@ -356,6 +357,13 @@ std::vector<Case> plugin_battery() {
                       j["system"] = {{"plugin", truncated}};
                   },
                   2, {"/system/plugin", truncated, "truncated"}));
+    const std::string huge =
+        (geobarrier::test::test_plugin_dir() / "declared-limits" / "geobarrier-declared-dimension.so").string();
+    add(json_case("a plugin declaring dimension 2^32 - 1",
+                  [huge](json &j) {
+                      j["system"] = {{"plugin", huge}};
+                  },
+                  2, {"/system/plugin", huge, "declares dimension 4294967295; a plugin may declare at most 64"}));
     add(json_case("a plugin whose entry function throws",
                   [throwing_entry](json &j) {
                       j["system"] = {{"plugin", throwing_entry}};

@@ -446,3 +446,9 @@ TEST_CASE("equations: a truncated library in the cache is refused before it is m
     CHECK(again.record["cached"] == false);
     CHECK(fs::file_size(library) == whole);
 }
+
+TEST_CASE("equations: more constants than a plugin may declare are refused before anything is compiled") {
+    json p = duffing_params();
+    for (std::uint32_t k = 0; k <= max_declared_params; ++k) p["constants"]["c" + std::to_string(k)] = 1.0;
+    CHECK(contains(error_of(p), "/system/params/constants: 257 constants; at most 256"));
+}

@@ -8,6 +8,7 @@
 #include <test_support.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <functional>
 #include <optional>
 
@@ -179,4 +180,36 @@ TEST_CASE("did_you_mean suggests only close names") {
     CHECK(did_you_mean("dopri", {"dopri5", "rkf78", "rk4"}) == "dopri5");
     CHECK(did_you_mean("GRID", {"grid", "time"}) == "grid");
     CHECK(did_you_mean("banana", {"grid", "time"}).empty());
+}
+
+TEST_CASE("declared limits are checked as the descriptor is read: a huge dimension, parameter count, a long name") {
+    // Each test library gives arrays of two entries behind counts of 2^32 - 1: refused at once, nothing sized first.
+    const auto folder = test::test_plugin_dir() / "declared-limits";
+    struct Case {
+        const char *file, *expected;
+    };
+    for (const Case &c :
+         {Case{"geobarrier-declared-dimension.so",
+               "system 'huge-dimension' declares dimension 4294967295; a plugin may declare at most 64"},
+          Case{"geobarrier-declared-params.so",
+               "plugin 'huge-param-count' declares 4294967295 parameters; a plugin may declare at most "
+               "256"},
+          Case{"geobarrier-declared-name.so", "a descriptor with a name longer than 64 characters"}}) {
+        CAPTURE(c.file);
+        const auto start = std::chrono::steady_clock::now();
+        std::string msg;
+        try {
+            load_plugin_library(folder / c.file);
+        } catch (const PluginError &e) {
+            msg = e.what();
+        }
+        CHECK(std::chrono::steady_clock::now() - start < std::chrono::seconds(1));
+        CHECK(contains(msg, (folder / c.file).string() + ": "));
+        CHECK_MESSAGE(contains(msg, c.expected), msg);
+        CHECK(msg.find('\n') == std::string::npos);
+    }
+    // In a plugin folder they are skipped with a warning each, like any malformed descriptor; the others still load.
+    const PluginRegistry registry({folder, test::plugin_dir()});
+    CHECK(registry.warnings().size() == 3);
+    CHECK_NOTHROW(registry.find(PluginKind::system, "duffing", "/system/plugin"));
 }

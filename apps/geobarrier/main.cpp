@@ -389,7 +389,7 @@ int main(int argc, char **argv) {
     auto *run = app.add_subcommand("run", "Run an experiment file and write its data and pictures");
     run->add_option("file", run_file, "experiment JSON file")->required();
     run->add_option("--out", run_out, "output folder (overrides output.dir)");
-    run->add_option("--threads", threads, "worker threads (default: all cores)")->check(CLI::Range(1, 1024));
+    run->add_option("--threads", threads, "worker threads (default: all cores)")->check(CLI::Range(1, max_threads));
     run->add_flag("--quiet,-q", quiet, "no progress bar, warnings and errors only");
     run->add_flag("--verbose,-v", verbose, "debug logging");
 
@@ -405,7 +405,7 @@ int main(int argc, char **argv) {
     sweep->add_option("--processes", sweep_options.processes, "members run at once (default: the sweep's, else cores)")
         ->check(CLI::Range(1, 4096));
     sweep->add_option("--threads", sweep_options.threads, "threads per member (default: cores / processes)")
-        ->check(CLI::Range(1, 1024));
+        ->check(CLI::Range(1, max_threads));
     sweep->add_flag("--quiet,-q", quiet, "warnings and errors only");
 
     bool as_json = false;

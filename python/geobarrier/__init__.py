@@ -112,7 +112,8 @@ def run(experiment, out=None, *, write=None, threads=0, progress=False, flow_map
     out       write the usual output folder (fields.nc, pictures, barriers.json, manifest.json) here;
     write     True: write it to `out`, or to the experiment's output.dir; default: only when `out` is given;
               a run that writes nothing draws no pictures and leaves every folder as it was;
-    threads   worker threads (0: OpenMP's default, all cores); the setting is the run's own;
+    threads   worker threads (0: OpenMP's default, all cores; at most 1024, as on the command line); the setting is the
+              run's own;
     progress  True: a progress line on stderr (terminals and notebooks); or a callable(stage, done, total);
     flow_map  True: compute the flow map alone (products ["flow_map"], no extractors, no validation products):
               result.fields.flow_x and .flow_y are F(x0, y0) at t1;
@@ -131,6 +132,8 @@ def run(experiment, out=None, *, write=None, threads=0, progress=False, flow_map
         raise ValueError("out names an output folder but write=False")
     if isinstance(threads, bool) or not isinstance(threads, int) or threads < 0:
         raise ValueError(f"threads must be a non-negative integer, not {threads!r}")
+    if threads > _native.max_threads:
+        raise ValueError(f"threads must be at most {_native.max_threads} (as on the command line), not {threads!r}")
     line = ProgressLine() if progress is True else None
     callback = line if line is not None else (progress if callable(progress) else None)
     if progress not in (False, None, True) and not callable(progress):

@@ -127,6 +127,11 @@ class ProgressRelay {
 // geobarrier._geobarrier.run: see python/geobarrier/__init__.py, run().
 py::dict run(const std::string &text, const std::string &file, std::optional<std::string> out, bool write, int threads,
              py::object progress, bool handle_interrupt) {
+    // The command line's cap (experiment.hpp), checked here with the GIL held and before any thread is started: far
+    // more threads than that abort the interpreter inside OpenMP (libgomp) or crash it.
+    if (threads < 0 || threads > geobarrier::max_threads)
+        throw geobarrier::ConfigError("threads", std::to_string(threads) + " worker threads asked for; give 1 to " +
+                                                     std::to_string(geobarrier::max_threads) + " (or 0: one per core)");
     geobarrier::RunOptions options;
     if (out) options.output_dir = fs::path(*out);
     options.threads = threads;
@@ -270,6 +275,7 @@ void translate_exception(std::exception_ptr p) {
 PYBIND11_MODULE(_geobarrier, m) {
     m.doc() = "geobarrier's native part; use the geobarrier package";
     m.attr("version") = GEOBARRIER_VERSION;
+    m.attr("max_threads") = geobarrier::max_threads;
     m.def("run", &run, py::arg("text"), py::arg("file"), py::arg("out"), py::arg("write"), py::arg("threads"),
           py::arg("progress"), py::arg("handle_interrupt"));
     m.def("validate", &validate, py::arg("text"), py::arg("file"));

@@ -3,11 +3,14 @@ with the JSON path in .path and in the message, or another geobarrier.Error for 
 the interpreter survives every one, and the output folder stays empty."""
 
 import copy
+import json
 import re
+import time
 
 import pytest
 
 import geobarrier
+from geobarrier import _geobarrier as _native
 from conftest import BASE, TEST_PLUGIN_DIR
 
 BAD_INPUT = TEST_PLUGIN_DIR / "bad-input"
@@ -146,6 +149,14 @@ def test_bad_arguments_from_python():
         geobarrier.run(dict(BASE, description=object()))
     with pytest.raises(ValueError):
         geobarrier.run(BASE, threads=-1)
+    # The command line's cap: 100000 threads aborted the interpreter inside OpenMP (libgomp) or crashed it.
+    started = time.monotonic()
+    for threads in (1025, 100000):
+        with pytest.raises(ValueError, match="threads must be at most 1024"):
+            geobarrier.run(BASE, threads=threads)
+    with pytest.raises(geobarrier.ConfigError, match="100000 worker threads asked for; give 1 to 1024"):
+        _native.run(json.dumps(BASE), "", None, False, 100000, None, False)  # the binding refuses it on its own
+    assert time.monotonic() - started < 1
     with pytest.raises(geobarrier.IoError, match="cannot open"):
         geobarrier.run("/nonexistent/exp.json")
     with pytest.raises(geobarrier.ConfigError):

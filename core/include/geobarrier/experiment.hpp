@@ -133,10 +133,15 @@ struct ResolvedExperiment {
 
 ResolvedExperiment resolve_experiment(const Experiment &experiment);
 
+// The most worker threads a run (or a sweep member) may ask for, in every interface: the command line's --threads, a
+// sweep's "threads", Python's threads=. More would exhaust the machine's threads or OpenMP's own limits (libgomp aborts
+// the process) before any work is done; run_experiment refuses more with a ConfigError at "threads".
+constexpr int max_threads = 1024;
+
 struct RunOptions {
     std::optional<std::filesystem::path> output_dir; // overrides output.dir
-    int threads = 0;                                 // 0 = OpenMP's default (for this run only: restored afterwards)
-    bool quiet = false;                              // no progress bar, warnings only
+    int threads = 0;    // 0 = OpenMP's default (for this run only: restored afterwards); at most max_threads
+    bool quiet = false; // no progress bar, warnings only
     // For programs that embed the library (the Python module). write_files = false: nothing is written and no
     // picture is drawn (the output folder is not touched; extractors and validation products write into a private
     // temporary folder that is removed). keep_results: RunSummary also holds the fields, the mask and the barriers.

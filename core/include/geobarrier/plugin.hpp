@@ -74,11 +74,20 @@ struct PluginHandle {
     PluginInfo info;
 };
 
+// The most a plugin's descriptor may declare, checked as the loader reads it, before anything is sized from it: a
+// system's dimension (the engine integrates 2 .. max_dimension of flow_map.hpp; a larger one up to this still loads
+// and is listed, and an experiment using it is refused), its parameters, the extractor's required fields, and the
+// length of a plugin's, a parameter's and a state component's name. A descriptor beyond them is malformed.
+constexpr std::uint32_t max_declared_dimension = 64;
+constexpr std::uint32_t max_declared_params = 256;
+constexpr std::uint32_t max_declared_fields = 64;
+constexpr std::size_t max_declared_name_length = 64;
+
 // Loads one plugin library and returns every plugin it declares. Throws
 // PluginError "<file>: <reason>" for a file that is not a loadable library, has
 // no entry symbol, was built for another ABI major version, or declares
-// malformed descriptors; LibraryFileError (errors.hpp) for a file refused before it is mapped (truncated, unreadable,
-// another machine's).
+// malformed descriptors (beyond the limits above, among others); LibraryFileError (errors.hpp) for a file refused
+// before it is mapped (truncated, unreadable, another machine's).
 std::vector<PluginHandle> load_plugin_library(const std::filesystem::path &file);
 
 // Parameter values validated against a schema, in declaration order.

@@ -237,6 +237,10 @@ Definition define(const json &params, const std::string &json_path) {
     if (params.contains("constants")) {
         const json &c = params.at("constants");
         if (!c.is_object()) throw ConfigError(json_path + "/constants", quoted(c) + " is not an object of numbers");
+        // Each is a parameter of the generated plugin, which the loader would refuse beyond its limit (plugin.hpp).
+        if (c.size() > max_declared_params)
+            throw ConfigError(json_path + "/constants",
+                              std::to_string(c.size()) + " constants; at most " + std::to_string(max_declared_params));
         for (const auto &item : c.items()) {
             const std::string path = json_path + "/constants/" + item.key();
             check_name(item.key(), path, declared);

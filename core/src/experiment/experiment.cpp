@@ -645,15 +645,16 @@ std::vector<std::string> state_component_names(const PluginInfo &system) {
 // The grid's slice against the system's components: each axis names one, every other component is fixed, and a
 // system of more than two components needs a slice. Errors name the JSON path.
 std::optional<Slice> resolve_slice(const Experiment &e, const PluginInfo &system) {
-    const std::vector<std::string> names = state_component_names(system);
-    std::string listed;
-    for (const auto &n : names) listed += (listed.empty() ? "" : " ") + n;
+    // The engine's limit first, before anything is sized from the dimension (the loader bounds it too: plugin.hpp).
     if (system.dimension > max_dimension)
         throw ConfigError("/system/plugin", "system '" + system.name + "' has dimension " +
                                                 std::to_string(system.dimension) +
                                                 "; the flow map engine handles "
                                                 "dimensions 2 to " +
                                                 std::to_string(max_dimension));
+    const std::vector<std::string> names = state_component_names(system);
+    std::string listed;
+    for (const auto &n : names) listed += (listed.empty() ? "" : " ") + n;
     if (!e.slice) {
         if (system.dimension != 2)
             throw ConfigError("/grid", "system '" + system.name + "' has " + std::to_string(system.dimension) +

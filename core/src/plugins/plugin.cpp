@@ -4,6 +4,7 @@
 
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
+#include <geobarrier/flow_map.hpp>
 #include <geobarrier/plugin.hpp>
 #include <geobarrier/sdk.hpp>
 
@@ -115,91 +116,97 @@ bool looks_like_shared_library(const fs::path &p) {
            p.extension() == ".dll";
 }
 
-// Copies and checks one descriptor; throws a reason string on malformed input.
-PluginInfo read_descriptor(const gb_plugin_descriptor &d, const fs::path &file, const gb_plugin_entry &entry) {
-    PluginInfo info;
-    info.file = file;
-    info.abi_major = entry.abi_major;
-    info.abi_minor = entry.abi_minor;
-    if (!d.name || !*d.name) throw std::string("a descriptor has no name");
-    info.name = d.name;
-    static const std::regex name_rule("[a-z0-9][a-z0-9-]*");
-    if (!std::regex_match(info.name, name_rule)) throw "plugin name '" + info.name + "' must match [a-z0-9][a-z0-9-]*";
-    info.version = text_or_empty(d.version);
-    info.doc = text_or_empty(d.doc);
-    info.thread_safety = d.thread_safety;
-    if (d.core_version) {
-        // Tied to the core library's C++ series (its SOVERSION), not to the exact release: a patch release needs
-        // no rebuild of the extractors that link it.
-        info.core_version = d.core_version;
-        if (cpp_series(info.core_version) != cpp_series(GEOBARRIER_VERSION))
-            throw "plugin '" + info.name + "' links geobarrier core " + info.core_version + " (C++ series " +
-                cpp_series(info.core_version) + "), this is core " + GEOBARRIER_VERSION + " (series " +
-                cpp_series(GEOBARRIER_VERSION) + "; C++ interfaces change between series: rebuild the plugin)";
+// A name the descriptor gives, read at most max_declared_name_length + 1 characters far (a name without its end is
+// not read on). `what` names it in the message, e.g. "plugin 'duffing' declares a parameter".
+std::string bounded_name(const char *name, const std::string &what) {
+    if (!name || !*name) throw what + " without a name";
+    const std::size_t length = ::strnlen(name, max_declared_name_length + 1);
+    if (length > max_declared_name_length)
+        throw what + " with a name longer than " + std::to_string(max_declared_name_length) + " characters ('" +
+            std::string(name, 20) + "...')";
+    return std::string(name, length);
+}
+
+// A system's table: its dimension (bounded before the domain and state names are read, one entry per component),
+// capabilities, domain (ABI 1.1) and state names and units (ABI 1.2).
+void read_system(const gb_plugin_descriptor &d, const gb_plugin_entry &entry, PluginInfo &info) {
+    info.kind = PluginKind::system;
+    if (!d.system || !d.system->rhs) throw "system '" + info.name + "' has no right-hand side";
+    info.dimension = d.system->dimension;
+    info.has_jacobian = d.system->jacobian != nullptr;
+    info.has_divergence = d.system->divergence != nullptr;
+    info.uses_forcing = (d.system->capabilities & GB_SYSTEM_USES_FORCING) != 0;
+    info.jacobian_derived = info.has_jacobian && (d.system->capabilities & GB_SYSTEM_JACOBIAN_DERIVED) != 0;
+    // Dimensions the engine does not integrate (above max_dimension) are refused when an experiment uses the system
+    // (experiment.cpp, with the JSON path), so that `plugins` and check-plugin still list them; beyond
+    // max_declared_dimension a descriptor is malformed.
+    if (info.dimension == 0) throw "system '" + info.name + "' has dimension 0";
+    if (info.dimension > max_declared_dimension)
+        throw "system '" + info.name + "' declares dimension " + std::to_string(info.dimension) +
+            "; a plugin may declare at most " + std::to_string(max_declared_dimension) +
+            " (the flow map engine integrates 2 to " + std::to_string(max_dimension) + ")";
+    // ABI 1.1 appended the domain; an older plugin's table ends before it.
+    if (entry.abi_minor >= 1 && (d.system->domain_min || d.system->domain_max)) {
+        if (!d.system->domain_min || !d.system->domain_max)
+            throw "system '" + info.name + "' declares only one side of its domain";
+        for (std::uint32_t i = 0; i < info.dimension; ++i) {
+            const double lo = d.system->domain_min[i], hi = d.system->domain_max[i];
+            if (!(lo < hi) || !std::isfinite(lo) || !std::isfinite(hi))
+                throw "system '" + info.name + "' declares an empty or infinite domain in component " +
+                    std::to_string(i);
+            info.domain_min.push_back(lo);
+            info.domain_max.push_back(hi);
+        }
     }
-    if (!d.create || !d.destroy) throw "plugin '" + info.name + "' has no create/destroy function";
-    switch (d.kind) {
-    case GB_KIND_SYSTEM:
-        info.kind = PluginKind::system;
-        if (!d.system || !d.system->rhs) throw "system '" + info.name + "' has no right-hand side";
-        info.dimension = d.system->dimension;
-        info.has_jacobian = d.system->jacobian != nullptr;
-        info.has_divergence = d.system->divergence != nullptr;
-        info.uses_forcing = (d.system->capabilities & GB_SYSTEM_USES_FORCING) != 0;
-        info.jacobian_derived = info.has_jacobian && (d.system->capabilities & GB_SYSTEM_JACOBIAN_DERIVED) != 0;
-        // Dimensions the engine does not integrate (above max_dimension) are refused when an experiment uses the
-        // system (flow_map.cpp, with the JSON path), so that `plugins` and check-plugin still list them.
-        if (info.dimension == 0) throw "system '" + info.name + "' has dimension 0";
-        // ABI 1.1 appended the domain; an older plugin's table ends before it.
-        if (entry.abi_minor >= 1 && (d.system->domain_min || d.system->domain_max)) {
-            if (!d.system->domain_min || !d.system->domain_max)
-                throw "system '" + info.name + "' declares only one side of its domain";
-            for (std::uint32_t i = 0; i < info.dimension; ++i) {
-                const double lo = d.system->domain_min[i], hi = d.system->domain_max[i];
-                if (!(lo < hi) || !std::isfinite(lo) || !std::isfinite(hi))
-                    throw "system '" + info.name + "' declares an empty or infinite domain in component " +
-                        std::to_string(i);
-                info.domain_min.push_back(lo);
-                info.domain_max.push_back(hi);
-            }
+    // ABI 1.2 appended the state names and units; an older plugin's table ends before them. Missing entries are
+    // copied as "" here and reported by check-plugin (conformance), not refused; names are bounded like every name.
+    if (entry.abi_minor >= 2 && (d.system->state_names || d.system->state_units)) {
+        for (std::uint32_t i = 0; i < info.dimension; ++i) {
+            const char *name = d.system->state_names ? d.system->state_names[i] : nullptr;
+            info.state_names.push_back(
+                name && *name ? bounded_name(name, "system '" + info.name + "' declares a state component") : "");
+            info.state_units.push_back(d.system->state_units ? text_or_empty(d.system->state_units[i]) : "");
         }
-        // ABI 1.2 appended the state names and units; an older plugin's table ends before them. Missing entries
-        // are copied as "" here and reported by check-plugin (conformance), not refused.
-        if (entry.abi_minor >= 2 && (d.system->state_names || d.system->state_units)) {
-            for (std::uint32_t i = 0; i < info.dimension; ++i) {
-                info.state_names.push_back(d.system->state_names ? text_or_empty(d.system->state_names[i]) : "");
-                info.state_units.push_back(d.system->state_units ? text_or_empty(d.system->state_units[i]) : "");
-            }
-        }
-        break;
-    case GB_KIND_FORCING:
-        info.kind = PluginKind::forcing;
-        if (!d.forcing || !d.forcing->evaluate) throw "forcing '" + info.name + "' has no evaluate function";
-        // ABI 1.1 appended the composite-forcing fields; an older plugin's table ends before them.
-        if (entry.abi_minor >= 1 && d.forcing->max_terms > 0) {
-            if (!d.forcing->combine) throw "composite forcing '" + info.name + "' has no combine function";
-            if (d.forcing->min_terms < 1 || d.forcing->min_terms > d.forcing->max_terms)
-                throw "composite forcing '" + info.name + "' declares " + std::to_string(d.forcing->min_terms) +
-                    " to " + std::to_string(d.forcing->max_terms) + " terms (need 1 <= min <= max)";
-            info.min_terms = d.forcing->min_terms;
-            info.max_terms = d.forcing->max_terms;
-        }
-        break;
-    case GB_KIND_EXTRACTOR:
-        info.kind = PluginKind::extractor;
-        if (!d.extractor || !d.extractor->extract) throw "extractor '" + info.name + "' has no extract function";
-        if (d.extractor->required_fields)
-            for (const char *const *f = d.extractor->required_fields; *f; ++f) info.required_fields.emplace_back(*f);
-        break;
-    default:
-        throw "plugin '" + info.name + "' has unknown kind " + std::to_string(d.kind);
     }
+}
+
+// A forcing's table: the composite-forcing fields (ABI 1.1).
+void read_forcing(const gb_plugin_descriptor &d, const gb_plugin_entry &entry, PluginInfo &info) {
+    info.kind = PluginKind::forcing;
+    if (!d.forcing || !d.forcing->evaluate) throw "forcing '" + info.name + "' has no evaluate function";
+    // ABI 1.1 appended the composite-forcing fields; an older plugin's table ends before them.
+    if (entry.abi_minor >= 1 && d.forcing->max_terms > 0) {
+        if (!d.forcing->combine) throw "composite forcing '" + info.name + "' has no combine function";
+        if (d.forcing->min_terms < 1 || d.forcing->min_terms > d.forcing->max_terms)
+            throw "composite forcing '" + info.name + "' declares " + std::to_string(d.forcing->min_terms) + " to " +
+                std::to_string(d.forcing->max_terms) + " terms (need 1 <= min <= max)";
+        info.min_terms = d.forcing->min_terms;
+        info.max_terms = d.forcing->max_terms;
+    }
+}
+
+// An extractor's table: the fields it needs, a NULL-terminated list of at most max_declared_fields names.
+void read_extractor(const gb_plugin_descriptor &d, PluginInfo &info) {
+    info.kind = PluginKind::extractor;
+    if (!d.extractor || !d.extractor->extract) throw "extractor '" + info.name + "' has no extract function";
+    if (!d.extractor->required_fields) return;
+    for (const char *const *f = d.extractor->required_fields; *f; ++f) {
+        if (info.required_fields.size() == max_declared_fields)
+            throw "extractor '" + info.name + "' requires more than " + std::to_string(max_declared_fields) + " fields";
+        info.required_fields.push_back(bounded_name(*f, "extractor '" + info.name + "' requires a field"));
+    }
+}
+
+// The parameter schema: at most max_declared_params parameters (counted before one is read), each named once.
+void read_params(const gb_plugin_descriptor &d, PluginInfo &info) {
+    if (d.param_count > max_declared_params)
+        throw "plugin '" + info.name + "' declares " + std::to_string(d.param_count) +
+            " parameters; a plugin may declare at most " + std::to_string(max_declared_params);
     if (d.param_count > 0 && !d.params) throw "plugin '" + info.name + "' declares parameters but gives none";
     for (std::uint32_t i = 0; i < d.param_count; ++i) {
         const gb_param_spec &s = d.params[i];
         ParamSpec p;
-        if (!s.name || !*s.name) throw "plugin '" + info.name + "' has a parameter without a name";
-        p.name = s.name;
+        p.name = bounded_name(s.name, "plugin '" + info.name + "' has a parameter");
         switch (s.type) {
         case GB_PARAM_REAL:
             p.type = ParamType::real;
@@ -227,6 +234,45 @@ PluginInfo read_descriptor(const gb_plugin_descriptor &d, const fs::path &file, 
             if (q.name == p.name) throw "plugin '" + info.name + "' declares parameter '" + p.name + "' twice";
         info.params.push_back(std::move(p));
     }
+}
+
+// Copies and checks one descriptor; throws a reason string on malformed input. Every declared limit (plugin.hpp,
+// max_declared_*) is checked here, as the descriptor is read, before anything is sized from it.
+PluginInfo read_descriptor(const gb_plugin_descriptor &d, const fs::path &file, const gb_plugin_entry &entry) {
+    PluginInfo info;
+    info.file = file;
+    info.abi_major = entry.abi_major;
+    info.abi_minor = entry.abi_minor;
+    info.name = bounded_name(d.name, "a descriptor");
+    static const std::regex name_rule("[a-z0-9][a-z0-9-]*");
+    if (!std::regex_match(info.name, name_rule)) throw "plugin name '" + info.name + "' must match [a-z0-9][a-z0-9-]*";
+    info.version = text_or_empty(d.version);
+    info.doc = text_or_empty(d.doc);
+    info.thread_safety = d.thread_safety;
+    if (d.core_version) {
+        // Tied to the core library's C++ series (its SOVERSION), not to the exact release: a patch release needs
+        // no rebuild of the extractors that link it.
+        info.core_version = d.core_version;
+        if (cpp_series(info.core_version) != cpp_series(GEOBARRIER_VERSION))
+            throw "plugin '" + info.name + "' links geobarrier core " + info.core_version + " (C++ series " +
+                cpp_series(info.core_version) + "), this is core " + GEOBARRIER_VERSION + " (series " +
+                cpp_series(GEOBARRIER_VERSION) + "; C++ interfaces change between series: rebuild the plugin)";
+    }
+    if (!d.create || !d.destroy) throw "plugin '" + info.name + "' has no create/destroy function";
+    switch (d.kind) {
+    case GB_KIND_SYSTEM:
+        read_system(d, entry, info);
+        break;
+    case GB_KIND_FORCING:
+        read_forcing(d, entry, info);
+        break;
+    case GB_KIND_EXTRACTOR:
+        read_extractor(d, info);
+        break;
+    default:
+        throw "plugin '" + info.name + "' has unknown kind " + std::to_string(d.kind);
+    }
+    read_params(d, info);
     return info;
 }
 

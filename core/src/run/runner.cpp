@@ -600,6 +600,10 @@ RunSummary run_stages(const ResolvedExperiment &r, const RunOptions &options) {
 } // namespace
 
 RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options) {
+    // Before a thread is started: OpenMP would try to start them all (libgomp aborts the process beyond its means).
+    if (options.threads < 0 || options.threads > max_threads)
+        throw ConfigError("threads", std::to_string(options.threads) + " worker threads asked for; give 1 to " +
+                                         std::to_string(max_threads) + " (or 0: one per core)");
     // The engine names a bad setting by its own name; the experiment's JSON path goes with it here.
     return with_json_paths([&] {
         // Under mpirun the ranks other than 0 only compute their share of the flow map's tiles (tiles.hpp).

@@ -378,7 +378,7 @@ Sweep parse_sweep(const json &j, const fs::path &file) {
     s.figures = root.has("figures") ? read_figures(root.get("figures")) : default_figures(s.base);
     read_plot(root, s);
     s.processes = static_cast<int>(root.count("processes", 0, 1, 4096));
-    s.threads = static_cast<int>(root.count("threads", 0, 1, 1024));
+    s.threads = static_cast<int>(root.count("threads", 0, 1, max_threads));
     root.finish();
     return s;
 }

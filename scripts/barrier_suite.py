@@ -46,7 +46,7 @@ import os
 import re
 import subprocess
 import time
-from typing import Callable, Dict, List, Optional, Tuple
+from typing import Callable, Dict, Optional, Tuple
 
 import numpy as np
 from scipy.integrate import solve_ivp
@@ -724,7 +724,8 @@ def truth(case, growth_factor=1.0, cache=None):
 def cloud(case, cache=None):
     cache = cache_dir() if cache is None else cache
     key = hashlib.sha256(json.dumps([TRUTH_VERSION, case.experiment["system"], case.experiment.get("forcing"),
-                                     case.box], sort_keys=True).encode()).hexdigest()[:16]
+                                     case.box, case.experiment["time"]["t0"], case.cloud.__name__,
+                                     case.cloud.__defaults__], sort_keys=True).encode()).hexdigest()[:16]
     path = os.path.join(cache, f"{case.name}-cloud-{key}.npy") if cache else None
     if path and os.path.exists(path):
         return np.load(path)
@@ -947,11 +948,12 @@ def evaluate(case, binary=DEFAULT_BIN, grid="small", out=None, cache=None, threa
     doc, manifest, log, run_wall = run_geobarrier(binary, exp, folder, threads)
     start = time.monotonic()
     branches = truth_full(case, cache)
+    cloud_points = cloud(case, cache) if case.cloud is not None else None
     truth_wall = time.monotonic() - start
     start = time.monotonic()
     result = score(doc, branches, case.tol, case.box, case.horizon)
-    if case.cloud is not None:
-        result["cloud_precision"] = cloud_share(doc, cloud(case, cache), case.tol)
+    if cloud_points is not None:
+        result["cloud_precision"] = cloud_share(doc, cloud_points, case.tol)
     score_wall = time.monotonic() - start
     if plots:
         for g in (0.5, 1.0) if any(e is not None for _, _, e in branches) else (1.0,):
@@ -980,9 +982,10 @@ def compare_barriers(a_json, b_json, h):
     return float(m.group(1)), float(m.group(2))
 
 
-def refinements(case, base_result, binary=DEFAULT_BIN, grid="small", out=None, threads=None):
-    """The default run against line_step x 4/3 and / 2, the grid x 1.5 and T +- 10%: the barrier count and the
-    distances (in the default run's grid spacings) from compare-barriers."""
+def refinements(case, base_result, binary=DEFAULT_BIN, grid="small", out=None, threads=None, cache=None):
+    """The default run against line_step x 4/3 and / 2, the grid x 1.5 and T +- 10%: the barrier count, the
+    distances (in the default run's grid spacings) from compare-barriers, and each run's precision, recall and
+    top_on_truth against the case's truth (for T +- 10% still the truth grown for the case's own |T|)."""
     n = grid_n(case, grid)
     step = base_result["line_step"]
     t0, t1 = case.experiment["time"]["t0"], case.experiment["time"]["t1"]
@@ -1000,8 +1003,10 @@ def refinements(case, base_result, binary=DEFAULT_BIN, grid="small", out=None, t
         doc, _, _, wall = run_geobarrier(binary, exp, folder, threads)
         worst, union = compare_barriers(base_json, os.path.join(folder, "run", "barriers.json"),
                                         base_result["spacing"])
+        r = score(doc, truth_full(case, cache), case.tol, case.box, case.horizon)
         rows.append({"change": label, "barriers": len(barrier_curves(doc)), "max_distance": worst,
-                     "union_distance": union, "run_seconds": round(wall, 2)})
+                     "union_distance": union, "run_seconds": round(wall, 2), "precision": r["precision"],
+                     "recall": r["recall"], "top_on_truth": r["top_on_truth"], "passes": r["passes"]})
     return rows
 
 

@@ -671,7 +671,11 @@ _add(Case(
     "stable manifold of the periodic orbit on the bottom wall near x = 1",
     experiment("double-gyre", {}, None, ((0.0, 2.0), (0.0, 1.0)), 15.0),
     (301, 151), (401, 201), 0.01, "0.01: 2 spacings of the experiment's 401 x 201 grid", manifold_truth,
-    {"guess": [1.0, 0.0], "wall_bracket": [0.5, 1.5], "reach": 0.05, "halves": [[1, "interior"]]}))
+    {"guess": [1.0, 0.0], "wall_bracket": [0.5, 1.5], "reach": 0.05, "halves": [[1, "interior"]]},
+    expected_to_pass=False,
+    reason="precision 0.76 on 301 x 151: about a third of the barriers' length runs along the box's walls, which are "
+    "invariant manifolds too (of the corners) but not in this truth; and the extractor does not declare them "
+    "(invariant_walls). Truth or experiment to be completed before it is a pass/fail case"))
 
 
 # ----------------------------------------------------------------------------------------------------------------

@@ -380,8 +380,8 @@ void check_forced_duffing(int nx, int ny, int launch_points) {
         right = right || around_right;
         // Every member, not only the outermost, stays near its own Poincare iterates: the inner members are closed
         // shearlines of the 8 pi field not yet converged to KAM curves and drift up to 12% of their size
-        // (docs/extractor-measurements.md), while a closed curve in the chaotic layer or across the separatrix drifts by its
-        // whole size. (Not <d_g> < 0.7: that is the extractor's own keep threshold.)
+        // (docs/extractor-measurements.md), while a closed curve in the chaotic layer or across the separatrix drifts
+        // by its whole size. (Not <d_g> < 0.7: that is the extractor's own keep threshold.)
         CHECK(barrier["poincare_drift_median"].get<double>() < 0.15);
         // Conservative flow: the enclosed area is kept; the arclength too, by the theory (paper: within 1.5%).
         CHECK(std::abs(barrier["relative_area_change"].get<double>()) < 1e-4);

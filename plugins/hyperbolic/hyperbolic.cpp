@@ -645,8 +645,8 @@ std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, co
     settings.detect_closure = true;
     // Steps of at most half a grid cell, as long as that is not finer than 1/16 of the seed distance: finer
     // grids resolve the fields better, but strainlines sampled more densely than that only cost more (on the
-    // damped Duffing attractor, 1000 x 1000, docs/extractor-measurements.md: the same barrier, 2.5 times fewer points). With
-    // the default seed distance it is half a cell of the 601 x 401 grid the extractor was validated on.
+    // damped Duffing attractor, 1000 x 1000, docs/extractor-measurements.md: the same barrier, 2.5 times fewer points).
+    // With the default seed distance it is half a cell of the 601 x 401 grid the extractor was validated on.
     const double half_cell = 0.5 * std::min(cg.grid.dx(), cg.grid.dy());
     settings.max_step = m_line_step > 0      ? m_line_step
                         : m_seed_spacing > 0 ? half_cell

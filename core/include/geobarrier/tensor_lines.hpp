@@ -28,8 +28,8 @@ const char *to_string(StopReason reason);
 // How tensor lines are integrated. The line fields are bilinear in each grid cell and only continuous across cell
 // edges, so a method's order shows only within a cell: fixed steps of half a cell with the midpoint rule put the
 // lines within a small fraction of a grid spacing of the adaptive 5th-order ones at a third of the field
-// evaluations (measured in docs/extractor-measurements.md, "Tensor-line integration"). The adaptive pairs remain for comparison
-// and for fields where the steps must follow the tolerance.
+// evaluations (measured in docs/extractor-measurements.md, "Tensor-line integration"). The adaptive pairs remain for
+// comparison and for fields where the steps must follow the tolerance.
 enum class TensorLineMethod {
     midpoint, // fixed steps of max_step, explicit midpoint rule: 2 field evaluations per step
     rk4,      // fixed steps of max_step, classical Runge-Kutta: 4 per step

@@ -331,7 +331,7 @@ fs::path truncated_library_folder() {
 // setting needs.
 std::vector<Case> plugin_battery() {
     const std::string nan_lib = (bad_plugin_dir / "geobarrier-bad-input.so").string();
-    const std::string throwing_entry = (bad_plugin_dir / "geobarrier-entry-throws.so").string();
+    const std::string throwing_entry = (bad_plugin_dir / "entry-throws" / "geobarrier-entry-throws.so").string();
     const std::string wrong_abi = (geobarrier::test::test_plugin_dir() / "geobarrier-wrong-abi.so").string();
     const std::string not_a_library = (geobarrier::test::test_plugin_dir() / "not-a-plugin.so").string();
     std::vector<Case> cases;

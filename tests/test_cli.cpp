@@ -181,6 +181,30 @@ TEST_CASE("GEOBARRIER_PLUGIN_PATH and plugin_paths add folders") {
     fs::remove_all(tmp);
 }
 
+TEST_CASE("a folder plugin shadowing a built-in one is a warning on stderr, from validate and run alike") {
+    // The warning was only in the manifest (run) or nowhere (validate); docs/robustness.md says stderr.
+    const fs::path tmp = scratch() / "shadow";
+    fs::create_directories(tmp / "plugins");
+    const fs::path own = tmp / "plugins" / "my-duffing.so";
+    fs::copy_file(geobarrier::test::plugin_dir() / "geobarrier-duffing.so", own);
+    json j = tiny_experiment();
+    j["plugin_paths"] = {(tmp / "plugins").string()};
+    const fs::path file = write_experiment(tmp, "shadow.json", j);
+    const std::string expected = "system 'duffing' is shadowed by " + own.string();
+    const Result validated = run("validate " + file.string(), "", "2>&1 >/dev/null");
+    CHECK(validated.status == 0);
+    CHECK(contains(validated.output,
+                   "geobarrier: warning: " + (geobarrier::test::plugin_dir() / "geobarrier-duffing.so").string()));
+    CHECK(contains(validated.output, expected));
+    const Result ran =
+        run("run " + file.string() + " --out " + (tmp / "out").string() + " --quiet", "", "2>&1 >/dev/null");
+    CHECK(ran.status == 0);
+    CHECK(contains(ran.output, expected));
+    const json manifest = json::parse(geobarrier::test::read_text(tmp / "out" / "manifest.json"));
+    CHECK(contains(manifest["warnings"].dump(), expected));
+    fs::remove_all(tmp);
+}
+
 TEST_CASE("validate reports bad input on one line with the JSON path, exit code 2") {
     const fs::path tmp = scratch();
     json j = tiny_experiment();

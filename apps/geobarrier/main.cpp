@@ -52,7 +52,6 @@ template <class Step> auto naming_the_file(const fs::path &file, Step &&step) ->
 int command_run(const fs::path &file, const std::optional<fs::path> &out, int threads, bool quiet) {
     const Experiment experiment = load_experiment(file);
     const ResolvedExperiment resolved = naming_the_file(file, [&] { return resolve_experiment(experiment); });
-    for (const auto &w : resolved.registry.warnings()) spdlog::debug("{}", w);
     spdlog::info("{}: {} + {} on a {} x {} grid, t = {} to {}", file.string(), resolved.system.info().name,
                  resolved.forcing.info().name, experiment.grid.nx, experiment.grid.ny, experiment.t0, experiment.t1);
     RunOptions options;
@@ -112,7 +111,9 @@ int command_validate(const fs::path &file) {
     const nlohmann::json validation = validation_to_json(experiment.validation, experiment.t0, experiment.t1);
     for (const auto &item : validation.items()) std::cout << " validation:" << item.key();
     std::cout << ")\n";
-    // Warnings on stderr (e.g. a clamped rtol): stdout holds only the verdict.
+    // Warnings on stderr (e.g. a clamped rtol, a plugin folder's library skipped, a plugin shadowing another of its
+    // name): stdout holds only the verdict.
+    for (const auto &w : resolved.registry.warnings()) std::cerr << "geobarrier: warning: " << w << "\n";
     for (const auto &w : experiment.warnings)
         std::cerr << "geobarrier: warning: " << file.string() << ": " << w << "\n";
     return 0;

@@ -16,7 +16,7 @@ from conftest import BASE, TEST_PLUGIN_DIR
 BAD_INPUT = TEST_PLUGIN_DIR / "bad-input"
 WRONG_ABI = str(TEST_PLUGIN_DIR / "geobarrier-wrong-abi.so")
 NOT_A_LIBRARY = str(TEST_PLUGIN_DIR / "not-a-plugin.so")
-THROWING_ENTRY = str(BAD_INPUT / "geobarrier-entry-throws.so")
+THROWING_ENTRY = str(BAD_INPUT / "entry-throws" / "geobarrier-entry-throws.so")
 
 
 def spoiled(**changes):

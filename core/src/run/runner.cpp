@@ -568,8 +568,8 @@ RunSummary run_stages(const ResolvedExperiment &r, const RunOptions &options) {
 
     RunRecord record;
     record.manifest = start_manifest(r, options);
-    for (const auto &w : r.registry.warnings()) record.warnings.push_back(w);
-    for (const auto &w : e.warnings) record.warn(w); // e.g. a clamped tolerance
+    for (const auto &w : r.registry.warnings()) record.warn(w); // stderr too (a library skipped, a plugin shadowed)
+    for (const auto &w : e.warnings) record.warn(w);            // e.g. a clamped tolerance
 
     GridStages grid;
     compute_flow_and_cauchy_green(r, options, plan_fields(r), record, grid);

@@ -444,7 +444,9 @@ TEST_CASE("equations: a truncated library in the cache is refused before it is m
     fs::resize_file(library, whole / 3);
     const equations::Compiled again = equations::compile(duffing_params(), "/system/params");
     CHECK(again.record["cached"] == false);
-    CHECK(fs::file_size(library) == whole);
+    // Rebuilt whole, not left cut: this process's build of the same source may differ from the program's by a few
+    // bytes (16 in the sanitizer build), so not byte for byte, but far from the third it was cut to.
+    CHECK(fs::file_size(library) + 4096 >= whole);
 }
 
 TEST_CASE("equations: more constants than a plugin may declare are refused before anything is compiled") {

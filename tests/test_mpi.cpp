@@ -96,7 +96,8 @@ TEST_CASE("mpirun -np 2 and -np 3 (oversubscribed): the fields of the single pro
     const fs::path dir = fs::temp_directory_path() / ("geobarrier-mpi-" + std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
-    // Points leaving the box are masked (the mask must travel too); the last tile has fewer rows than the others.
+    // Points leaving the box stop there (their exit times must travel too); the last tile has fewer rows than the
+    // others.
     std::ofstream(dir / "exp.json") << R"({
         "system": {"plugin": "duffing"}, "forcing": {"plugin": "cosine", "params": {"amplitude": 0.1}},
         "grid": {"x": [-1.6, 1.6], "y": [-1.1, 1.1], "n": [64, 45]}, "time": {"t0": 0, "t1": 12},
@@ -106,9 +107,9 @@ TEST_CASE("mpirun -np 2 and -np 3 (oversubscribed): the fields of the single pro
     REQUIRE(run({program, "run", exp, "--out", (dir / "single").string(), "--threads", "2", "--quiet"},
                 dir / "single.log") == 0);
     const auto reference = variables(dir / "single" / "fields.nc");
-    REQUIRE(reference.size() >= 9); // x, y, 7 fields and flow_x, flow_y, mask
+    REQUIRE(reference.size() >= 10); // x, y, 7 fields and flow_x, flow_y, exit_time, mask
     const json reference_stats = stats_without_time(dir / "single" / "manifest.json");
-    CHECK(reference_stats["masked"].get<int>() > 0);
+    CHECK(reference_stats["exited"].get<int>() > 0);
 
     for (const int ranks : {2, 3}) {
         CAPTURE(ranks);

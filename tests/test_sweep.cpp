@@ -210,8 +210,12 @@ TEST_CASE("a sweep of 8 members with one failing: the others finish, the failure
     const fs::path dir = fresh_dir("failing");
     // Amplitude 1e6 drives every trajectory out of the bounds at once: that member fails at run time (every grid
     // point masked), the others run normally.
+    // (Exits masked: stopped exits would make them data.)
     const std::vector<double> amplitudes = {0.0, 0.02, 0.04, 0.06, 1e6, 0.08, 0.1, 0.12};
-    const json sweep = {{"base", small_base(21, 6.283185307179586)},
+    json base = small_base(21, 6.283185307179586);
+    REQUIRE(base.contains("bounds"));
+    base["bounds"]["exits"] = "mask";
+    const json sweep = {{"base", base},
                         {"parameters", {{{"path", "/forcing/params/amplitude"}, {"values", amplitudes}}}},
                         {"figures", {"ftle_max", "masked_fraction"}},
                         {"processes", 2},

@@ -255,3 +255,99 @@ TEST_CASE("the extractors' advection shares the grid's auxiliary-grid path (flow
     CHECK(barrier["points"][1][1].get<double>() == doctest::Approx(y0 * std::exp(-1.6)).epsilon(1e-8));
     fs::remove_all(dir);
 }
+
+TEST_CASE("bounds that stop exits: the flow map stopped where the trajectory leaves, and its exit time") {
+    // x' = a x, y' = -a y leaves |x| <= X at t_exit = log(X / |x0|) / a; stopped there, F = (x0 e^{a t}, y0 e^{-a t})
+    // and DF = diag(e^{a t}, e^{-a t}) at the recorded exit time t, which is the end of the step that crossed:
+    // t_exit <= t <= t_exit + one step. Points with |x0| e^{aT} <= X never leave (exit time NaN).
+    const double a = 0.8, t1 = 3.0, X = 1.0;
+    const System saddle = make_system("linear-saddle", {{"a", a}});
+    const Dynamics dyn{&saddle, nullptr};
+    const std::vector<double> xy = {0.3, -0.2, -0.7, 0.05, 0.01, 0.9, 0.5, 0.5, -0.4, -0.6, 0.0, 0.3};
+    const std::size_t n = xy.size() / 2;
+    const auto start = [&](std::size_t k, double &x, double &y) { x = xy[2 * k], y = xy[2 * k + 1]; };
+    IntegratorSettings fixed; // the default: checked fixed steps
+    fixed.step = 0.01;
+    const Bounds stop{-X, X, -2.0, 2.0, ExitRule::stop};
+    for (const IntegratorSettings &s : {fixed, adaptive(4)}) {
+        for (const GradientMethod g : {GradientMethod::variational, GradientMethod::auxiliary_grid}) {
+            CAPTURE(to_string(g));
+            CAPTURE(s.adaptive);
+            const GridFlowMap f = flow_map_at_points(dyn, n, start, 0.0, t1, s, g, 1e-6, 1e-6, true, stop);
+            REQUIRE(f.exit_time.size() == n);
+            CHECK(f.stats.masked == 0);
+            std::uint64_t exited = 0;
+            for (std::size_t k = 0; k < n; ++k) {
+                CAPTURE(k);
+                const double x0 = xy[2 * k], y0 = xy[2 * k + 1];
+                CHECK(f.mask[k] == 0);
+                const double t = f.exit_time[k];
+                const bool leaves = std::abs(x0) * std::exp(a * t1) > X;
+                CHECK(std::isnan(t) == !leaves);
+                if (!leaves) continue;
+                ++exited;
+                const double t_exit = std::log(X / std::abs(x0)) / a;
+                CHECK(t >= t_exit - 1e-9);
+                CHECK(t <= t_exit + (s.adaptive ? 0.5 : fixed.step) + 1e-9); // within the crossing step
+                CHECK(f.flow_x[k] == doctest::Approx(x0 * std::exp(a * t)).epsilon(1e-5));
+                CHECK(f.flow_y[k] == doctest::Approx(y0 * std::exp(-a * t)).epsilon(1e-5));
+                const double scale = f.dF_exponent.empty() ? 1.0 : std::ldexp(1.0, f.dF_exponent[k]);
+                CHECK(f.dF[4 * k] * scale == doctest::Approx(std::exp(a * t)).epsilon(1e-4));
+                CHECK(f.dF[4 * k + 3] * scale == doctest::Approx(std::exp(-a * t)).epsilon(1e-4));
+            }
+            CHECK(f.stats.exited >= exited); // the auxiliary grid's neighbours count as trajectories too
+            CHECK(exited == 4);              // x0 = 0.3, -0.7, 0.5, -0.4 leave; 0.01 and 0 stay
+        }
+    }
+    // The engine's default masks exits, as the extractors' advection needs.
+    const GridFlowMap masked =
+        flow_map_at_points(dyn, n, start, 0.0, t1, fixed, GradientMethod::variational, 0, 0, true, masking(stop));
+    CHECK(masked.exit_time.empty());
+    CHECK(masked.stats.masked_left_bounds == 4);
+    CHECK(masked.stats.exited == 0);
+}
+
+TEST_CASE("a run whose bounds stop exits: exit_time in fields.nc and the safe basin in the manifest") {
+    // Linear saddle, grid [-1, 1]^2, bounds |x| <= 1, T = 2: a grid point stays in exactly when |x0| e^{2a} <= 1.
+    const double a = 0.8, T = 2.0;
+    const json j = json::parse(R"({
+      "system":  {"plugin": "linear-saddle", "params": {"a": 0.8}},
+      "grid":    {"x": [-1, 1], "y": [-1, 1], "n": [41, 21]}, "time": {"t0": 0, "t1": 2},
+      "bounds":  {"x": [-1, 1], "y": [-5, 5]},
+      "products": ["ftle"], "output": {"plots": false}})");
+    json with_paths = j;
+    with_paths["plugin_paths"] = {test::plugin_dir().string()};
+    const ResolvedExperiment r = resolve_experiment(parse_experiment(with_paths));
+    REQUIRE(r.experiment.bounds);
+    CHECK(r.experiment.bounds->exits == ExitRule::stop); // the experiments' default
+    const fs::path dir = fs::temp_directory_path() / ("geobarrier-test-exits-" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    RunOptions options;
+    options.output_dir = dir;
+    options.quiet = true;
+    options.keep_results = true;
+    const RunSummary summary = run_experiment(r, options);
+    std::size_t stay = 0;
+    for (std::size_t i = 0; i < 41; ++i)
+        if (std::abs(-1.0 + 0.05 * static_cast<double>(i)) * std::exp(a * T) <= 1.0) stay += 21;
+    const json manifest = json::parse(std::ifstream(dir / "manifest.json"));
+    REQUIRE(manifest.contains("escape"));
+    CHECK(manifest["escape"]["captured"].get<std::size_t>() == stay);
+    CHECK(manifest["escape"]["captured_fraction"].get<double>() == doctest::Approx(stay / 861.0));
+    CHECK(manifest["escape"]["captured_area"].get<double>() == doctest::Approx(4.0 * stay / 861.0));
+    CHECK(manifest["integrator_stats"]["masked"] == 0);
+    const auto exit =
+        std::find_if(summary.fields.begin(), summary.fields.end(), [](const auto &v) { return v.name == "exit_time"; });
+    REQUIRE(exit != summary.fields.end());
+    CHECK(exit->long_name.find("left the bounds") != std::string::npos); // model time: units "1", named in it
+    for (std::size_t p = 0; p < 861; ++p) {
+        const double x0 = -1.0 + 0.05 * static_cast<double>(p % 41), t = exit->values[p];
+        if (std::abs(x0) * std::exp(a * T) <= 1.0) {
+            CHECK(std::isnan(t));
+        } else {
+            CHECK(t >= std::log(1.0 / std::abs(x0)) / a - 1e-9);
+            CHECK(t <= T);
+        }
+    }
+    fs::remove_all(dir);
+}

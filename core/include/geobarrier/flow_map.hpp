@@ -73,11 +73,26 @@ constexpr double min_rtol = 1e-14;
 // auxiliary-grid group) at a time.
 std::size_t lanes_per_batch(const IntegratorSettings &settings);
 
-// An optional box: trajectories that leave it are masked (mask_left_bounds). It limits state components 0 and 1, or a
-// slice's two axes (Dynamics::slice).
+// What becomes of a trajectory that leaves the bounds box.
+enum class ExitRule {
+    mask, // masked (mask_left_bounds): its final state and DF are unusable
+    // Stopped where it left: the flow map is that of the system stopped on leaving the domain, F(x0) = x(t_exit)
+    // and DF = DF(t_exit, t0), and the point is data, not masked; the results carry t_exit (exit_time). Open systems
+    // (escape from a well, every dissipative system in backward time) keep the whole grid this way, and the boundary
+    // between escaping and captured points, along which DF stretches most, is a barrier like any other.
+    stop
+};
+
+// An optional box. It limits state components 0 and 1, or a slice's two axes (Dynamics::slice). What happens to
+// trajectories that leave it is `exits` (the engine's default masks them; experiments default to stop).
 struct Bounds {
     double x_min, x_max, y_min, y_max;
+    ExitRule exits = ExitRule::mask;
 };
+const char *to_string(ExitRule rule);
+// The same box with trajectories that leave it masked: for callers that must know a point left (advection of
+// curves and tracers), whatever the experiment's rule for its grid.
+std::optional<Bounds> masking(const std::optional<Bounds> &bounds);
 
 // What to integrate: the system, its forcing (may be null when unused), the
 // interval, the settings and the optional bounds.
@@ -134,6 +149,7 @@ struct IntegratorStats {
     std::uint64_t masked = 0;          // trajectories masked for any reason
     std::uint64_t masked_left_bounds = 0, masked_non_finite = 0, masked_step_limit = 0, masked_invalid_state = 0;
     std::uint64_t masked_unstable = 0; // checked fixed steps: failed the error test at the smallest sub-step
+    std::uint64_t exited = 0;          // ExitRule::stop: trajectories stopped on leaving the bounds (not masked)
     std::uint64_t planned_steps = 0;   // fixed steps: the steps of the fixed grid, summed over batches (0: adaptive)
     std::uint64_t renormalised = 0;    // variational: trajectories whose DF left [1/2, 2^256] and was rescaled
     std::uint64_t fused_batches = 0;   // batches the system plugin's fused step integrated (ABI 1.2 advance)
@@ -202,6 +218,9 @@ struct GridFlowMap {
     std::vector<std::int32_t> dF_exponent; // variational only: DF = 2^dF_exponent * dF (see AdvectResult)
     std::vector<double> log_det;           // variational only: log|det DF| (Liouville)
     std::vector<std::uint8_t> mask;
+    // With bounds whose rule is ExitRule::stop: when each point's trajectory left the box (NaN: it never did, the
+    // point is captured); empty otherwise. Auxiliary grid without positions: the earliest of its 4 neighbours.
+    std::vector<double> exit_time;
     IntegratorStats stats;
 };
 

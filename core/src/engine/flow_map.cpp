@@ -520,6 +520,7 @@ template <unsigned N> class BatchIntegrator {
         m_renormalised.assign(n, 0);
         m_since_renormalise = 0;
         m_limit.resize(n);
+        m_exit_time.assign(n, std::numeric_limits<double>::quiet_NaN());
         std::copy(start, start + N * n, m_x.begin());
         for (std::size_t k = 0; k < n; ++k) {
             double big = 1.0;
@@ -536,7 +537,7 @@ template <unsigned N> class BatchIntegrator {
         }
         if (m_ctx.variational) // DF = I (diagonal blocks comp_f11 + (N + 1) i); log|det DF| starts at 0
             for (std::size_t i = 0; i < N; ++i) std::fill_n(m_x.begin() + (comp_f11 + (N + 1) * i) * n, n, 1.0);
-        check_bounds(nullptr);
+        check_bounds(nullptr, m_t0);
         m_steps = m_rejected = 0;
         m_planned = 0;
         if (m_t0 != m_t1 && m_active > 0 && m_lockstep && m_method != Method::rosenbrock4) {
@@ -576,6 +577,7 @@ template <unsigned N> class BatchIntegrator {
                 break;
             }
         }
+        stats.exited += release_exits();
         if (m_ctx.variational) settle_exponents();
         stats.trajectories += n;
         stats.batches += 1;
@@ -600,8 +602,23 @@ template <unsigned N> class BatchIntegrator {
     const std::vector<std::uint8_t> &mask() const { return m_ctx.mask; }
     // Variational: DF of lane k is 2^exponent()[k] times the state's DF block (0 wherever DF fits in a double).
     const std::vector<std::int32_t> &exponent() const { return m_exponent; }
+    // With bounds: when each lane left them (NaN: it never did).
+    const std::vector<double> &exit_time() const { return m_exit_time; }
 
   private:
+    // ExitRule::stop: lanes frozen for leaving the bounds (and for nothing else) are results, not masked: their
+    // state and DF are the flow map stopped at the exit (Bounds, ExitRule). Returns how many.
+    std::uint64_t release_exits() {
+        if (!m_bounds || m_bounds->exits != ExitRule::stop) return 0;
+        std::uint64_t released = 0;
+        for (std::size_t k = 0; k < m_ctx.n; ++k)
+            if (m_ctx.mask[k] == mask_left_bounds) {
+                m_ctx.mask[k] = 0;
+                ++released;
+            }
+        return released;
+    }
+
     void freeze(std::size_t k, std::uint8_t reason) {
         if (m_ctx.mask[k] != 0) return;
         m_ctx.mask[k] = reason;
@@ -733,7 +750,7 @@ template <unsigned N> class BatchIntegrator {
     // After an accepted step: blown-up lanes and lanes outside the bounds box are frozen.
     // One branch-free, vectorisable pass finds whether any lane needs it; lanes are visited only then (frozen lanes
     // keep a state from before they left, so they rarely send us down the slow path, which skips them).
-    void check_after_step(State *dxdt) {
+    void check_after_step(State *dxdt, double t) {
         const std::size_t n = m_ctx.n;
         const double *x = m_x.data(), *limit = m_limit.data();
         const double *bx = x + m_bound_axes[0] * n, *by = x + m_bound_axes[1] * n;
@@ -760,9 +777,10 @@ template <unsigned N> class BatchIntegrator {
                 if (dxdt) zero_lane(*dxdt, k);
             }
         }
-        check_bounds(dxdt);
+        check_bounds(dxdt, t);
     }
-    void check_bounds(State *dxdt) {
+    // Lanes outside the bounds at time t are frozen there (mask_left_bounds), and t is their exit time.
+    void check_bounds(State *dxdt, double t) {
         if (!m_bounds) return;
         const std::size_t n = m_ctx.n;
         const double *x = m_x.data() + m_bound_axes[0] * n, *y = m_x.data() + m_bound_axes[1] * n;
@@ -771,6 +789,7 @@ template <unsigned N> class BatchIntegrator {
             if (m_ctx.mask[k] != 0) continue;
             if (!(x[k] >= b.x_min && x[k] <= b.x_max && y[k] >= b.y_min && y[k] <= b.y_max)) {
                 freeze(k, mask_left_bounds);
+                m_exit_time[k] = t;
                 if (dxdt) zero_lane(*dxdt, k);
             }
         }
@@ -878,7 +897,7 @@ template <unsigned N> class BatchIntegrator {
                     freeze_invalid(&m_dxdt);
                 }
                 ++m_steps;
-                check_after_step(&m_dxdt);
+                check_after_step(&m_dxdt, t);
                 if (m_ctx.variational) renormalise(&m_dxdt);
                 const double factor = err > 0.0 ? 0.9 * std::pow(err, exponent) : 5.0;
                 dt = h * std::clamp(factor, 0.2, 5.0);
@@ -914,7 +933,7 @@ template <unsigned N> class BatchIntegrator {
             screen_trial(has_non_finite(m_x_new), nullptr, nullptr);
             m_x.swap(m_x_new);
             ++m_steps;
-            check_after_step(nullptr);
+            check_after_step(nullptr, t_next);
             if (m_ctx.variational) renormalise(nullptr);
         }
     }
@@ -1006,7 +1025,7 @@ template <unsigned N> class BatchIntegrator {
                 }
                 ++m_steps;
                 ++i;
-                check_after_step(&m_k);
+                check_after_step(&m_k, t);
                 if (m_ctx.variational) renormalise(&m_k);
                 if (adaptive) dt = h * std::clamp(err > 0.0 ? 0.9 * std::pow(err, exponent) : 5.0, 0.2, 5.0);
             } else {
@@ -1134,7 +1153,7 @@ template <unsigned N> class BatchIntegrator {
             }
             if (!fused && Tab::fsal)
                 for (std::size_t k : m_ctx.frozen) zero_lane(m_k, k);
-            check_after_step(fused ? nullptr : &m_k);
+            check_after_step(fused ? nullptr : &m_k, t);
             if (m_ctx.variational) renormalise(fused ? nullptr : &m_k);
             dt = whole ? h_full
                        : std::min(h_full,
@@ -1339,7 +1358,7 @@ template <unsigned N> class BatchIntegrator {
             m_x.swap(m_x_new);
             ++m_steps;
             ++i;
-            check_after_step(nullptr);
+            check_after_step(nullptr, t + h);
             if (m_ctx.variational) renormalise(nullptr);
         }
         return true;
@@ -1398,6 +1417,7 @@ template <unsigned N> class BatchIntegrator {
     std::vector<std::uint8_t> m_bad;
     std::vector<std::int32_t> m_exponent;     // variational: DF = 2^m_exponent[k] * (the state's DF block)
     std::vector<std::uint8_t> m_renormalised; // lanes rescaled at least once
+    std::vector<double> m_exit_time;          // with bounds: when each lane left them (NaN: never)
     unsigned m_since_renormalise = 0;
     std::vector<double> m_lane_error;          // checked fixed steps: each lane's error of the trial step
     std::vector<double> m_substep_forcing;     // checked fixed steps: forcing at a sub-step's stage times
@@ -1410,9 +1430,10 @@ template <unsigned N> class BatchIntegrator {
 // Fills the initial states of lanes [first, first + n): component i of lane k at start[i * n + k].
 using InitFn = std::function<void(std::size_t first, std::size_t n, double *start)>;
 // Receives the final states (SoA, ld = n) and masks of lanes [first, first + n).
-// With the variational equations, `exponent` gives each lane's DF scale (see BatchIntegrator::exponent).
+// With the variational equations, `exponent` gives each lane's DF scale (see BatchIntegrator::exponent);
+// `exit_time` says when each lane left the bounds (NaN: never, or no bounds).
 using FinishFn = std::function<void(std::size_t first, std::size_t n, const double *state, const std::uint8_t *mask,
-                                    const std::int32_t *exponent)>;
+                                    const std::int32_t *exponent, const double *exit_time)>;
 
 // Integrates `lanes` trajectories in batches of `batch` consecutive lanes, batches in parallel (OpenMP). The first
 // exception thrown in any batch (a failing plugin call, say) stops the remaining batches and is rethrown here.
@@ -1455,7 +1476,8 @@ IntegratorStats run_batches_of(const Dynamics &dynamics, double t0, double t1, c
                     const std::size_t n = std::min(batch, lanes - first);
                     init(first, n, start.data());
                     integrator.run(n, start.data(), local);
-                    finish(first, n, integrator.state().data(), integrator.mask().data(), integrator.exponent().data());
+                    finish(first, n, integrator.state().data(), integrator.mask().data(), integrator.exponent().data(),
+                           integrator.exit_time().data());
                     const std::size_t d = done.fetch_add(1) + 1;
                     if (progress) progress(d, batches);
                 } catch (...) {
@@ -1603,6 +1625,16 @@ class PlaneView {
     std::array<unsigned, 2> m_axes{0, 1};
 };
 
+// The earliest exit time of `count` lanes integrated from t0, forward or backward (NaN when none left).
+double earliest_exit(const double *exit_time, std::size_t count, double t0) {
+    double earliest = nan_value;
+    for (std::size_t q = 0; q < count; ++q)
+        if (std::isfinite(exit_time[q]) &&
+            !(std::abs(exit_time[q] - t0) >= std::abs(earliest - t0))) // true while earliest is NaN
+            earliest = exit_time[q];
+    return earliest;
+}
+
 // Every grid point masked is an error, not an empty result: say why, with what to try.
 void require_unmasked_points(const GridFlowMap &out, const IntegratorSettings &settings, const Dynamics &dynamics) {
     if (out.mask.empty() || std::any_of(out.mask.begin(), out.mask.end(), [](std::uint8_t m) { return m == 0; }))
@@ -1613,6 +1645,15 @@ void require_unmasked_points(const GridFlowMap &out, const IntegratorSettings &s
 }
 
 } // namespace
+
+const char *to_string(ExitRule rule) { return rule == ExitRule::stop ? "stop" : "mask"; }
+
+std::optional<Bounds> masking(const std::optional<Bounds> &bounds) {
+    if (!bounds) return bounds;
+    Bounds box = *bounds;
+    box.exits = ExitRule::mask;
+    return box;
+}
 
 std::size_t lanes_per_batch(const IntegratorSettings &settings) {
     return settings.method == "rosenbrock4" ? 1 : settings.batch;
@@ -1658,6 +1699,15 @@ std::string describe_masking(const IntegratorStats &stats, const IntegratorSetti
         else
             text += ": try a larger \"max_steps\" or looser tolerances";
     }
+    // Escape to infinity looks like blow-up, instability or stiffness to the stepper. Without a box nothing stops it.
+    if ((stats.masked_non_finite | stats.masked_unstable | stats.masked_step_limit) > 0 &&
+        stats.masked_left_bounds == 0 && stats.exited == 0)
+        text += "; if trajectories escape (an open system: escape from a well, a dissipative system in backward "
+                "time), set \"bounds\" around the region of interest: trajectories then stop where they leave it and "
+                "are data (exit_time in fields.nc), at a fraction of the cost";
+    if (stats.masked_left_bounds > 0)
+        text += "; \"exits\": \"stop\" in \"bounds\" keeps trajectories that leave as data (stopped where they "
+                "leave)";
     return text;
 }
 
@@ -1709,6 +1759,7 @@ void IntegratorStats::add(const IntegratorStats &other) {
     masked_step_limit += other.masked_step_limit;
     masked_invalid_state += other.masked_invalid_state;
     masked_unstable += other.masked_unstable;
+    exited += other.exited;
     planned_steps += other.planned_steps;
     renormalised += other.renormalised;
     fused_batches += other.fused_batches;
@@ -1723,6 +1774,7 @@ nlohmann::json IntegratorStats::to_json() const {
                           {"rhs_evaluations", rhs_evaluations},
                           {"masked", masked},
                           {"masked_left_bounds", masked_left_bounds},
+                          {"exited", exited},
                           {"masked_non_finite", masked_non_finite},
                           {"masked_step_limit", masked_step_limit},
                           {"masked_invalid_state", masked_invalid_state},
@@ -1758,7 +1810,7 @@ AdvectResult advect_points(const Dynamics &dynamics, const std::vector<double> &
         std::copy(y0.begin() + first, y0.begin() + first + n, ys);
     });
     const FinishFn finish = [&](std::size_t first, std::size_t n, const double *s, const std::uint8_t *mask,
-                                const std::int32_t *exponent) {
+                                const std::int32_t *exponent, const double *) {
         for (std::size_t k = 0; k < n; ++k) {
             const std::size_t p = first + k;
             result.mask[p] = mask[k];
@@ -1862,6 +1914,9 @@ GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, cons
     out.dF.clear();
     out.dF_exponent.clear();
     out.log_det.clear();
+    out.exit_time.clear();
+    const bool exits = bounds && bounds->exits == ExitRule::stop;
+    if (exits) out.exit_time.assign(count, nan_value);
     if (positions) {
         out.flow_x.assign(count, nan_value);
         out.flow_y.assign(count, nan_value);
@@ -1878,10 +1933,11 @@ GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, cons
             for (std::size_t k = 0; k < n; ++k) start(first + k, xs[k], ys[k]);
         });
         const FinishFn finish = [&](std::size_t first, std::size_t n, const double *s, const std::uint8_t *mask,
-                                    const std::int32_t *exponent) {
+                                    const std::int32_t *exponent, const double *exit_time) {
             for (std::size_t k = 0; k < n; ++k) {
                 const std::size_t p = first + k;
                 out.mask[p] = mask[k];
+                if (exits) out.exit_time[p] = exit_time[k];
                 if (mask[k] != 0) continue;
                 if (positions) {
                     out.flow_x[p] = plane.x(s, n, k);
@@ -1918,13 +1974,15 @@ GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, cons
         }
     });
     const FinishFn finish = [&](std::size_t first, std::size_t n, const double *s, const std::uint8_t *mask,
-                                const std::int32_t *) {
+                                const std::int32_t *, const double *exit_time) {
         const double *xs = s + plane.axis(0) * n, *ys = s + plane.axis(1) * n;
         for (std::size_t k = 0; k < n; k += per_point) {
             const std::size_t p = (first + k) / per_point;
             std::uint8_t m = 0;
             for (std::size_t q = 0; q < per_point; ++q) m |= mask[k + q];
             out.mask[p] = m;
+            if (exits) // the point's own trajectory (the centre lane), else the earliest of its neighbours
+                out.exit_time[p] = positions ? exit_time[k + 4] : earliest_exit(exit_time + k, per_point, t0);
             if (m != 0) continue;
             out.dF[4 * p + 0] = (xs[k] - xs[k + 1]) / (2.0 * offset_x);
             out.dF[4 * p + 1] = (xs[k + 2] - xs[k + 3]) / (2.0 * offset_y);
@@ -1965,7 +2023,7 @@ StateFlowMap flow_map_of_states(const Dynamics &dynamics, std::size_t count, con
         }
     };
     const FinishFn finish = [&](std::size_t first, std::size_t n, const double *s, const std::uint8_t *mask,
-                                const std::int32_t *exponent) {
+                                const std::int32_t *exponent, const double *) {
         for (std::size_t k = 0; k < n; ++k) {
             const std::size_t p = first + k;
             out.mask[p] = mask[k];

@@ -45,6 +45,7 @@ FieldPlan plan_fields(const ResolvedExperiment &r) {
     plan.gradient = r.need_cauchy_green ? r.gradient : GradientMethod::none;
     plan.aux_offset = e.aux_offset;
     plan.positions = r.need_positions;
+    plan.exit_times = (r.need_cauchy_green || r.need_positions) && e.bounds && e.bounds->exits == ExitRule::stop;
     plan.plot = e.plots && r.need_cauchy_green;
     if (!r.need_cauchy_green) return plan;
     const auto &cg_names = cauchy_green_variables();
@@ -126,6 +127,8 @@ void compute_tile(const TileJob &job, std::size_t row, std::size_t rows, std::si
         std::copy(buffers.flow_x.begin(), buffers.flow_x.end(), flow.flow_x.begin() + to);
         std::copy(buffers.flow_y.begin(), buffers.flow_y.end(), flow.flow_y.begin() + to);
     }
+    if (job.plan.exit_times && buffers.exit_time.size() == points)
+        std::copy(buffers.exit_time.begin(), buffers.exit_time.end(), flow.exit_time.begin() + to);
     if (!job.plan.cauchy_green) return;
     // Straight into the fields, only those kept (the others are empty in cg).
     cg.degenerate_count +=
@@ -142,6 +145,7 @@ void allocate_fields(const FieldPlan &plan, std::size_t count, GridFlowMap &flow
         flow.flow_x.resize(count, nan);
         flow.flow_y.resize(count, nan);
     }
+    if (plan.exit_times) flow.exit_time.resize(count, nan);
     if (plan.cauchy_green) {
         cg.mask.resize(count, 0);
         for (const auto &name : plan.keep) cauchy_green_member(cg, name).resize(count, nan);
@@ -156,6 +160,7 @@ void for_each_shared_array(const FieldPlan &plan, GridFlowMap &flow, CauchyGreen
         visit(flow.flow_x);
         visit(flow.flow_y);
     }
+    if (plan.exit_times) visit(flow.exit_time);
     if (!plan.cauchy_green) return;
     visit(cg.mask);
     for (const auto &name : plan.keep) visit(cauchy_green_member(cg, name));

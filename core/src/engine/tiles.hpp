@@ -33,6 +33,7 @@ struct FieldPlan {
     GradientMethod gradient = GradientMethod::none; // how the gradient is computed (when cauchy_green)
     double aux_offset = 0.0;                        // auxiliary-grid offset, relative to the grid spacing
     bool positions = false;                         // F(x0): flow_x, flow_y
+    bool exit_times = false;                        // bounds with ExitRule::stop: exit_time per point
     std::vector<std::string> keep;                  // Cauchy–Green variables kept, from cauchy_green_variables()
     bool plot = false;                              // the FTLE picture (its buffers, for the estimate)
     bool derived = false;               // extractors or derived fields (their grid fields, for the estimate)

@@ -8,6 +8,7 @@
 #include "engine/tiles.hpp"
 #include "experiment/json_reader.hpp"
 #include "experiment/resources.hpp"
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
@@ -252,8 +253,21 @@ Bounds read_bounds(const json &section, const std::optional<GridSliceSpec> &slic
     // Over a slice the box limits the grid's axes, named as in the grid.
     std::tie(box.x_min, box.x_max) = b.interval(slice ? slice->axes[0] : "x");
     std::tie(box.y_min, box.y_max) = b.interval(slice ? slice->axes[1] : "y");
+    // Trajectories that leave are data by default (open systems: escape, dissipative systems in backward time).
+    box.exits = b.string("exits", "stop", {"stop", "mask"}) == "stop" ? ExitRule::stop : ExitRule::mask;
     b.finish();
     return box;
+}
+
+// Bounds that leave no grid point inside would stop (or mask) every trajectory before its first step: refused.
+void check_grid_within(const Bounds &box, const Grid &grid) {
+    const auto inside = [](double lo, double hi, double a, double b) { return b >= lo && a <= hi; };
+    if (inside(box.x_min, box.x_max, grid.x_min, grid.x_max) && inside(box.y_min, box.y_max, grid.y_min, grid.y_max))
+        return;
+    throw ConfigError("/bounds", fmt::format("the box [{:g}, {:g}] x [{:g}, {:g}] holds no point of the grid [{:g}, "
+                                             "{:g}] x [{:g}, {:g}]: every trajectory would start outside it",
+                                             box.x_min, box.x_max, box.y_min, box.y_max, grid.x_min, grid.x_max,
+                                             grid.y_min, grid.y_max));
 }
 
 // The experiment's own integrator keys, applied one by one over the quality preset's settings `s`; `warnings` gets
@@ -403,7 +417,10 @@ Experiment parse_experiment(const json &j, const fs::path &file) {
         e.forcing = PluginUse{"none", json::object(), "/forcing", {}, ""};
     e.grid = read_grid(root.get("grid"), e.slice);
     read_time(root.get("time"), e);
-    if (root.has("bounds")) e.bounds = read_bounds(root.get("bounds"), e.slice);
+    if (root.has("bounds")) {
+        e.bounds = read_bounds(root.get("bounds"), e.slice);
+        check_grid_within(*e.bounds, e.grid);
+    }
     // The quality preset sets the integrator; the experiment's own integrator keys override it one by one.
     e.quality = root.string("quality", e.quality, {"draft", "standard", "publication"});
     e.integrator = quality_preset(e.quality);
@@ -801,7 +818,8 @@ void echo_settings(const ResolvedExperiment &r, json &resolved) {
     resolved["output"] = {{"dir", e.output_dir.string()}, {"plots", e.plots}};
     if (e.bounds)
         resolved["bounds"] = {{e.slice ? e.slice->axes[0] : "x", {e.bounds->x_min, e.bounds->x_max}},
-                              {e.slice ? e.slice->axes[1] : "y", {e.bounds->y_min, e.bounds->y_max}}};
+                              {e.slice ? e.slice->axes[1] : "y", {e.bounds->y_min, e.bounds->y_max}},
+                              {"exits", to_string(e.bounds->exits)}};
     if (!e.validation.empty()) resolved["validation"] = validation_to_json(e.validation, e.t0, e.t1);
 }
 

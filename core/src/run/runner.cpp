@@ -78,6 +78,8 @@ FieldDoc field_doc(const std::string &name) {
         {"xi2_y", {"y component of the Cauchy-Green eigenvector xi2 = Omega xi1", "1"}},
         {"flow_x", {"x component of the flow map F(x0) at t1", "state"}},
         {"flow_y", {"y component of the flow map F(x0) at t1", "state"}},
+        {"exit_time",
+         {"time at which the trajectory left the bounds (fill value: it never did, the point is captured)", "time"}},
         {"strain_deviation", {"geodesic strain deviation d_g^xi1 (eq. gdev_str, general form)", "1/state"}},
         {"shear_deviation_plus", {"geodesic shear deviation d_g^eta+ (eq. dg_shr, general form)", "1/state"}},
         {"shear_deviation_minus", {"geodesic shear deviation d_g^eta- (eq. dg_shr, general form)", "1/state"}},
@@ -248,6 +250,22 @@ template <class Matches> bool field_wanted(const ResolvedExperiment &r, const st
     return wanted;
 }
 
+// The safe basin of an open system (bounds with ExitRule::stop): the grid points whose trajectories stay within the
+// bounds over the whole horizon, as a count, a share of the grid and an area (the share of the grid's rectangle).
+json describe_escape(const Grid &g, const GridFlowMap &flow) {
+    std::uint64_t captured = 0, exited = 0;
+    for (std::size_t k = 0; k < flow.exit_time.size(); ++k) {
+        if (flow.mask[k] & mask_trajectory_bits) continue;
+        (std::isnan(flow.exit_time[k]) ? captured : exited) += 1;
+    }
+    const double share = static_cast<double>(captured) / static_cast<double>(std::max<std::size_t>(g.size(), 1));
+    return {{"exits", "stop"},
+            {"exited", exited},
+            {"captured", captured},
+            {"captured_fraction", share},
+            {"captured_area", share * (g.x_max - g.x_min) * (g.y_max - g.y_min)}};
+}
+
 // Stages 1 and 2: the flow map, with the gradient only when something needs it, and the Cauchy–Green eigenvalues,
 // eigenvectors and FTLE, tile by tile (tiles.hpp): only the fields the products, extractors and pictures read are
 // kept for the whole grid.
@@ -285,6 +303,10 @@ void compute_flow_and_cauchy_green(const ResolvedExperiment &r, const RunOptions
     if (r.need_positions) {
         grid.fields["flow_x"] = &grid.flow.flow_x;
         grid.fields["flow_y"] = &grid.flow.flow_y;
+    }
+    if (!grid.flow.exit_time.empty()) {
+        grid.fields["exit_time"] = &grid.flow.exit_time;
+        record.manifest["escape"] = describe_escape(e.grid, grid.flow);
     }
     grid.mask = r.need_cauchy_green ? &grid.cg.mask : &grid.flow.mask;
 }
@@ -325,7 +347,7 @@ ExtractServices advection_services(const ResolvedExperiment &r) {
                                           : GradientMethod::auxiliary_grid;
         const GridFlowMap a = flow_map_at_points(
             dynamics, n, [xy](std::size_t k, double &x, double &y) { x = xy[2 * k], y = xy[2 * k + 1]; }, t_from, t_to,
-            e.integrator, method, e.aux_offset * e.grid.dx(), e.aux_offset * e.grid.dy(), true, e.bounds);
+            e.integrator, method, e.aux_offset * e.grid.dx(), e.aux_offset * e.grid.dy(), true, masking(e.bounds));
         for (std::size_t k = 0; k < n; ++k) {
             const std::uint8_t m = a.mask[k];
             mask_out[k] = m;
@@ -419,7 +441,7 @@ std::vector<fs::path> run_validation_products(const ResolvedExperiment &r, const
     ValidationInput input;
     input.dynamics = r.dynamics();
     input.integrator = e.integrator;
-    input.bounds = e.bounds;
+    input.bounds = masking(e.bounds); // tracers and advected curves must know when they left
     input.t0 = e.t0;
     input.t1 = e.t1;
     input.barriers = &barriers;
@@ -446,6 +468,11 @@ std::vector<FieldVariable> field_variables(const Experiment &e, const GridStages
             const FieldDoc doc = field_doc(name);
             variables.push_back(FieldVariable{name, doc.long_name, doc.units, grid.fields.at(name), masked_by});
         }
+    }
+    // Bounds that stop trajectories: when each left them, with the fields it qualifies.
+    if (const auto exit = grid.fields.find("exit_time"); !variables.empty() && exit != grid.fields.end()) {
+        const FieldDoc doc = field_doc("exit_time");
+        variables.push_back(FieldVariable{"exit_time", doc.long_name, doc.units, exit->second, mask_trajectory_bits});
     }
     return variables;
 }

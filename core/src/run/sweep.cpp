@@ -127,6 +127,9 @@ std::vector<std::string> default_figures(const json &base) {
                 figures.push_back("ftle_mean");
                 figures.push_back("ftle_max");
             }
+    // An open system's safe basin: its share of the grid, member by member (an erosion curve over the forcing).
+    if (base.contains("bounds") && base["bounds"].is_object() && base["bounds"].value("exits", "stop") == "stop")
+        figures.push_back("captured_fraction");
     figures.push_back("masked_fraction");
     return figures;
 }
@@ -135,8 +138,8 @@ std::vector<std::string> default_figures(const json &base) {
 
 const std::vector<std::string> &sweep_figure_names() {
     static const std::vector<std::string> names = {
-        "outermost_elliptic_area", "elliptic_barriers", "barriers", "ftle_mean", "ftle_max",
-        "masked_fraction",         "wall_seconds"};
+        "outermost_elliptic_area", "elliptic_barriers", "barriers",    "ftle_mean", "ftle_max",
+        "captured_fraction",       "masked_fraction",   "wall_seconds"};
     return names;
 }
 
@@ -569,6 +572,9 @@ std::vector<double> member_figures(const Sweep &s, const fs::path &folder, const
             if (manifest.contains(ptr) && manifest.at(ptr).is_number()) v = manifest.at(ptr).get<double>();
         } else if (figure == "wall_seconds") {
             v = manifest.value("wall_seconds", not_available);
+        } else if (figure == "captured_fraction") {
+            const json escape = manifest.value("escape", json::object());
+            v = escape.value("captured_fraction", not_available);
         } else if (figure == "masked_fraction") {
             const json stats = manifest.value("integrator_stats", json::object());
             const double trajectories = stats.value("trajectories", 0.0);

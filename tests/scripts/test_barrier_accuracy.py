@@ -14,6 +14,7 @@ its ground truth against what it must satisfy, and the hyperbolic extractor agai
 Run: /usr/bin/python3 -m pytest -q tests/scripts/test_barrier_accuracy.py (GEOBARRIER_BIN names the program;
 default build/bin/geobarrier). Needs numpy, scipy and pytest (Debian's python3-scipy, python3-pytest).
 """
+import json
 import math
 import os
 import sys
@@ -241,6 +242,32 @@ def test_van_der_pol_cycle_closes():
     assert np.linalg.norm(cyc[0] - cyc[-1]) == 0.0
     assert 1.9 < np.max(cyc[:, 0]) < 2.1  # mu = 1: amplitude about 2.01
     assert len(bs.clip_to_box(cyc, case.box)) == 1
+
+
+def test_equations_systems_evaluate_their_text():
+    """An equations experiment's Python truth reads the rhs text itself: the damped Duffing written as equations
+    equals the suite's hand-written Duffing, value and Jacobian."""
+    exp = json.load(open(os.path.join(bs.ROOT, "experiments", "duffing-damped-attractor-equations.json")))
+    mine, theirs = bs.plain_system_of(exp), bs.duffing(delta=0.15, forcing=exp["forcing"])
+    X = np.array([[0.3, -0.2], [-1.1, 0.7], [1.5, 1.0]])
+    for t in (0.0, 1.3):
+        assert np.allclose(mine.rhs(t, X), theirs.rhs(t, X), rtol=1e-14, atol=1e-14)
+        assert np.allclose(mine.jac(t, X[1]), theirs.jac(t, X[1]), atol=1e-8)
+
+
+def test_escape_saddle_orbit_and_the_stopped_box():
+    """The escape oscillator's hilltop orbit is a saddle fixed point of the period map near x = 1; the system the
+    truth uses (stopped outside the bounds) is the system inside them and still outside them."""
+    case = bs.CASES["escape-below-forward"]
+    system = bs.system_of(case.experiment)
+    saddle = bs.find_saddle(system, case.truth_params["guess"], 0.0)
+    assert saddle.residual < 1e-9
+    assert abs(saddle.point[0] - 0.97) < 0.01 and abs(saddle.point[1]) < 0.01
+    assert saddle.stable_exponent < 0 < saddle.unstable_exponent
+    plain = bs.plain_system_of(case.experiment)
+    inside, outside = np.array([[0.5, 0.5]]), np.array([[5.0, 0.0]])
+    assert np.array_equal(system.rhs(0.7, inside), plain.rhs(0.7, inside))
+    assert np.array_equal(system.rhs(0.7, outside), np.zeros((1, 2)))
 
 
 # ---------------------------------------------------------------------------------------------------------------

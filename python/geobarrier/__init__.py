@@ -3,7 +3,9 @@
     import geobarrier
     r = geobarrier.run("experiments/demo.json")     # or a dict in the experiment format
     r.fields.ftle                                     # xarray.DataArray (ny, nx), as in fields.nc
-    r.barriers[0].points                              # (n, 2) array
+    r.barriers[0].points                              # (n, 2) array; r.barriers[0].rank, an int
+    r.barriers.to_dataframe()                         # one row per barrier (pandas)
+    r.plot()                                          # FTLE with the barriers over it (matplotlib Axes)
     r.manifest["integrator_stats"]
 
 docs/python.md is the guide; docs/experiment-format.md describes experiments.
@@ -19,50 +21,46 @@ from . import _fields
 from ._errors import ConfigError, Error, IoError, NumericalError, PluginError
 from ._geobarrier import version as __version__
 from . import _geobarrier as _native
+from ._barriers import Barrier, Barriers
+from ._fields import Fields
+from ._plot import plot
 from ._progress import ProgressLine
 
-__all__ = ["run", "validate", "plugins", "set_log_level", "Result", "Barrier", "Error", "ConfigError",
-           "PluginError", "NumericalError", "IoError", "ProgressLine"]
-
-
-class Barrier:
-    """One barrier an extractor found: ``points`` is an (n, 2) array of (x, y); ``kind`` (e.g. "elliptic"),
-    ``closed``, ``extractor``; ``attributes`` holds everything else barriers.json records for it (metrics such as
-    "length", extractor attributes), also readable as ``barrier["length"]``."""
-
-    def __init__(self, record):
-        import numpy as np
-
-        record = dict(record)
-        self.kind = record.pop("kind")
-        self.closed = bool(record.pop("closed"))
-        self.extractor = record.pop("extractor")
-        self.points = np.asarray(record.pop("points"), dtype=float).reshape(-1, 2)
-        self.attributes = record
-
-    def __getitem__(self, name):
-        return self.attributes[name]
-
-    def __repr__(self):
-        shape = "closed" if self.closed else "open"
-        return f"<geobarrier.Barrier {self.kind} ({self.extractor}), {shape}, {len(self.points)} points>"
+__all__ = ["run", "validate", "plugins", "set_log_level", "plot", "Result", "Barrier", "Barriers", "Fields",
+           "Error", "ConfigError", "PluginError", "NumericalError", "IoError", "ProgressLine"]
 
 
 class Result:
-    """What run() returns: ``fields`` (an xarray.Dataset as fields.nc holds it, or geobarrier.Fields of NumPy arrays
-    without xarray), ``barriers`` (list of Barrier), ``candidates`` (list of Barrier: curves an extractor reported
-    but does not assert, barriers.json's "candidates"), ``manifest`` (dict, as manifest.json), ``warnings`` (the
-    manifest's), ``output_dir`` and ``files`` (what was written; empty when nothing was)."""
+    """What run() returns: ``fields`` (an xarray.Dataset as fields.nc holds it, with its CF attributes, or
+    geobarrier.Fields of NumPy arrays without xarray), ``barriers`` (Barriers: a list of Barrier), ``candidates``
+    (Barriers: curves an extractor reported but does not assert, barriers.json's "candidates"), ``manifest`` (dict,
+    as manifest.json), ``warnings`` (the manifest's), ``output_dir`` and ``files`` (what was written; empty when
+    nothing was). ``plot()`` draws a field with the barriers, ``to_dataframe()`` tabulates the barriers."""
 
     def __init__(self, native, use_xarray=True):
         self.fields = _fields.build(native, use_xarray)
-        self.barriers = [Barrier(b) for b in json.loads(native["barriers"])]
+        self.barriers = Barriers(Barrier(b) for b in json.loads(native["barriers"]))
         # Curves an extractor reported but does not assert as barriers (barriers.json's "candidates").
-        self.candidates = [Barrier(b) for b in json.loads(native.get("candidates", "[]"))]
+        self.candidates = Barriers(Barrier(b) for b in json.loads(native.get("candidates", "[]")))
         self.manifest = json.loads(native["manifest"])
         self.warnings = self.manifest.get("warnings", [])
         self.output_dir = native["output_dir"] or None
         self.files = list(native["files"])
+
+    def plot(self, variable="ftle", *, ax=None, candidates=False, **kwargs):
+        """Draws the field ``variable`` (default "ftle") with the barriers over it, and the candidates dashed when
+        ``candidates`` is True; returns the matplotlib Axes. Keyword arguments as for geobarrier.plot()."""
+        return plot(self.fields, self.barriers, variable=variable, ax=ax,
+                    candidates=self.candidates if candidates else (), **kwargs)
+
+    def to_dataframe(self, candidates=False):
+        """The barriers' figures as a pandas.DataFrame (Barriers.to_dataframe), one row per barrier; with
+        ``candidates`` True the candidates follow, and a bool column "candidate" tells them apart."""
+        if not candidates:
+            return self.barriers.to_dataframe()
+        frame = Barriers(list(self.barriers) + list(self.candidates)).to_dataframe()
+        frame["candidate"] = [False] * len(self.barriers) + [True] * len(self.candidates)
+        return frame
 
     def __repr__(self):
         names = [n for n in self.fields if n != "mask"] if not hasattr(self.fields, "data_vars") else [

@@ -24,10 +24,10 @@ from . import _geobarrier as _native
 from ._barriers import Barrier, Barriers
 from ._fields import Fields
 from ._plot import plot
-from ._progress import ProgressLine
+from ._progress import InContext, ProgressBar, ProgressLine, default_progress
 
 __all__ = ["run", "validate", "plugins", "set_log_level", "plot", "Result", "Barrier", "Barriers", "Fields",
-           "Error", "ConfigError", "PluginError", "NumericalError", "IoError", "ProgressLine"]
+           "Error", "ConfigError", "PluginError", "NumericalError", "IoError", "ProgressLine", "ProgressBar"]
 
 
 class Result:
@@ -112,7 +112,9 @@ def run(experiment, out=None, *, write=None, threads=0, progress=False, flow_map
               a run that writes nothing draws no pictures and leaves every folder as it was;
     threads   worker threads (0: OpenMP's default, all cores; at most 1024, as on the command line); the setting is the
               run's own;
-    progress  True: a progress line on stderr (terminals and notebooks); or a callable(stage, done, total);
+    progress  True: a live bar per stage in a Jupyter notebook (tqdm's; a widget with ipywidgets 7 or newer), else
+              a progress line on stderr; or a callable(stage, done, total), e.g. ProgressBar(tqdm.tqdm) (ProgressLine and
+              ProgressBar objects are closed when the run returns);
     flow_map  True: compute the flow map alone (products ["flow_map"], no extractors, no validation products):
               result.fields.flow_x and .flow_y are F(x0, y0) at t1;
     xarray    False: NumPy arrays (geobarrier.Fields) even when xarray is installed.
@@ -132,20 +134,26 @@ def run(experiment, out=None, *, write=None, threads=0, progress=False, flow_map
         raise ValueError(f"threads must be a non-negative integer, not {threads!r}")
     if threads > _native.max_threads:
         raise ValueError(f"threads must be at most {_native.max_threads} (as on the command line), not {threads!r}")
-    line = ProgressLine() if progress is True else None
-    callback = line if line is not None else (progress if callable(progress) else None)
     if progress not in (False, None, True) and not callable(progress):
         raise TypeError("progress is True, False or a callable(stage, done, total)")
+    # progress=True draws the default; a ProgressLine or ProgressBar given is drawn and closed the same way.
+    line = default_progress() if progress is True else (
+        progress if isinstance(progress, (ProgressLine, ProgressBar)) else None)
+    callback = line if line is not None else (progress if callable(progress) else None)
+    if callback is not None:
+        callback = InContext(callback)  # drawn as the caller's output (a notebook cell's), from the core's threads
     # Ctrl-C is the core's to handle only where Python would raise KeyboardInterrupt for it: in the main thread,
     # with Python's default handler in place.
     handle_interrupt = (threading.current_thread() is threading.main_thread()
                         and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+    completed = False
     try:
         native = _native.run(text, file, None if out is None else os.fspath(out), bool(write), threads, callback,
                              handle_interrupt)
+        completed = True
     finally:
         if line is not None:
-            line.close()
+            line.close(completed=completed)
     return Result(native, xarray)
 
 

@@ -22,6 +22,9 @@ def test_run_from_an_install_prefix(tmp_path):
     assert installed.returncode == 0, installed.stderr
     packages = [p.parent for p in prefix.glob("lib/python3*/*-packages/geobarrier")]
     assert len(packages) == 1
+    # The type stubs and the PEP 561 marker are installed with the sources (test_stubs.py checks what they say).
+    assert {p.name for p in packages[0].glob("geobarrier/*.pyi")} == {"__init__.pyi", "_geobarrier.pyi"}
+    assert (packages[0] / "geobarrier" / "py.typed").is_file()
     env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "GEOBARRIER_PLUGIN_PATH")}
     env["PYTHONPATH"] = str(packages[0])
     script = ("import geobarrier, json; "

@@ -20,6 +20,7 @@ from conftest import SOURCE_DIR
 
 nbformat = pytest.importorskip("nbformat", reason="needs python3-nbformat (scripts/install-deps)")
 nbclient = pytest.importorskip("nbclient", reason="needs python3-nbclient and python3-ipykernel (scripts/install-deps)")
+pytest.importorskip("ipykernel", reason="needs python3-ipykernel (scripts/install-deps)")
 
 EXAMPLES = SOURCE_DIR / "examples" / "python"
 NOTEBOOKS = sorted(p.name for p in EXAMPLES.glob("*.ipynb"))
@@ -70,10 +71,15 @@ def test_notebook_runs_without_errors(name):
     assert images, f"{name} draws no picture"
     text = "".join(o.text for o in outputs(notebook, "stdout"))
     if name == "paper_first_example.ipynb":
-        # The progress bar: tqdm's, one per stage, on the cell's stderr, ending full.
+        # The progress bar: tqdm's, one per stage, on the cell's stderr, ending full (without tqdm: the text line).
         progress = "".join(o.text for o in outputs(notebook, "stderr"))
-        assert "flow map:   0%|" in progress and "flow map: 100%|██████████| 21201/21201" in progress, progress
-        assert "extractor elliptic: 100%|██████████| 1/1" in progress, progress
+        try:
+            import tqdm  # noqa: F401
+        except ImportError:
+            assert "flow map            [" in progress and "100%" in progress, progress
+        else:
+            assert "flow map:   0%|" in progress and "flow map: 100%|██████████| 21201/21201" in progress, progress
+            assert "extractor elliptic: 100%|██████████| 1/1" in progress, progress
         assert "10 barriers on 2 islands" in text, text
     elif name == "own_oscillator_equations.ipynb":
         assert "compiled plugin:" in text and "FTLE on 191 x 161 points" in text, text

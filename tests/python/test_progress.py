@@ -83,3 +83,23 @@ def test_progress_callbacks_run_in_the_callers_context():
     geobarrier.run(dict(attractor_experiment(), extractors=[]), progress=lambda *_: seen.add(CALLER.get()),
                    threads=2)
     assert seen == {"the cell"}
+
+
+def test_the_bar_a_notebook_gets(monkeypatch):
+    # tqdm's widget bar only with ipywidgets 7 or newer (Debian 12's 6.0 speaks the old widget protocol): faked
+    # here, since no ipywidgets is installed for the tests.
+    import sys
+    import types
+
+    tqdm = pytest.importorskip("tqdm", reason="needs python3-tqdm (scripts/install-deps)")
+    from geobarrier import _progress
+
+    for version, expected in (("8.1.1", "tqdm.notebook"), ("7.0.0", "tqdm.notebook"), ("6.0.0", "tqdm.std")):
+        monkeypatch.setitem(sys.modules, "ipywidgets",
+                            types.SimpleNamespace(__version__=version, __name__="ipywidgets"))
+        assert _progress.notebook_tqdm().__module__ == expected, version
+    monkeypatch.setitem(sys.modules, "ipywidgets", None)  # not installed: import fails
+    assert _progress.notebook_tqdm() is tqdm.std.tqdm
+    monkeypatch.setattr(_progress, "in_notebook", lambda: True)
+    chosen = _progress.default_progress()
+    assert isinstance(chosen, geobarrier.ProgressBar) and chosen.tqdm_class is tqdm.std.tqdm

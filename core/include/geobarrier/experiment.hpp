@@ -62,6 +62,7 @@ struct Experiment {
     Grid grid;
     std::optional<GridSliceSpec> slice; // the grid's "axes" and "fixed" when given
     double t0 = 0.0, t1 = 1.0;
+    bool both_directions = false; // "time": {"directions": "both"}: forward and backward from t0 (run_both_directions)
     std::optional<Bounds> bounds;
     std::string quality = "standard";     // the preset: draft | standard | publication (quality_preset)
     IntegratorSettings integrator;        // the preset's, with the experiment's own keys applied

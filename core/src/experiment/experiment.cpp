@@ -244,6 +244,8 @@ void read_time(const json &section, Experiment &e) {
     e.t0 = t.number("t0");
     e.t1 = t.number("t1");
     if (e.t1 == e.t0) throw ConfigError("/time/t1", "equals t0; the interval must have nonzero length");
+    // "both": the forward (t0 to t0 + |t1 - t0|) and the backward (t0 to t0 - |t1 - t0|) runs in one (tangle.hpp).
+    e.both_directions = t.string("directions", "one", {"one", "both"}) == "both";
     t.finish();
 }
 
@@ -793,6 +795,7 @@ void echo_settings(const ResolvedExperiment &r, json &resolved) {
             {"x", {e.grid.x_min, e.grid.x_max}}, {"y", {e.grid.y_min, e.grid.y_max}}, {"n", {e.grid.nx, e.grid.ny}}};
     }
     resolved["time"] = {{"t0", e.t0}, {"t1", e.t1}};
+    if (e.both_directions) resolved["time"]["directions"] = "both";
     resolved["quality"] = e.quality;
     resolved["integrator"] = {{"method", e.integrator.method},
                               {"engine", e.integrator.engine},

@@ -14,6 +14,7 @@
 #include <geobarrier/line_field.hpp>
 #include <geobarrier/output.hpp>
 #include <geobarrier/shear.hpp>
+#include <geobarrier/tangle.hpp>
 
 #include <omp.h>
 #include <spdlog/spdlog.h>
@@ -633,6 +634,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
                                          std::to_string(max_threads) + " (or 0: one per core)");
     // The engine names a bad setting by its own name; the experiment's JSON path goes with it here.
     return with_json_paths([&] {
+        if (r.experiment.both_directions) return run_both_directions(r, options); // two runs and their tangle
         // Under mpirun the ranks other than 0 only compute their share of the flow map's tiles (tiles.hpp).
         if (mpi::sharing_tiles() && mpi::rank() != 0) return run_as_tile_worker(r, options);
         return run_stages(r, options);

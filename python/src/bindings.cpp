@@ -32,6 +32,9 @@ namespace py = pybind11;
 namespace fs = std::filesystem;
 using nlohmann::json;
 
+// The array functions (flow_map, cauchy_green, ftle, systems and forcings as objects): arrays.cpp.
+void register_array_functions(py::module_ &m);
+
 namespace {
 
 // A NumPy array of the given shape that owns `values` (moved, not copied): the capsule frees them with the array.
@@ -290,6 +293,7 @@ PYBIND11_MODULE(_geobarrier, m) {
         d["long_name"] = a.long_name;
         return d;
     });
+    register_array_functions(m);
     py::register_exception_translator(&translate_exception);
     // The core logs to stderr (spdlog's default logger would write to stdout); in Python only warnings and errors by
     // default (set_log_level("info") for more).

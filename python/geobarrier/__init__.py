@@ -21,13 +21,15 @@ from . import _fields
 from ._errors import ConfigError, Error, IoError, NumericalError, PluginError
 from ._geobarrier import version as __version__
 from . import _geobarrier as _native
+from ._arrays import CauchyGreen, Forcing, System, cauchy_green, flow_map, ftle
 from ._barriers import Barrier, Barriers
 from ._fields import Fields
 from ._plot import plot
 from ._progress import InContext, ProgressBar, ProgressLine, default_progress
 
 __all__ = ["run", "validate", "plugins", "set_log_level", "plot", "Result", "Barrier", "Barriers", "Fields",
-           "Error", "ConfigError", "PluginError", "NumericalError", "IoError", "ProgressLine", "ProgressBar"]
+           "Error", "ConfigError", "PluginError", "NumericalError", "IoError", "ProgressLine", "ProgressBar",
+           "flow_map", "cauchy_green", "ftle", "System", "Forcing", "CauchyGreen"]
 
 
 class Result:

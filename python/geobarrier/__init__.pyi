@@ -3,18 +3,23 @@ of the package is here and every name here is in the package, with the same sign
 examples against them."""
 
 import os
-from typing import Any, Callable, Dict, Iterator, KeysView, List, Literal, Mapping, Optional, Sequence, Union
+from typing import (Any, Callable, Dict, Iterator, KeysView, List, Literal, Mapping, Optional, Sequence, Tuple, Union,
+                    overload)
 
 import numpy as np
 import numpy.typing as npt
 
 __version__: str
 __all__ = ["run", "validate", "plugins", "set_log_level", "plot", "Result", "Barrier", "Barriers", "Fields",
-           "Error", "ConfigError", "PluginError", "NumericalError", "IoError", "ProgressLine", "ProgressBar"]
+           "Error", "ConfigError", "PluginError", "NumericalError", "IoError", "ProgressLine", "ProgressBar",
+           "flow_map", "cauchy_green", "ftle", "System", "Forcing", "CauchyGreen"]
 
 _Experiment = Union[Dict[str, Any], str, "os.PathLike[str]"]
 _ProgressCallback = Callable[[str, int, int], object]
 _Figure = Union[int, float, bool, str, None, List[Any], Dict[str, Any]]
+_Path = Union[str, "os.PathLike[str]"]
+_Quality = Literal["draft", "standard", "publication"]
+_Array = npt.NDArray[np.float64]
 
 class Error(Exception):
     """A geobarrier error: the computation failed (a plugin, a numerical stage, a file)."""
@@ -114,3 +119,65 @@ def plot(fields: Any, barriers: Sequence[Barrier] = ..., *, variable: str = ...,
          candidates: Sequence[Barrier] = ..., colorbar: bool = ..., cmap: Any = ..., aspect: Any = ...,
          barrier_kwargs: Optional[Dict[str, Any]] = ..., **kwargs: Any) -> Any:
     """Draws one field with barriers over it; returns the matplotlib Axes."""
+
+class System:
+    """A dynamical system of the core: a plugin by name or file, or equations (System.from_equations)."""
+    def __init__(self, name: _Path, /, *, plugin_paths: Union[_Path, Sequence[_Path]] = ..., **params: Any) -> None: ...
+    @classmethod
+    def from_equations(cls, state: Sequence[str], rhs: Sequence[str],
+                       constants: Optional[Mapping[str, float]] = ...) -> "System":
+        """A system written as equations (the experiment format's "equations" system)."""
+    @property
+    def name(self) -> str: ...
+    @property
+    def dimension(self) -> int: ...
+    @property
+    def state_names(self) -> List[str]: ...
+    @property
+    def has_jacobian(self) -> bool: ...
+    @property
+    def uses_forcing(self) -> bool: ...
+    @property
+    def parameters(self) -> List[Dict[str, Any]]: ...
+    @property
+    def params(self) -> Dict[str, Any]: ...
+
+class Forcing:
+    """A forcing f(t) of the core by name; a composite one (sum, ramp) with its terms or base."""
+    def __init__(self, name: _Path, /, *, terms: Optional[Sequence["Forcing"]] = ..., base: Optional["Forcing"] = ...,
+                 plugin_paths: Union[_Path, Sequence[_Path]] = ..., **params: Any) -> None: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def parameters(self) -> List[Dict[str, Any]]: ...
+    @property
+    def params(self) -> Dict[str, Any]: ...
+    @overload
+    def __call__(self, t: float) -> float: ...
+    @overload
+    def __call__(self, t: npt.ArrayLike) -> Any: ...
+
+class CauchyGreen:
+    """What cauchy_green() returns: C, eigenvalues (ascending), eigenvectors (columns), ftle (None without T)."""
+    C: _Array
+    eigenvalues: _Array
+    eigenvectors: _Array
+    ftle: Any
+    def __init__(self, C: _Array, eigenvalues: _Array, eigenvectors: _Array, ftle: Any) -> None: ...
+
+@overload
+def flow_map(system: System, points: npt.ArrayLike, t0: float, t1: float, *, forcing: Optional[Forcing] = ...,
+             derivative: Literal[False] = ..., quality: _Quality = ..., threads: Optional[int] = ...) -> _Array:
+    """The final states (N, n) of the points integrated from t0 to t1; with derivative=True also DF (N, n, n)."""
+@overload
+def flow_map(system: System, points: npt.ArrayLike, t0: float, t1: float, *, forcing: Optional[Forcing] = ...,
+             derivative: Literal[True], quality: _Quality = ...,
+             threads: Optional[int] = ...) -> Tuple[_Array, _Array]: ...
+@overload
+def flow_map(system: System, points: npt.ArrayLike, t0: float, t1: float, *, forcing: Optional[Forcing] = ...,
+             derivative: bool, quality: _Quality = ...,
+             threads: Optional[int] = ...) -> Union[_Array, Tuple[_Array, _Array]]: ...
+def cauchy_green(DF: npt.ArrayLike, T: Optional[float] = ...) -> CauchyGreen:
+    """C = DF^T DF of each gradient with its eigenvalues and eigenvectors (and the FTLE with T)."""
+def ftle(F: npt.ArrayLike, T: float, *, of: Literal["DF", "C"] = ...) -> Any:
+    """The FTLE of each gradient DF (or tensor C with of="C") over the time T: (N,) or a float."""

@@ -1,0 +1,345 @@
+"""Array functions on the core's engine (docs/python.md, "Arrays"): systems and forcings as objects, the flow map of
+given states with its gradient, and the Cauchy–Green tensor and FTLE of given gradients. No JSON and no files for
+arrays: NumPy buffers go to the core, which computes with the GIL released. Every argument is checked here first and
+a bad one raises with its name (TypeError for a wrong type, ConfigError, a ValueError, with ``e.path`` the argument's
+name, for a wrong value)."""
+
+import json
+import math
+import numbers
+import os
+import signal
+import threading
+
+import numpy as np
+
+from ._errors import ConfigError
+from . import _geobarrier as _native
+
+_QUALITIES = ("draft", "standard", "publication")
+
+
+def _schema(schema_text):
+    """A plugin's parameter schema as plugins() gives it: a list of dicts (an unbounded side of a range is inf)."""
+    params = json.loads(schema_text).get("params", [])
+    for param in params:
+        for key, unbounded in (("min", -math.inf), ("max", math.inf)):
+            if key in param and param[key] is None:
+                param[key] = unbounded
+    return params
+
+
+def _params_text(params):
+    try:
+        return json.dumps(params, allow_nan=False, default=lambda v: v.tolist() if hasattr(v, "tolist") else str(v))
+    except ValueError:
+        bad = next((k for k, v in params.items() if isinstance(v, float) and not math.isfinite(v)), "")
+        raise ConfigError(f"/{bad}: {params[bad]!r} is not finite", f"/{bad}") from None
+
+
+def _plugin_paths(plugin_paths):
+    if isinstance(plugin_paths, (str, os.PathLike)):
+        plugin_paths = [plugin_paths]
+    try:
+        return [os.fspath(p) for p in plugin_paths]
+    except TypeError:
+        raise TypeError("plugin_paths: expected a list of folder paths") from None
+
+
+def _name(name, what):
+    if isinstance(name, os.PathLike):
+        name = os.fspath(name)
+    if not isinstance(name, str):
+        raise TypeError(f"name: a {what} plugin's name or file is a str, not {type(name).__name__}")
+    return name
+
+
+class System:
+    """A dynamical system x' = v(x, t; f) of the core: a built-in or plugin system by name, a plugin file
+    (``System("path/libmine.so")``), or equations (``System.from_equations``). Its parameters are checked against
+    the plugin's schema as an experiment's are (an unknown or out-of-range one raises ConfigError with ``e.path``
+    "/name").
+
+        duffing = geobarrier.System("duffing", alpha=1, beta=1, delta=0)
+        duffing.parameters      # the schema: name, type, default, min, max, unit, doc of each parameter
+        duffing.params          # the values used, defaults filled in
+    """
+
+    def __init__(self, name, /, *, plugin_paths=(), **params):
+        self._native = _native.make_system(_name(name, "system"), _params_text(params),
+                                           _plugin_paths(plugin_paths))
+
+    @classmethod
+    def from_equations(cls, state, rhs, constants=None):
+        """A system written as equations, as an experiment's "equations" system (docs/experiment-format.md): e.g.
+        ``System.from_equations(["x", "v"], ["v", "x - x^3 - d*v + f"], {"d": 0.15})`` (f is the forcing). It is
+        compiled once with this build's compiler and cached; new constants need no new compile."""
+        params = {"state": list(state) if not isinstance(state, str) else state,
+                  "rhs": list(rhs) if not isinstance(rhs, str) else rhs}
+        if constants is not None:
+            params["constants"] = dict(constants)
+        system = cls.__new__(cls)
+        system._native = _native.make_equations_system(_params_text(params))
+        return system
+
+    @property
+    def name(self):
+        """The plugin's name ("duffing"; "equations" for equations)."""
+        return self._native.name
+
+    @property
+    def dimension(self):
+        """The number of state components."""
+        return self._native.dimension
+
+    @property
+    def state_names(self):
+        """The state components' names as the system declares them ([] when it declares none)."""
+        return list(self._native.state_names)
+
+    @property
+    def has_jacobian(self):
+        """Whether the system has a Jacobian (flow_map(..., derivative=True) needs one)."""
+        return self._native.has_jacobian
+
+    @property
+    def uses_forcing(self):
+        """Whether the vector field reads the forcing f(t)."""
+        return self._native.uses_forcing
+
+    @property
+    def parameters(self):
+        """The parameter schema: a list of dicts (name, type, default, min, max, unit, doc) as plugins() lists them."""
+        return _schema(self._native.schema)
+
+    @property
+    def params(self):
+        """The parameter values in use, defaults filled in (for equations: state, rhs and constants)."""
+        return json.loads(self._native.params)
+
+    def __repr__(self):
+        return f"<geobarrier.System {self.name} {self.params}>"
+
+
+class Forcing:
+    """A forcing f(t) of the core by name, e.g. ``Forcing("cosine", amplitude=0.08)``, or a composite one with its
+    terms: ``Forcing("sum", terms=[Forcing("cosine"), Forcing("cosine", omega=2)])``,
+    ``Forcing("ramp", base=Forcing("cosine"))``. ``forcing(t)`` evaluates it at an array of times."""
+
+    def __init__(self, name, /, *, terms=None, base=None, plugin_paths=(), **params):
+        if terms is not None and base is not None:
+            raise ValueError("terms, base: give one of them (base is a single term)")
+        given = [base] if base is not None else list(terms) if terms is not None else []
+        for k, term in enumerate(given):
+            if not isinstance(term, Forcing):
+                raise TypeError(f"{'base' if base is not None else f'terms[{k}]'}: a Forcing, not "
+                                f"{type(term).__name__}")
+        self._native = _native.make_forcing(_name(name, "forcing"), _params_text(params),
+                                            [t._native for t in given], _plugin_paths(plugin_paths))
+
+    @property
+    def name(self):
+        """The plugin's name."""
+        return self._native.name
+
+    @property
+    def parameters(self):
+        """The parameter schema: a list of dicts (name, type, default, min, max, unit, doc)."""
+        return _schema(self._native.schema)
+
+    @property
+    def params(self):
+        """The parameter values in use, defaults filled in (a composite: {"params": ..., "terms": [...]})."""
+        return json.loads(self._native.params)
+
+    def __call__(self, t):
+        """f at the times ``t`` (a number or an array): a float or an array of t's shape."""
+        scalar = np.ndim(t) == 0
+        times = _real_array(t, "t", allow_nan=True).reshape(-1)
+        values = self._native.evaluate(times)
+        return float(values[0]) if scalar else values.reshape(np.shape(t))
+
+    def __repr__(self):
+        return f"<geobarrier.Forcing {self.name} {self.params}>"
+
+
+def _available_bytes():
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        pass
+    return None
+
+
+def _check_memory(name, needed):
+    available = _available_bytes()
+    if available is not None and needed > available:
+        raise MemoryError(f"{name}: the result needs {needed / 2**30:.3g} GiB and {available / 2**30:.3g} GiB of "
+                          "memory are available; pass fewer points at a time")
+
+
+def _numbers(value, name):
+    """`value` as a NumPy array of real numbers, not yet copied or converted: TypeError for anything else."""
+    try:
+        array = value if isinstance(value, np.ndarray) else np.asarray(value)
+    except (ValueError, TypeError) as e:
+        raise TypeError(f"{name}: not an array of numbers ({e})") from None
+    if array.dtype.kind not in "fiu":
+        raise TypeError(f"{name}: expected real numbers (float64), got an array of dtype {array.dtype}")
+    return array
+
+
+def _real_array(value, name, allow_nan=False):
+    """`value` as a float64 C-contiguous array (a copy when it is not one already); TypeError for a non-real
+    dtype, ConfigError for NaN or Inf (unless allowed)."""
+    array = _numbers(value, name)
+    _check_memory(name, array.size * 8)
+    array = np.ascontiguousarray(array, dtype=np.float64)
+    if not allow_nan and array.size and not np.isfinite(array).all():
+        index = tuple(int(i) for i in np.argwhere(~np.isfinite(array))[0])
+        raise ConfigError(f"{name}: {name}[{', '.join(map(str, index))}] is {array[index]!r}; every value must be "
+                          "finite", name)
+    return array
+
+
+def _real(value, name, nonzero=False):
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise TypeError(f"{name}: expected a real number, got {type(value).__name__}")
+    value = float(value)
+    if not math.isfinite(value):
+        raise ConfigError(f"{name}: {value!r} is not finite", name)
+    if nonzero and value == 0.0:
+        raise ConfigError(f"{name}: must not be 0 (the integration time)", name)
+    return value
+
+
+def _threads(threads):
+    if threads is None:
+        return 0
+    if isinstance(threads, bool) or not isinstance(threads, numbers.Integral):
+        raise TypeError(f"threads: expected an int or None, got {type(threads).__name__}")
+    if not 1 <= threads <= _native.max_threads:
+        raise ConfigError(f"threads: {threads} worker threads asked for; give 1 to {_native.max_threads} "
+                          "(or None: one per core)", "threads")
+    return int(threads)
+
+
+def flow_map(system, points, t0, t1, *, forcing=None, derivative=False, quality="standard", threads=None):
+    """The flow map F(x0) of ``system`` from t0 to t1 (t1 < t0: backward) at the initial states ``points``, on the
+    engine of ``geobarrier run`` with the integrator of the quality preset ("draft", "standard", "publication"; as
+    an experiment without an "integrator" section). Returns the final states, an (N, n) float64 array (n the
+    system's dimension), or with ``derivative=True`` the pair (states, DF) with DF the (N, n, n) gradient of the
+    flow map from the variational equations (DF[k, i, j] = d F_i / d x_j at point k; it needs the system's Jacobian).
+    A masked trajectory (it blew up, hit the step limit, left the system's domain) has NaN in its row.
+
+    points     (N, n) array of initial states, or one state (n,) (then the results have no N axis); any real dtype,
+               converted to float64 (non-contiguous arrays are copied); NaN and Inf are refused;
+    forcing    a Forcing, or None: f = 0 (the experiment format's "none");
+    threads    worker threads for this call (None: OpenMP's default, all cores).
+
+    Bit for bit the numbers ``geobarrier run`` computes for the same initial states when they are passed in the same
+    order as the run's grid points (row by row): points are integrated in lockstep batches of 64 neighbours in the
+    array, and a preset's checked fixed steps are refined per batch where a step fails its error test. The GIL is
+    released; Ctrl-C in the main thread raises KeyboardInterrupt.
+    """
+    if not isinstance(system, System):
+        raise TypeError(f"system: expected a geobarrier.System, got {type(system).__name__}")
+    if forcing is None:
+        forcing = _none_forcing()
+    elif not isinstance(forcing, Forcing):
+        raise TypeError(f"forcing: expected a geobarrier.Forcing or None, got {type(forcing).__name__}")
+    if not isinstance(quality, str):
+        raise TypeError(f"quality: expected one of {', '.join(_QUALITIES)}, got {type(quality).__name__}")
+    if quality not in _QUALITIES:
+        raise ConfigError(f"quality: {quality!r} is not one of {', '.join(_QUALITIES)}", "quality")
+    if not isinstance(derivative, (bool, np.bool_)):
+        raise TypeError(f"derivative: expected True or False, got {type(derivative).__name__}")
+    t0, t1 = _real(t0, "t0"), _real(t1, "t1")
+    if t0 == t1:
+        raise ConfigError(f"t1: equals t0 ({t0!r}); give an interval of non-zero length", "t1")
+    threads = _threads(threads)
+    n = system.dimension
+    points = _numbers(points, "points")
+    shape = points.shape
+    single = len(shape) == 1
+    if len(shape) not in (1, 2) or shape[-1] != n:
+        raise ConfigError(f"points: shape {tuple(shape)}; system '{system.name}' has dimension {n}, so give an "
+                          f"array of shape (N, {n}) or one state of shape ({n},)", "points")
+    count = 1 if single else shape[0]
+    if derivative and not system.has_jacobian:
+        raise ConfigError(f"derivative: system '{system.name}' provides no Jacobian, which DF needs", "derivative")
+    # The engine's own buffers (states, DF, a lane copy) and the results.
+    _check_memory("points", count * 8 * 3 * (n + (n * n + 2 if derivative else 0)))
+    array = _real_array(points, "points").reshape(count, n)
+    handle_interrupt = (threading.current_thread() is threading.main_thread()
+                        and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+    states, dF, _mask, _stats = _native.flow_map(system._native, forcing._native, array, t0, t1, bool(derivative),
+                                                 quality, threads, handle_interrupt)
+    if single:
+        states = states[0]
+        dF = None if dF is None else dF[0]
+    return (states, dF) if derivative else states
+
+
+_NONE = []
+
+
+def _none_forcing():
+    if not _NONE:
+        _NONE.append(Forcing("none"))
+    return _NONE[0]
+
+
+def _tensors(value, name):
+    """(array (N, n, n), single) of gradients or tensors; NaN and Inf are allowed (masked points give NaN)."""
+    value = _numbers(value, name)
+    shape = value.shape
+    if len(shape) not in (2, 3) or shape[-1] != shape[-2] or not 2 <= shape[-1] <= 64:
+        raise ConfigError(f"{name}: shape {tuple(shape)}; expected (N, n, n) or (n, n) with 2 <= n <= 64", name)
+    array = _real_array(value, name, allow_nan=True)
+    single = array.ndim == 2
+    return array.reshape(-1, shape[-1], shape[-1]), single
+
+
+class CauchyGreen:
+    """What cauchy_green() returns: ``C`` (N, n, n) = DFᵀDF, ``eigenvalues`` (N, n) ascending, ``eigenvectors``
+    (N, n, n) unit, column i for eigenvalue i (numpy.linalg.eigh's layout; for n = 2 the columns are xi1 and xi2 of
+    the paper, xi2 = Omega xi1), and ``ftle`` (N,) when T was given (else None). Without an N axis for one DF."""
+
+    def __init__(self, C, eigenvalues, eigenvectors, ftle):
+        self.C, self.eigenvalues, self.eigenvectors, self.ftle = C, eigenvalues, eigenvectors, ftle
+
+    def __repr__(self):
+        return f"<geobarrier.CauchyGreen of {self.C.shape[0] if self.C.ndim == 3 else 1} point(s)>"
+
+
+def cauchy_green(DF, T=None):
+    """The Cauchy–Green strain tensor C = DFᵀDF of each gradient in ``DF`` ((N, n, n) or (n, n), e.g. from
+    flow_map(..., derivative=True)) with its eigenvalues and eigenvectors, computed as the core computes its fields:
+    for n = 2 lambda2 from the dominant root and lambda1 = det(DF)² / lambda2 (no cancellation), xi1 rotated from xi2;
+    for n > 2 from the singular value decomposition of DF. With ``T`` (the integration time t1 - t0), also the FTLE.
+    A DF with NaN or Inf entries (a masked point) gives NaN. Returns a CauchyGreen."""
+    array, single = _tensors(DF, "DF")
+    duration = None if T is None else _real(T, "T", nonzero=True)
+    C, eigenvalues, eigenvectors = _native.cauchy_green(array)
+    ftle_values = None if duration is None else _native.ftle_of_gradients(array, duration)
+    if single:
+        C, eigenvalues, eigenvectors = C[0], eigenvalues[0], eigenvectors[0]
+        ftle_values = None if ftle_values is None else ftle_values[0]
+    return CauchyGreen(C, eigenvalues, eigenvectors, ftle_values)
+
+
+def ftle(F, T, *, of="DF"):
+    """The finite-time Lyapunov exponent log(lambda_max(C)) / (2|T|) of each gradient DF (``of="DF"``, the
+    default: C = DFᵀDF) or Cauchy–Green tensor C (``of="C"``) in ``F``, (N, n, n) or (n, n); T is the integration
+    time t1 - t0 (non-zero). From DF the core's own code computes it: for n = 2 the same numbers, bit for bit, as
+    ``geobarrier run``'s ftle field for the same DF. NaN where F has NaN or Inf entries. Returns (N,) or a float."""
+    if of not in ("DF", "C"):
+        raise ConfigError(f"of: {of!r} is not \"DF\" or \"C\"", "of")
+    array, single = _tensors(F, "F")
+    duration = _real(T, "T", nonzero=True)
+    values = (_native.ftle_of_gradients if of == "DF" else _native.ftle_of_tensors)(array, duration)
+    return float(values[0]) if single else values

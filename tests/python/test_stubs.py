@@ -69,7 +69,8 @@ def instances():
             "ProgressLine": geobarrier.ProgressLine(io.StringIO()), "ProgressBar": geobarrier.ProgressBar(object),
             "Error": geobarrier.Error("e"), "ConfigError": geobarrier.ConfigError("m", "/grid/n"),
             "PluginError": geobarrier.PluginError("p"), "NumericalError": geobarrier.NumericalError("n"),
-            "IoError": geobarrier.IoError("i")}
+            "IoError": geobarrier.IoError("i"), "System": geobarrier.System("linear-saddle"),
+            "Forcing": geobarrier.Forcing("cosine"), "CauchyGreen": geobarrier.cauchy_green([[1.0, 0.0], [0.0, 1.0]])}
 
 
 def test_package_stub_names_match_the_module():

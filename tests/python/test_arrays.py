@@ -1,0 +1,292 @@
+"""The array functions (docs/python.md, "Arrays"): flow_map on known answers (the linear saddle, a linear 4-D
+system), bit for bit the program's fields on the paper's first example, Cauchy–Green and FTLE from given gradients,
+systems and forcings as objects, and a bad-input battery: every bad argument raises with its name, none crashes."""
+
+import math
+import threading
+
+import numpy as np
+import pytest
+
+import geobarrier
+from conftest import TEST_PLUGIN_DIR, base_experiment, run_program, write_json
+from test_run import read_fields_nc
+
+T = 8 * math.pi
+
+
+def duffing():
+    return geobarrier.System("duffing", alpha=1, beta=1, delta=0), geobarrier.Forcing("cosine", amplitude=0.08)
+
+
+def grid_points(x, y):
+    """The grid's points in the program's order: row by row (y outer, x inner)."""
+    xx, yy = np.meshgrid(x, y)
+    return np.column_stack([xx.ravel(), yy.ravel()])
+
+
+# --- known answers ---
+
+@pytest.mark.parametrize("t1", [2.0, -1.5])
+def test_linear_saddle_final_states_and_gradient_are_exact(t1):
+    saddle = geobarrier.System("linear-saddle", a=1.0)
+    rng = np.random.default_rng(1)
+    points = rng.uniform(-1, 1, size=(100, 2))
+    states, DF = geobarrier.flow_map(saddle, points, 0.0, t1, derivative=True)
+    assert states.shape == (100, 2) and states.dtype == np.float64 and DF.shape == (100, 2, 2)
+    exact = points * [math.exp(t1), math.exp(-t1)]
+    np.testing.assert_allclose(states, exact, rtol=1e-9, atol=0)
+    np.testing.assert_allclose(DF, np.broadcast_to(np.diag([math.exp(t1), math.exp(-t1)]), DF.shape), rtol=1e-9,
+                               atol=1e-12)
+    np.testing.assert_allclose(geobarrier.ftle(DF, t1), 1.0, rtol=1e-9)
+    # Without the derivative: the same states (the positions alone, to the integrator's tolerance).
+    np.testing.assert_allclose(geobarrier.flow_map(saddle, points, 0.0, t1), exact, rtol=1e-9)
+
+
+def test_one_state_gives_results_without_the_points_axis():
+    saddle = geobarrier.System("linear-saddle", a=0.5)
+    state, DF = geobarrier.flow_map(saddle, [1.0, 1.0], 0, 2, derivative=True)
+    assert state.shape == (2,) and DF.shape == (2, 2)
+    np.testing.assert_allclose(state, [math.e, 1 / math.e], rtol=1e-9)
+    assert isinstance(geobarrier.ftle(DF, 2), float)
+
+
+def test_a_four_dimensional_linear_system_has_its_analytic_gradient():
+    system = geobarrier.System("linear-4d", rate=0.5, angle=0.3, plugin_paths=[TEST_PLUGIN_DIR])
+    assert system.dimension == 4
+    t1 = 3.0
+    c, s = math.cos(0.3), math.sin(0.3)
+    Q = np.array([[c, 0, -s, 0], [0, 1, 0, 0], [s, 0, c, 0], [0, 0, 0, 1]])
+    rates = np.array([0.5, -0.5, 0.25, -0.25])
+    exact_DF = Q @ np.diag(np.exp(rates * t1)) @ Q.T
+    points = np.random.default_rng(2).uniform(-1, 1, size=(70, 4))
+    states, DF = geobarrier.flow_map(system, points, 0, t1, derivative=True)
+    assert states.shape == (70, 4) and DF.shape == (70, 4, 4)
+    np.testing.assert_allclose(states, points @ exact_DF.T, rtol=1e-8, atol=1e-12)
+    np.testing.assert_allclose(DF, np.broadcast_to(exact_DF, DF.shape), rtol=1e-8, atol=1e-12)
+    cg = geobarrier.cauchy_green(DF, t1)
+    np.testing.assert_allclose(cg.eigenvalues, np.broadcast_to(np.sort(np.exp(2 * rates * t1)), (70, 4)), rtol=1e-8)
+    np.testing.assert_allclose(cg.ftle, 0.5, rtol=1e-8)
+    np.testing.assert_allclose(geobarrier.ftle(cg.C, t1, of="C"), 0.5, rtol=1e-8)
+
+
+# --- the same numbers as the program ---
+
+def test_flow_map_is_bit_for_bit_the_programs_fields_on_the_papers_first_example(tmp_path):
+    experiment = base_experiment(grid={"x": [-1.9, 1.9], "y": [-1.1, 1.1], "n": [97, 53]}, time={"t0": 0, "t1": T},
+                                 products=["ftle", "flow_map"])
+    done = run_program("run", write_json(tmp_path / "e.json", experiment), "--out", tmp_path / "cli", "--quiet")
+    assert done.returncode == 0, done.stderr
+    fields, _ = read_fields_nc(tmp_path / "cli" / "fields.nc")
+    points = grid_points(fields["x"][0], fields["y"][0])
+    system, forcing = duffing()
+    states, DF = geobarrier.flow_map(system, points, 0, T, forcing=forcing, derivative=True)
+    # fields.nc holds the fill value (NaN here) where a point is masked; here none is.
+    assert np.array_equal(states[:, 0], fields["flow_x"][0].ravel())
+    assert np.array_equal(states[:, 1], fields["flow_y"][0].ravel())
+    assert np.array_equal(geobarrier.ftle(DF, T), fields["ftle"][0].ravel())
+    # The flow map alone (no variational equations) against a run of the flow_map product alone.
+    alone = geobarrier.run(dict(experiment, products=["flow_map"]), xarray=False)
+    states = geobarrier.flow_map(system, points, 0, T, forcing=forcing)
+    assert np.array_equal(states[:, 0], alone.fields.flow_x.ravel())
+    assert np.array_equal(states[:, 1], alone.fields.flow_y.ravel())
+
+
+@pytest.mark.parametrize("quality", ["draft", "publication"])
+def test_each_quality_preset_is_the_experiments(quality):
+    experiment = base_experiment(quality=quality, products=["ftle", "flow_map"])
+    r = geobarrier.run(experiment, xarray=False)
+    system, forcing = duffing()
+    states, DF = geobarrier.flow_map(system, grid_points(r.fields.x, r.fields.y), 0, 2, forcing=forcing,
+                                     derivative=True, quality=quality)
+    assert np.array_equal(states[:, 0], r.fields.flow_x.ravel())
+    assert np.array_equal(geobarrier.ftle(DF, 2), r.fields.ftle.ravel())
+
+
+def test_results_do_not_depend_on_threads_or_on_concurrent_calls():
+    system, forcing = duffing()
+    points = np.random.default_rng(3).uniform(-1, 1, size=(3000, 2))
+    alone = geobarrier.flow_map(system, points, 0, 10, forcing=forcing, threads=1)
+    results = [None] * 3
+
+    def work(i):
+        results[i] = geobarrier.flow_map(system, points, 0, 10, forcing=forcing, threads=2)
+
+    threads = [threading.Thread(target=work, args=(i,)) for i in range(3)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    for r in results:
+        assert np.array_equal(r, alone)
+
+
+def test_non_contiguous_and_integer_points_are_copied_to_float64():
+    system, forcing = duffing()
+    base = np.random.default_rng(4).uniform(-1, 1, size=(200, 2))
+    expected = geobarrier.flow_map(system, base[::2], 0, 3, forcing=forcing)
+    assert np.array_equal(geobarrier.flow_map(system, np.asfortranarray(base[::2]), 0, 3, forcing=forcing), expected)
+    wide = np.zeros((100, 4))
+    wide[:, ::2] = base[::2]
+    assert np.array_equal(geobarrier.flow_map(system, wide[:, ::2], 0, 3, forcing=forcing), expected)
+    assert np.array_equal(geobarrier.flow_map(system, np.array([[1, 0]]), 0, 3, forcing=forcing),
+                          geobarrier.flow_map(system, np.array([[1.0, 0.0]]), 0, 3, forcing=forcing))
+    assert geobarrier.flow_map(system, np.zeros((0, 2)), 0, 3).shape == (0, 2)
+
+
+def test_masked_trajectories_are_nan_rows():
+    # x' = x^2 - like blow-up: Duffing with beta = -1 escapes to infinity from far out.
+    system = geobarrier.System("duffing", alpha=1, beta=-1, delta=0)
+    states, DF = geobarrier.flow_map(system, [[0.0, 0.0], [5.0, 5.0]], 0, 20, derivative=True)
+    assert np.all(np.isfinite(states[0])) and np.all(np.isnan(states[1])) and np.all(np.isnan(DF[1]))
+    values = geobarrier.ftle(DF, 20)
+    assert math.isfinite(values[0]) and math.isnan(values[1])
+
+
+# --- Cauchy–Green and FTLE from given gradients ---
+
+def test_cauchy_green_agrees_with_numpy():
+    rng = np.random.default_rng(5)
+    for n in (2, 3, 5):
+        DF = rng.normal(size=(50, n, n))
+        cg = geobarrier.cauchy_green(DF, 2.0)
+        C = np.einsum("kij,kil->kjl", DF, DF)
+        np.testing.assert_allclose(cg.C, C, rtol=1e-13, atol=1e-13)
+        values, vectors = np.linalg.eigh(C)
+        np.testing.assert_allclose(cg.eigenvalues, values, rtol=1e-9, atol=1e-12)
+        # Each column is a unit eigenvector: C v = lambda v.
+        np.testing.assert_allclose(np.einsum("kij,kjl->kil", C, cg.eigenvectors),
+                                   cg.eigenvectors * cg.eigenvalues[:, None, :], rtol=1e-8, atol=1e-9)
+        np.testing.assert_allclose(cg.ftle, np.log(values[:, -1]) / 4.0, rtol=1e-12)
+        np.testing.assert_allclose(geobarrier.ftle(C, -2.0, of="C"), cg.ftle, rtol=1e-12)
+        assert cg.ftle.shape == (50,) and cg.eigenvectors.shape == (50, n, n)
+    single = geobarrier.cauchy_green(np.eye(2) * 2)
+    assert single.C.shape == (2, 2) and single.ftle is None and np.allclose(single.eigenvalues, [4, 4])
+
+
+def test_non_finite_gradients_give_nan():
+    DF = np.array([np.eye(2), [[np.nan, 0], [0, 1]], [[np.inf, 0], [0, 1]]])
+    values = geobarrier.ftle(DF, 1.0)
+    assert values[0] == 0.0 and np.isnan(values[1:]).all()
+    cg = geobarrier.cauchy_green(DF)
+    assert np.isnan(cg.eigenvalues[1:]).all() and np.isnan(cg.C[1:]).all()
+
+
+# --- systems and forcings ---
+
+def test_system_and_forcing_objects_carry_their_schemas():
+    system, forcing = duffing()
+    listed = {(p["kind"], p["name"]): p for p in geobarrier.plugins()}
+    assert system.parameters == listed[("system", "duffing")]["params"]
+    assert forcing.parameters == listed[("forcing", "cosine")]["params"]
+    assert system.params == {"alpha": 1.0, "beta": 1.0, "delta": 0.0}
+    assert system.dimension == 2 and system.has_jacobian and system.uses_forcing and system.name == "duffing"
+    assert forcing.params["amplitude"] == 0.08 and forcing.params["omega"] == 1.0
+    t = np.linspace(0, 10, 7)
+    np.testing.assert_allclose(forcing(t), 0.08 * np.cos(t), rtol=1e-15, atol=1e-17)
+    assert forcing(0.0) == 0.08
+    total = geobarrier.Forcing("sum", terms=[forcing, geobarrier.Forcing("cosine", amplitude=0.02, omega=2)])
+    np.testing.assert_allclose(total(t), 0.08 * np.cos(t) + 0.02 * np.cos(2 * t), rtol=1e-14, atol=1e-16)
+    assert "duffing" in repr(system) and "sum" in repr(total)
+
+
+def test_a_system_written_as_equations_integrates_like_the_plugin():
+    system = geobarrier.System.from_equations(["x", "y"], ["y", "a*x - x^3 + f"], {"a": 1.0})
+    assert system.dimension == 2 and system.state_names == ["x", "y"] and system.params["constants"] == {"a": 1.0}
+    assert [p["name"] for p in system.parameters] == ["a"]
+    duffing_system, forcing = duffing()
+    points = np.random.default_rng(6).uniform(-1, 1, size=(64, 2))
+    ours, our_DF = geobarrier.flow_map(system, points, 0, 5, forcing=forcing, derivative=True)
+    theirs, their_DF = geobarrier.flow_map(duffing_system, points, 0, 5, forcing=forcing, derivative=True)
+    np.testing.assert_allclose(ours, theirs, rtol=1e-10, atol=1e-12)
+    np.testing.assert_allclose(our_DF, their_DF, rtol=1e-9, atol=1e-11)
+
+
+# --- bad input: each argument named, no crash ---
+
+def bad_calls():
+    system, forcing = duffing()
+    good = np.zeros((4, 2))
+    DF = np.tile(np.eye(2), (3, 1, 1))
+    fm = geobarrier.flow_map
+    return [
+        # (id, call, exception, the argument the message names)
+        ("system-not-a-System", lambda: fm("duffing", good, 0, 1), TypeError, "system"),
+        ("points-wrong-width", lambda: fm(system, np.zeros((4, 3)), 0, 1), geobarrier.ConfigError, "points"),
+        ("points-3d", lambda: fm(system, np.zeros((4, 2, 2)), 0, 1), geobarrier.ConfigError, "points"),
+        ("points-scalar", lambda: fm(system, 1.0, 0, 1), geobarrier.ConfigError, "points"),
+        ("points-complex", lambda: fm(system, good.astype(complex), 0, 1), TypeError, "points"),
+        ("points-strings", lambda: fm(system, [["a", "b"]], 0, 1), TypeError, "points"),
+        ("points-objects", lambda: fm(system, np.array([[None, 1]], dtype=object), 0, 1), TypeError, "points"),
+        ("points-bool", lambda: fm(system, np.ones((2, 2), dtype=bool), 0, 1), TypeError, "points"),
+        ("points-ragged", lambda: fm(system, [[1.0, 2.0], [1.0]], 0, 1), (TypeError, geobarrier.ConfigError),
+         "points"),
+        ("points-nan", lambda: fm(system, [[0.0, np.nan]], 0, 1), geobarrier.ConfigError, "points"),
+        ("points-inf", lambda: fm(system, [[np.inf, 0.0]], 0, 1), geobarrier.ConfigError, "points"),
+        ("points-huge", lambda: fm(system, np.broadcast_to(np.zeros(2), (10**12, 2)), 0, 1), MemoryError, "points"),
+        ("t0-nan", lambda: fm(system, good, math.nan, 1), geobarrier.ConfigError, "t0"),
+        ("t1-inf", lambda: fm(system, good, 0, math.inf), geobarrier.ConfigError, "t1"),
+        ("t1-equals-t0", lambda: fm(system, good, 1, 1), geobarrier.ConfigError, "t1"),
+        ("t0-string", lambda: fm(system, good, "0", 1), TypeError, "t0"),
+        ("t1-array", lambda: fm(system, good, 0, np.array([1.0, 2.0])), TypeError, "t1"),
+        ("forcing-name", lambda: fm(system, good, 0, 1, forcing="cosine"), TypeError, "forcing"),
+        ("derivative-string", lambda: fm(system, good, 0, 1, derivative="yes"), TypeError, "derivative"),
+        ("quality-unknown", lambda: fm(system, good, 0, 1, quality="best"), geobarrier.ConfigError, "quality"),
+        ("quality-number", lambda: fm(system, good, 0, 1, quality=2), TypeError, "quality"),
+        ("threads-zero", lambda: fm(system, good, 0, 1, threads=0), geobarrier.ConfigError, "threads"),
+        ("threads-huge", lambda: fm(system, good, 0, 1, threads=10**6), geobarrier.ConfigError, "threads"),
+        ("threads-string", lambda: fm(system, good, 0, 1, threads="2"), TypeError, "threads"),
+        ("system-unknown", lambda: geobarrier.System("dufing"), geobarrier.ConfigError, "name"),
+        ("system-is-a-forcing", lambda: geobarrier.System("cosine"), geobarrier.ConfigError, "name"),
+        ("system-name-int", lambda: geobarrier.System(3), TypeError, "name"),
+        ("system-param-unknown", lambda: geobarrier.System("duffing", alfa=1), geobarrier.ConfigError, "alfa"),
+        ("system-param-nan", lambda: geobarrier.System("duffing", alpha=math.nan), geobarrier.ConfigError, "alpha"),
+        ("system-param-string", lambda: geobarrier.System("duffing", alpha="1"), geobarrier.ConfigError, "alpha"),
+        ("system-plugin-file-missing", lambda: geobarrier.System("/nonexistent/libnothing.so"),
+         geobarrier.ConfigError, "name"),
+        ("equations-rhs-count", lambda: geobarrier.System.from_equations(["x", "y"], ["y"]), geobarrier.ConfigError,
+         "rhs"),
+        ("equations-syntax", lambda: geobarrier.System.from_equations(["x", "y"], ["y", "x +* 2"]),
+         geobarrier.ConfigError, "rhs"),
+        ("forcing-param-range", lambda: geobarrier.Forcing("cosine", omega=math.inf), geobarrier.ConfigError,
+         "omega"),
+        ("forcing-composite-without-terms", lambda: geobarrier.Forcing("sum"), geobarrier.ConfigError, "terms"),
+        ("forcing-plain-with-terms", lambda: geobarrier.Forcing("cosine", terms=[forcing]), geobarrier.ConfigError,
+         "terms"),
+        ("forcing-term-not-a-Forcing", lambda: geobarrier.Forcing("sum", terms=["cosine"]), TypeError, "terms[0]"),
+        ("forcing-terms-and-base", lambda: geobarrier.Forcing("ramp", terms=[forcing], base=forcing), ValueError,
+         "base"),
+        ("forcing-at-strings", lambda: forcing(["a"]), TypeError, "t"),
+        ("ftle-shape", lambda: geobarrier.ftle(np.zeros((3, 2, 3)), 1), geobarrier.ConfigError, "F"),
+        ("ftle-1x1", lambda: geobarrier.ftle(np.zeros((3, 1, 1)), 1), geobarrier.ConfigError, "F"),
+        ("ftle-T-zero", lambda: geobarrier.ftle(DF, 0), geobarrier.ConfigError, "T"),
+        ("ftle-T-nan", lambda: geobarrier.ftle(DF, math.nan), geobarrier.ConfigError, "T"),
+        ("ftle-T-missing-type", lambda: geobarrier.ftle(DF, None), TypeError, "T"),
+        ("ftle-of", lambda: geobarrier.ftle(DF, 1, of="G"), geobarrier.ConfigError, "of"),
+        ("ftle-complex", lambda: geobarrier.ftle(DF.astype(complex), 1), TypeError, "F"),
+        ("ftle-huge", lambda: geobarrier.ftle(np.broadcast_to(np.eye(2), (10**12, 2, 2)), 1), MemoryError, "F"),
+        ("cauchy-green-shape", lambda: geobarrier.cauchy_green(np.zeros(4)), geobarrier.ConfigError, "DF"),
+        ("cauchy-green-T-string", lambda: geobarrier.cauchy_green(DF, "1"), TypeError, "T"),
+    ]
+
+
+@pytest.mark.parametrize("case", bad_calls(), ids=lambda c: c[0])
+def test_bad_arguments_raise_naming_the_argument(case):
+    _, call, exception, argument = case
+    with pytest.raises(exception) as info:
+        call()
+    assert argument in str(info.value), str(info.value)
+    if isinstance(info.value, geobarrier.ConfigError):
+        assert argument.split("[")[0] in info.value.path, info.value.path
+
+
+def test_a_system_without_a_jacobian_refuses_the_derivative(tmp_path):
+    # The program's bad-input battery plugin, or any system that has no Jacobian: skipped when none is built.
+    no_jacobian = [p for p in geobarrier.plugins([TEST_PLUGIN_DIR])
+                   if p["kind"] == "system" and not p.get("jacobian", True) and p.get("dimension") == 2]
+    if not no_jacobian:
+        pytest.skip("no planar system without a Jacobian is built")
+    system = geobarrier.System(no_jacobian[0]["name"], plugin_paths=[TEST_PLUGIN_DIR])
+    with pytest.raises(geobarrier.ConfigError) as info:
+        geobarrier.flow_map(system, [[0.1, 0.1]], 0, 1, derivative=True)
+    assert info.value.path == "derivative"

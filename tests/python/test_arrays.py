@@ -3,6 +3,9 @@ system), bit for bit the program's fields on the paper's first example, Cauchyâ€
 systems and forcings as objects, and a bad-input battery: every bad argument raises with its name, none crashes."""
 
 import math
+import subprocess
+import sys
+import textwrap
 import threading
 
 import numpy as np
@@ -92,6 +95,21 @@ def test_flow_map_is_bit_for_bit_the_programs_fields_on_the_papers_first_example
     assert np.array_equal(states[:, 1], alone.fields.flow_y.ravel())
 
 
+def test_random_points_are_the_runs_numbers_whatever_their_batch_mates():
+    # A random point is the first point of a 3 x 3 grid starting there (grid point 0 is exactly (x_min, y_min)): its
+    # run's numbers, with 8 batch mates, equal flow_map's among 500 random points.
+    system, forcing = duffing()
+    points = np.random.default_rng(7).uniform([-1.8, -1.2], [1.8, 1.2], size=(500, 2))
+    states, DF = geobarrier.flow_map(system, points, 0, T, forcing=forcing, derivative=True)
+    ftle = geobarrier.ftle(DF, T)
+    for k in (0, 137, 499):
+        x, y = points[k]
+        r = geobarrier.run(base_experiment(grid={"x": [x, x + 0.5], "y": [y, y + 0.5], "n": [3, 3]},
+                                           time={"t0": 0, "t1": T}, products=["ftle", "flow_map"]), xarray=False)
+        assert r.fields.x[0] == x and r.fields.y[0] == y
+        assert (r.fields.flow_x[0, 0], r.fields.flow_y[0, 0], r.fields.ftle[0, 0]) == (*states[k], ftle[k])
+
+
 @pytest.mark.parametrize("quality", ["draft", "publication"])
 def test_each_quality_preset_is_the_experiments(quality):
     experiment = base_experiment(quality=quality, products=["ftle", "flow_map"])
@@ -119,6 +137,53 @@ def test_results_do_not_depend_on_threads_or_on_concurrent_calls():
         t.join()
     for r in results:
         assert np.array_equal(r, alone)
+
+
+def test_the_gil_is_released_while_the_core_integrates():
+    system, forcing = duffing()
+    points = np.random.default_rng(8).uniform(-1, 1, size=(100000, 2))
+    finished, results = threading.Event(), []
+
+    def work():
+        try:
+            results.append(geobarrier.flow_map(system, points, 0, 60, forcing=forcing, derivative=True, threads=1))
+        finally:
+            finished.set()
+
+    thread = threading.Thread(target=work)
+    thread.start()
+    ticks = 0
+    while not finished.is_set():
+        ticks += 1
+    thread.join()
+    assert results and results[0][1].shape == (100000, 2, 2)
+    assert ticks > 1000
+
+
+CTRL_C = textwrap.dedent("""
+    import os, signal, threading, time
+    import numpy as np
+    import geobarrier
+    system, forcing = geobarrier.System("duffing"), geobarrier.Forcing("cosine")
+    points = np.random.default_rng(0).uniform(-1, 1, size=(2000000, 2))  # minutes of work
+    threading.Timer(1.0, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+    start = time.perf_counter()
+    try:
+        geobarrier.flow_map(system, points, 0, 500, forcing=forcing, derivative=True)
+        print("finished")
+    except KeyboardInterrupt:
+        print("interrupted after", time.perf_counter() - start)
+    print("handler restored:", signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+    print("next call:", geobarrier.flow_map(system, [[0.1, 0.2]], 0, 1, forcing=forcing).shape)
+""")
+
+
+def test_ctrl_c_stops_a_flow_map_and_the_next_call_works():
+    done = subprocess.run([sys.executable, "-c", CTRL_C], capture_output=True, text=True, timeout=300)
+    lines = done.stdout.splitlines()
+    assert done.returncode == 0 and lines[0].startswith("interrupted after"), done.stdout + done.stderr
+    assert float(lines[0].split()[-1]) < 60
+    assert lines[1:] == ["handler restored: True", "next call: (1, 2)"]
 
 
 def test_non_contiguous_and_integer_points_are_copied_to_float64():

@@ -59,6 +59,14 @@ int command_run(const fs::path &file, const std::optional<fs::path> &out, int th
     options.threads = threads;
     options.quiet = quiet;
     const RunSummary summary = naming_the_file(file, [&] { return run_experiment(resolved, options); });
+    // A signal that came while the finished files were being moved into place (renames, finished once begun): the
+    // result is whole, but the run was asked to stop, so it does not exit 0.
+    if (const int signal = cancel_requested()) {
+        std::cerr << "geobarrier: interrupted by " << signal_name(signal) << " while moving the finished files into "
+                  << "place; they were all moved first: " << summary.output_dir.string()
+                  << " holds this run's complete result\n";
+        return 128 + signal;
+    }
     if (!quiet) {
         std::cout << "wrote " << summary.files.size() << " files to " << summary.output_dir.string() << ":\n";
         for (const auto &f : summary.files) std::cout << "  " << f.string() << "\n";
@@ -309,6 +317,17 @@ int command_check_plugin(const CheckPluginOptions &o) {
     return ok ? 0 : exit_failure;
 }
 
+// Failures leave without the exit handlers: HDF5's (Debian 12: HDF5 1.10, netCDF 4.9) crashes with SIGSEGV when a
+// NetCDF file failed to close on a full disk. Every file of ours is closed or removed by then. `alike`: every MPI rank
+// stops with this error (bad input: every rank read the same file); else the others are aborted.
+[[noreturn]] void fail(int code, bool alike) {
+    std::cout.flush();
+    std::cerr.flush();
+    std::fflush(nullptr);
+    mpi::end_before_exit(code, alike);
+    std::_Exit(code);
+}
+
 // A command line CLI11 refused: one line naming the word it could not use, with a did-you-mean, for exit code 2.
 // A misspelt subcommand ("rnu") or option ("--quite") is looked up among those that exist; anything else keeps
 // CLI11's own message. Negative numbers ("--t-min -5") are values, not options.
@@ -443,20 +462,10 @@ int main(int argc, char **argv) {
     if (mpi::rank() != 0) quiet = true;
     setup_logging(quiet, verbose);
     install_signal_handlers(); // SIGINT/SIGTERM stop a run cleanly, exit code 128 + signal (cancel.hpp)
-    // Failures leave without the exit handlers: HDF5's (Debian 12: HDF5 1.10, netCDF 4.9) crashes with SIGSEGV when a
-    // NetCDF file failed to close on a full disk. Every file of ours is closed or removed by then.
-    const auto fail = [](int code) {
-        std::cout.flush();
-        std::cerr.flush();
-        std::fflush(nullptr);
-        mpi::end_before_exit(code, code == exit_bad_input); // bad input: every rank read the same file and stops alike
-        std::_Exit(code);
-        return code;
-    };
-    const auto interrupted = [&](int signal, const std::string &what) {
+    const auto interrupted = [&](int signal, const std::string &what) -> int {
         std::cerr << "geobarrier: " << one_line(what) << "; stopped: no file of this run was put in the output "
                   << "folder, which is as it was before the run\n";
-        return fail(128 + signal);
+        fail(128 + signal, false);
     };
     try {
         if (*run)
@@ -472,24 +481,27 @@ int main(int argc, char **argv) {
         if (*check) return command_check_plugin(check_options);
     } catch (const Cancelled &e) {
         return interrupted(e.signal(), e.what());
+    } catch (const OutputBusyError &e) { // the output folder is another writer's: only rank 0 knows
+        std::cerr << "geobarrier: error: " << one_line(e.what()) << "\n";
+        fail(exit_bad_input, false);
     } catch (const ConfigError &e) {
         if (mpi::rank() == 0) std::cerr << "geobarrier: error: " << one_line(e.what()) << "\n";
-        return fail(exit_bad_input);
+        fail(exit_bad_input, true);
     } catch (const LibraryFileError &e) { // a truncated or foreign library in a plugin folder: bad input too
         if (mpi::rank() == 0) std::cerr << "geobarrier: error: " << one_line(e.what()) << "\n";
-        return fail(exit_bad_input);
+        fail(exit_bad_input, true);
     } catch (const std::bad_alloc &) {
         std::cerr << "geobarrier: error: out of memory (try a smaller grid)\n";
-        return fail(exit_failure);
+        fail(exit_failure, false);
     } catch (const std::exception &e) {
         // A cancellation that reached us wrapped (e.g. inside an extractor's failed host call) is still one.
         if (const int signal = cancel_requested()) return interrupted(signal, "interrupted by " + signal_name(signal));
         std::cerr << "geobarrier: error: " << one_line(e.what()) << "\n";
-        return fail(exit_failure);
+        fail(exit_failure, false);
     } catch (...) {
         std::cerr << "geobarrier: error: an exception of unknown type (not std::exception) was thrown, probably by a "
                      "plugin\n";
-        return fail(exit_failure);
+        fail(exit_failure, false);
     }
     return 0;
 }

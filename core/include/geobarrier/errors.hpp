@@ -51,6 +51,14 @@ class IoError : public Error {
     using Error::Error;
 };
 
+// An output folder another writer holds (a run or a sweep, of this process or another: docs/robustness.md, "One writer
+// per folder"): "<folder>: another geobarrier run (pid N) is writing into this output folder; ...". Refused before
+// anything is computed or written; the program exits with 2.
+class OutputBusyError : public IoError {
+  public:
+    using IoError::IoError;
+};
+
 } // namespace geobarrier
 
 #endif // GEOBARRIER_ERRORS_HPP

@@ -2,6 +2,7 @@
 // extractors need (and no others), then writes fields.nc, pictures,
 // barriers.json and, last, manifest.json into the output folder.
 #include "engine/progress.hpp"
+#include "output/folder_lock.hpp"
 #include "output/provenance.hpp"
 
 #include "engine/tiles.hpp"
@@ -25,8 +26,12 @@
 #include <chrono>
 #include <cmath>
 #include <cstring>
+#include <fstream>
 #include <functional>
 #include <map>
+#include <optional>
+#include <random>
+#include <set>
 
 #include <unistd.h>
 
@@ -114,35 +119,131 @@ fs::path private_scratch_folder() {
 
 } // namespace
 
-// The output folder of a run. Everything is written into a hidden staging folder inside it and moved into place
-// only when the whole run has succeeded, manifest.json last (each file was already written atomically, so a file
-// under a final name is always whole). A failed or interrupted run leaves the output folder as it found it: no new
-// file, an earlier finished run untouched, and the folders this run created removed again.
-class OutputStaging {
+// An output folder claimed by one writer (docs/robustness.md, "One writer per folder"): created if missing (the folders
+// made are remembered), then locked for as long as the claim lasts, refusing a second writer with OutputBusyError.
+// Whatever dead writers left there (staging folders, temporary files) is removed under the lock. Unless kept, the
+// claim removes the folders it created, when they are empty again, after releasing the lock.
+class OutputClaim {
   public:
-    explicit OutputStaging(fs::path out) : m_out(std::move(out)) {
+    explicit OutputClaim(fs::path out) : m_out(std::move(out)) {
         std::error_code ec;
         for (fs::path p = fs::absolute(m_out, ec); !p.empty() && !fs::exists(p, ec); p = p.parent_path()) {
             m_created.push_back(p);
             if (p == p.parent_path()) break;
         }
-        fs::create_directories(m_out, ec);
-        if (ec || !fs::is_directory(m_out))
-            throw IoError(m_out.string() + ": cannot create the output folder (" + ec.message() + ")");
-        // Fail now, not after the computation, when nothing can be written there (read-only file system, permissions).
-        if (::access(m_out.c_str(), W_OK | X_OK) != 0)
-            throw IoError(m_out.string() + ": cannot write into the output folder (" + std::strerror(errno) + ")");
-        m_stage = m_out / (".geobarrier-partial-" + std::to_string(static_cast<long>(::getpid())));
-        fs::remove_all(m_stage, ec);
+        // A failed writer that had created the folder removes it again: create it anew and retry.
+        for (int attempt = 0; !m_lock; ++attempt) {
+            fs::create_directories(m_out, ec);
+            if (ec || !fs::is_directory(m_out))
+                throw IoError(m_out.string() + ": cannot create the output folder (" + ec.message() + ")");
+            // Fail now, not after the computation, when nothing can be written there (read-only, permissions).
+            if (::access(m_out.c_str(), W_OK | X_OK) != 0)
+                throw IoError(m_out.string() + ": cannot write into the output folder (" + std::strerror(errno) + ")");
+            m_lock = detail::FolderLock::acquire(m_out, "run");
+            if (!m_lock && attempt == 100)
+                throw IoError(m_out.string() + ": cannot create the output folder (it kept being removed)");
+        }
+        detail::remove_stale_leftovers(m_out);
+    }
+    ~OutputClaim() {
+        m_lock.reset(); // removes the lock file, so that a folder this run created is empty again
+        if (m_kept) return;
+        std::error_code ec;
+        for (const fs::path &p : m_created) // innermost first
+            if (!fs::is_directory(p, ec) || !fs::is_empty(p, ec) || !fs::remove(p, ec)) break;
+    }
+    OutputClaim(const OutputClaim &) = delete;
+    OutputClaim &operator=(const OutputClaim &) = delete;
+
+    const fs::path &dir() const { return m_out; }
+    void keep() { m_kept = true; }
+
+  private:
+    fs::path m_out;
+    std::vector<fs::path> m_created;
+    std::optional<detail::FolderLock> m_lock;
+    bool m_kept = false;
+};
+
+namespace {
+
+// Written into the output folder while a run moves its files into place, removed after its manifest: the names of
+// the files of the run and of the earlier one, so that a run killed halfway leaves a record of what in the folder
+// came from runs (the next run removes what it does not replace).
+constexpr const char *publishing_journal = ".geobarrier-publishing";
+
+// A name a manifest may list as a run's file in the output folder: one plain, visible path component.
+bool plain_entry_name(const std::string &name) {
+    return !name.empty() && name.find('/') == std::string::npos && name[0] != '.' && name != "manifest.json";
+}
+
+// The entries an earlier run put into `folder`, by its manifest ("files" and the extractors' files of its
+// "provenance") and by the journal of a publication cut short; plain names only. An unreadable manifest lists nothing.
+std::set<std::string> earlier_run_entries(const fs::path &folder) {
+    std::set<std::string> names;
+    const auto add = [&](const json &list) {
+        if (!list.is_array()) return;
+        for (const json &item : list)
+            if (item.is_string() && plain_entry_name(item.get<std::string>())) names.insert(item.get<std::string>());
+    };
+    for (const fs::path &file : {folder / "manifest.json", folder / publishing_journal}) {
+        std::error_code ec;
+        if (!fs::is_regular_file(file, ec)) continue;
+        std::ifstream in(file);
+        const json j = json::parse(in, nullptr, false);
+        if (j.is_array()) add(j);
+        if (!j.is_object()) continue;
+        add(j.value("files", json::array()));
+        if (const auto p = j.find("provenance"); p != j.end() && p->is_object())
+            add(p->value("extractor_files", json::array()));
+    }
+    return names;
+}
+
+void remove_entries(const fs::path &folder, const std::set<std::string> &names) {
+    for (const std::string &name : names) {
+        std::error_code ec;
+        fs::remove_all(folder / name, ec);
+        if (ec)
+            throw IoError((folder / name).string() + ": cannot remove this file of an earlier run (" + ec.message() +
+                          ")");
+    }
+}
+
+// ".geobarrier-partial-<pid>-<counter>-<random>": unique per run, also among the threads of one process (Python).
+std::string staging_name() {
+    static std::atomic<unsigned long> counter{0};
+    static thread_local std::mt19937_64 random{std::random_device{}()};
+    return ".geobarrier-partial-" + std::to_string(static_cast<long>(::getpid())) + "-" +
+           std::to_string(counter.fetch_add(1)) + "-" + fmt::format("{:08x}", static_cast<std::uint32_t>(random()));
+}
+
+} // namespace
+
+// The output folder of a run. Everything is written into a hidden staging folder inside it and moved into place
+// only when the whole run has succeeded, manifest.json last (each file was already written atomically, so a file
+// under a final name is always whole). The folder is claimed (locked) from before the staging folder is made until
+// the staging folder is gone. A failed or interrupted run leaves the output folder as it found it: no new file, an
+// earlier finished run untouched, and the folders this run created removed again.
+class OutputStaging {
+  public:
+    // `claim`: the output folder of a run that writes files; else a private folder of this run, made and removed here.
+    OutputStaging(fs::path out, bool claim) : m_out(std::move(out)) {
+        std::error_code ec;
+        if (claim)
+            m_claim.emplace(m_out);
+        else
+            fs::create_directories(m_out, ec);
+        m_stage = m_out / staging_name();
         if (!fs::create_directory(m_stage, ec))
             throw IoError(m_stage.string() + ": cannot create the staging folder (" + ec.message() + ")");
     }
     ~OutputStaging() {
-        if (m_published) return;
         std::error_code ec;
-        fs::remove_all(m_stage, ec);
-        for (const fs::path &p : m_created) // innermost first
-            if (!fs::is_directory(p, ec) || !fs::is_empty(p, ec) || !fs::remove(p, ec)) break;
+        if (!m_published) fs::remove_all(m_stage, ec);
+        if (!m_claim) fs::remove(m_out, ec); // the private folder of a run that writes no files, empty again
+        if (m_claim && m_published) m_claim->keep();
+        m_claim.reset(); // unlocked only now
     }
     OutputStaging(const OutputStaging &) = delete;
     OutputStaging &operator=(const OutputStaging &) = delete;
@@ -156,21 +257,37 @@ class OutputStaging {
         return text;
     }
 
-    // Moves every staged entry into the output folder, `last` (the manifest) last, after removing an earlier run's
-    // manifest so that the folder never pairs an old manifest with new files. Returns the final paths of `files`.
+    // Moves every staged entry into the output folder, `last` (the manifest) last. First the earlier run's manifest
+    // goes, then whatever else that run left and this one does not replace, so that the folder never pairs a manifest
+    // with files of another run. Returns the final paths of `files`.
     std::vector<fs::path> publish(const std::vector<fs::path> &files, const fs::path &last) {
         std::error_code ec;
-        fs::remove(m_out / last.filename(), ec);
         std::vector<fs::path> entries;
-        for (const auto &entry : fs::directory_iterator(m_stage)) entries.push_back(entry.path());
+        std::set<std::string> incoming;
+        for (const auto &entry : fs::directory_iterator(m_stage)) {
+            entries.push_back(entry.path());
+            incoming.insert(entry.path().filename().string());
+        }
+        std::set<std::string> earlier = earlier_run_entries(m_out), stale;
+        for (const std::string &name : earlier)
+            if (!incoming.count(name)) stale.insert(name);
+        json journal = json::array();
+        for (const std::string &name : earlier) journal.push_back(name);
+        for (const std::string &name : incoming)
+            if (plain_entry_name(name) && !earlier.count(name)) journal.push_back(name);
+        write_text_file(m_out / publishing_journal, journal.dump() + "\n");
+        fs::remove(m_out / last.filename(), ec);
+        remove_entries(m_out, stale);
         std::stable_partition(entries.begin(), entries.end(),
                               [&](const fs::path &p) { return p.filename() != last.filename(); });
         for (const fs::path &from : entries) {
             const fs::path to = m_out / from.filename();
+            if (from.filename() == last.filename()) detail::test_pause("publishing");
             if (fs::is_directory(from) && fs::is_directory(to)) fs::remove_all(to);
             fs::rename(from, to, ec);
             if (ec) throw IoError(to.string() + ": cannot move the finished file into place (" + ec.message() + ")");
         }
+        fs::remove(m_out / publishing_journal, ec);
         fs::remove(m_stage, ec);
         m_published = true;
         std::vector<fs::path> out;
@@ -180,7 +297,7 @@ class OutputStaging {
 
   private:
     fs::path m_out, m_stage;
-    std::vector<fs::path> m_created;
+    std::optional<OutputClaim> m_claim;
     bool m_published = false;
 };
 
@@ -578,6 +695,10 @@ RunSummary finish_run(RunRecord &record, const RunOptions &options, OutputStagin
         throw IoError(staging.final_names(e.what()) + storage_hint(out));
     }
     summary.files.push_back(manifest_file);
+    detail::test_pause("staged");
+    // The last point at which a signal stops the run with the output folder as it was; once the moves have begun
+    // they are finished (renames only), and the program reports a signal that came during them (main.cpp).
+    throw_if_cancelled("before moving the finished files into place");
     summary.files = staging.publish(summary.files, manifest_file);
     summary.manifest = manifest;
     return summary;
@@ -591,8 +712,9 @@ RunSummary run_stages(const ResolvedExperiment &r, const RunOptions &options) {
 
     RunSummary summary;
     if (options.write_files) summary.output_dir = options.output_dir ? *options.output_dir : e.output_dir;
-    OutputStaging staging(options.write_files ? summary.output_dir : private_scratch_folder());
+    OutputStaging staging(options.write_files ? summary.output_dir : private_scratch_folder(), options.write_files);
     const fs::path out = staging.dir(); // every file goes here first; published at the end
+    detail::test_pause("locked");
 
     RunRecord record;
     record.manifest = start_manifest(r, options);
@@ -625,6 +747,21 @@ RunSummary run_stages(const ResolvedExperiment &r, const RunOptions &options) {
     return finish_run(record, options, staging, run_start, std::move(summary));
 }
 
+// Both directions (tangle.cpp) into one folder: claimed for the whole of both runs (each run claims its own subfolder
+// as well); what an earlier run left there and the new manifest does not list is removed afterwards.
+RunSummary run_both_directions_claimed(const ResolvedExperiment &r, const RunOptions &options) {
+    if (!options.write_files || (mpi::sharing_tiles() && mpi::rank() != 0)) return run_both_directions(r, options);
+    OutputClaim claim(options.output_dir ? *options.output_dir : r.experiment.output_dir);
+    const std::set<std::string> earlier = earlier_run_entries(claim.dir());
+    RunSummary summary = run_both_directions(r, options);
+    claim.keep();
+    std::set<std::string> stale = earlier;
+    for (const json &name : summary.manifest.value("files", json::array()))
+        if (name.is_string()) stale.erase(name.get<std::string>());
+    remove_entries(claim.dir(), stale);
+    return summary;
+}
+
 } // namespace
 
 RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options) {
@@ -634,7 +771,7 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
                                          std::to_string(max_threads) + " (or 0: one per core)");
     // The engine names a bad setting by its own name; the experiment's JSON path goes with it here.
     return with_json_paths([&] {
-        if (r.experiment.both_directions) return run_both_directions(r, options); // two runs and their tangle
+        if (r.experiment.both_directions) return run_both_directions_claimed(r, options); // two runs, their tangle
         // Under mpirun the ranks other than 0 only compute their share of the flow map's tiles (tiles.hpp).
         if (mpi::sharing_tiles() && mpi::rank() != 0) return run_as_tile_worker(r, options);
         return run_stages(r, options);

@@ -1,5 +1,6 @@
 // Parameter sweeps (see sweep.hpp): parsing and checking the sweep file, running the members in forked processes
 // (or in-process on MPI ranks), resuming, and the summary table and picture.
+#include "output/folder_lock.hpp"
 #include "run/mpi.hpp"
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
@@ -22,6 +23,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <thread>
 
@@ -470,6 +472,9 @@ int run_member_here(const Sweep &s, const SweepMember &m, const fs::path &folder
     } catch (const ConfigError &e) {
         code = member_bad_input;
         error = e.what();
+    } catch (const OutputBusyError &e) { // another writer's folder: exit 2, as `geobarrier run` would
+        code = member_bad_input;
+        error = e.what();
     } catch (const std::exception &e) {
         code = cancel_requested() ? 128 + cancel_requested() : member_failed;
         error = e.what();
@@ -787,6 +792,23 @@ std::vector<std::size_t> members_to_run(const Sweep &s, const fs::path &out, boo
     return pending;
 }
 
+// One sweep per folder at a time (and no run into it meanwhile): rank 0 holds the folder until the summary is
+// written; the members' processes inherit the lock, and each member's run claims its own folder as well. What dead
+// writers left in the folder is removed under the lock.
+std::optional<detail::FolderLock> lock_sweep_folder(const fs::path &out) {
+    if (mpi::rank() != 0) return std::nullopt;
+    for (int attempt = 0;; ++attempt) {
+        std::error_code ec;
+        fs::create_directories(out, ec);
+        if (ec) throw IoError(out.string() + ": cannot create the sweep's folder (" + ec.message() + ")");
+        if (std::optional<detail::FolderLock> lock = detail::FolderLock::acquire(out, "sweep")) {
+            detail::remove_stale_leftovers(out);
+            return lock;
+        }
+        if (attempt == 100) throw IoError(out.string() + ": cannot create the sweep's folder (it kept being removed)");
+    }
+}
+
 } // namespace
 
 SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
@@ -795,6 +817,8 @@ SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
     result.output_dir = options.output_dir ? *options.output_dir : s.output_dir;
     const fs::path &out = result.output_dir;
     std::error_code ec;
+    const std::optional<detail::FolderLock> lock = lock_sweep_folder(out);
+    detail::test_pause("sweep-locked");
     fs::create_directories(out / "logs", ec);
     if (ec) throw IoError((out / "logs").string() + ": cannot create the sweep's folders (" + ec.message() + ")");
 

@@ -1,5 +1,5 @@
-// Both directions in one run (tangle.hpp): the crossing finder on constructed curves, and the escape oscillator's
-// homoclinic tangle appearing across Melnikov's threshold.
+// Both directions in one run (tangle.hpp): the crossing finder on constructed curves, saddle orbits against an exact
+// one, and the homoclinic tangles of the escape oscillator and damped Duffing appearing at Melnikov's threshold.
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/tangle.hpp>
@@ -77,8 +77,45 @@ TEST_CASE("transverse crossings of constructed curves: where, how many, at what 
     CHECK(transverse_crossings(zigzag, json::array({curve({{-2, 0.0}, {2, 0.0}})}), 10.0, 0.05).size() == 1);
 }
 
-TEST_CASE("both directions of the escape oscillator: one crossing (the saddle orbit) below Melnikov's threshold, "
-          "a tangle above it") {
+namespace {
+
+// A run of both directions into `out`, results from its tangle.json.
+json run_tangle(const json &experiment, const fs::path &out) {
+    RunOptions options;
+    options.output_dir = out;
+    options.quiet = true;
+    run_experiment(resolve_experiment(parse_experiment(experiment)), options);
+    return json::parse(test::read_text(out / "tangle.json"));
+}
+
+} // namespace
+
+TEST_CASE("saddle orbits: the forced linear saddle's periodic orbit and multipliers, exactly") {
+    // x' = x, y' = -y + a cos(w t): the one bounded solution is x = 0, y = a (cos w t + w sin w t) / (1 + w^2), a
+    // saddle orbit with multipliers e^T and e^-T over the period T = 2 pi / w.
+    const double a = 0.3, w = 2.0, pi = std::acos(-1.0), period = 2 * pi / w;
+    json j = json::parse(R"({"system": {"plugin": "equations", "params": {"state": ["x", "y"], "rhs": ["x", "-y + f"]}},
+                             "forcing": {"plugin": "cosine", "params": {"amplitude": 0.3, "omega": 2}},
+                             "grid": {"x": [-1, 1], "y": [-1, 1], "n": [101, 101]},
+                             "time": {"t0": 0, "t1": 3, "directions": "both"},
+                             "integrator": {"rtol": 1e-10, "atol": 1e-12},
+                             "products": ["ftle"], "extractors": [{"plugin": "hyperbolic"}]})");
+    const fs::path dir = fs::temp_directory_path() / ("geobarrier-test-saddle-" + std::to_string(::getpid()));
+    ::setenv("GEOBARRIER_EQUATIONS_CACHE", (dir / "cache").c_str(), 1);
+    const ResolvedExperiment r = resolve_experiment(parse_experiment(j));
+    const double y0 = a / (1 + w * w);
+    // Starts two and three grid spacings off, and one far off (beyond the reach given): one orbit, found once.
+    const std::vector<SaddleOrbit> orbits = saddle_orbits_near(r, period, {0.04, y0 - 0.03, -0.05, y0, 0.6, 0.6}, 0.08);
+    REQUIRE(orbits.size() == 1);
+    CHECK(std::abs(orbits[0].x) < 1e-8);
+    CHECK(orbits[0].y == doctest::Approx(y0).epsilon(1e-8));
+    CHECK(orbits[0].multipliers[0] == doctest::Approx(std::exp(period)).epsilon(1e-6));
+    CHECK(orbits[0].multipliers[1] == doctest::Approx(std::exp(-period)).epsilon(1e-6));
+    ::unsetenv("GEOBARRIER_EQUATIONS_CACHE");
+    fs::remove_all(dir);
+}
+
+TEST_CASE("both directions of the escape oscillator: no tangle below Melnikov's threshold, a tangle above it") {
     // x'' = -x + x^2 - 0.1 x' + gamma cos(0.85 t); Melnikov: gamma_c = delta sinh(pi w) / (5 pi w^2) = 0.0634. Its
     // hilltop period-1 saddle orbit passes (0.97050, 0.00124) at t = 0 at gamma = 0.05 (Newton's method on the period
     // map with SciPy, independently of geobarrier).
@@ -86,36 +123,69 @@ TEST_CASE("both directions of the escape oscillator: one crossing (the saddle or
     fs::remove_all(dir);
     ::setenv("GEOBARRIER_EQUATIONS_CACHE", (dir / "cache").c_str(), 1);
     json j = json::parse(test::read_text(test::source_dir() / "experiments" / "escape-oscillator.json"));
+    const double pi = std::acos(-1.0), gamma_c = 0.0634;
     j["grid"]["n"] = {141, 121};
     j["time"]["directions"] = "both";
+    j["time"]["period"] = 2 * pi / 0.85;
     j["output"]["plots"] = true;
-    for (const double gamma : {0.05, 0.08}) {
+    for (const double gamma : {0.05, 0.9 * gamma_c, 1.1 * gamma_c}) {
         CAPTURE(gamma);
         j["forcing"]["params"]["amplitude"] = gamma;
         const fs::path out = dir / ("gamma-" + std::to_string(gamma));
-        RunOptions options;
-        options.output_dir = out;
-        options.quiet = true;
-        const RunSummary s = run_experiment(resolve_experiment(parse_experiment(j)), options);
-        CHECK(fs::exists(out / "forward" / "manifest.json"));
-        CHECK(fs::exists(out / "backward" / "manifest.json"));
+        const json tangle = run_tangle(j, out);
         CHECK(fs::exists(out / "tangle.png"));
         const json forward = json::parse(test::read_text(out / "forward" / "manifest.json"));
         const json backward = json::parse(test::read_text(out / "backward" / "manifest.json"));
         CHECK(forward["resolved"]["time"]["t1"].get<double>() > 0.0);
         CHECK(backward["resolved"]["time"]["t1"].get<double>() < 0.0);
-        const json tangle = json::parse(test::read_text(out / "tangle.json"));
-        const json &crossings = tangle["crossings"];
-        MESSAGE("gamma " << gamma << ": " << crossings.size() << " crossings");
-        if (gamma < 0.0634) {
-            REQUIRE(crossings.size() == 1);
-            CHECK(std::hypot(crossings[0]["point"][0].get<double>() - 0.97050,
-                             crossings[0]["point"][1].get<double>() - 0.00124) < 0.01);
-        } else {
-            CHECK(crossings.size() >= 3); // the saddle orbit and at least one lobe's pair of homoclinic points
+        // The folder's own manifest: the experiment as given and the counts (what a sweep reads).
+        const json manifest = json::parse(test::read_text(out / "manifest.json"));
+        CHECK(manifest["experiment"] == j);
+        CHECK(manifest["crossings"] == tangle["counts"]);
+        const json &counts = tangle["counts"];
+        MESSAGE("gamma " << gamma << ": " << counts.dump());
+        // The saddle orbit, where its own manifolds cross, is no tangle: found by Newton's method from that crossing,
+        // with multipliers whose product is det DP = exp(-delta T) (Liouville).
+        REQUIRE(tangle["saddle_orbits"].size() >= 1);
+        const json &orbit = tangle["saddle_orbits"][0];
+        CHECK(orbit["multipliers"][0].get<double>() * orbit["multipliers"][1].get<double>() ==
+              doctest::Approx(std::exp(-0.1 * 2 * pi / 0.85)).epsilon(1e-5));
+        CHECK(counts["saddle_orbit"] == 1);
+        if (gamma == 0.05) {
+            CHECK(orbit["point"][0].get<double>() == doctest::Approx(0.97050).epsilon(1e-5));
+            CHECK(orbit["point"][1].get<double>() == doctest::Approx(0.00124).epsilon(1e-2));
         }
+        if (gamma < gamma_c)
+            CHECK(counts["tangle"] == 0);
+        else
+            CHECK(counts["homoclinic"].get<int>() >= 1);
     }
     ::unsetenv("GEOBARRIER_EQUATIONS_CACHE");
+    fs::remove_all(dir);
+}
+
+TEST_CASE("damped Duffing: the tangle begins within 10% of Melnikov's threshold, at two dampings") {
+    // x'' = x - x^3 - delta x' + gamma cos t; Melnikov: gamma_c = 4 delta cosh(pi / 2) / (3 sqrt(2) pi).
+    const fs::path dir = fs::temp_directory_path() / ("geobarrier-test-melnikov-" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    json j = json::parse(test::read_text(test::source_dir() / "experiments" / "duffing-tangle.json"));
+    j["output"]["plots"] = false;
+    const double pi = std::acos(-1.0);
+    for (const double delta : {0.1, 0.2}) {
+        const double gamma_c = 4 * delta * std::cosh(pi / 2) / (3 * std::sqrt(2.0) * pi);
+        for (const double factor : {0.9, 1.1}) {
+            CAPTURE(delta);
+            CAPTURE(factor);
+            j["system"]["params"]["delta"] = delta;
+            j["forcing"]["params"]["amplitude"] = factor * gamma_c;
+            const json counts = run_tangle(j, dir / (std::to_string(delta) + "-" + std::to_string(factor)))["counts"];
+            MESSAGE("delta " << delta << ", gamma " << factor << " gamma_c: " << counts.dump());
+            if (factor < 1)
+                CHECK(counts["tangle"] == 0);
+            else
+                CHECK(counts["tangle"].get<int>() >= 1);
+        }
+    }
     fs::remove_all(dir);
 }
 
@@ -126,6 +196,13 @@ TEST_CASE("both directions: bad input names /time/directions") {
     j["time"]["directions"] = "both";
     j["time"]["t1"] = 0;
     CHECK_THROWS_WITH_AS(parse_experiment(j), doctest::Contains("/time/t1"), ConfigError);
+    // The forcing period classifies crossings: it must be positive, and only both directions have crossings.
+    j["time"]["t1"] = 10;
+    j["time"]["period"] = 0;
+    CHECK_THROWS_WITH_AS(parse_experiment(j), doctest::Contains("/time/period"), ConfigError);
+    j["time"]["period"] = 7.4;
+    j["time"]["directions"] = "one";
+    CHECK_THROWS_WITH_AS(parse_experiment(j), doctest::Contains("/time/period"), ConfigError);
     // Both directions look for crossings of barriers, and write two runs: no extractor, or results kept in memory
     // only (the Python module's way), is refused before anything runs.
     json d = json::parse(R"({"system": {"plugin": "duffing"}, "grid": {"x": [-1, 1], "y": [-1, 1], "n": [11, 11]},

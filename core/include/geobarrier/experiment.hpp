@@ -63,6 +63,9 @@ struct Experiment {
     std::optional<GridSliceSpec> slice; // the grid's "axes" and "fixed" when given
     double t0 = 0.0, t1 = 1.0;
     bool both_directions = false; // "time": {"directions": "both"}: forward and backward from t0 (run_both_directions)
+    // "time": {"period": P}: the forcing's period, with which run_both_directions tells the crossings at a saddle
+    // orbit from those of a tangle (tangle.hpp); unset: crossings unclassified.
+    std::optional<double> forcing_period;
     std::optional<Bounds> bounds;
     std::string quality = "standard";     // the preset: draft | standard | publication (quality_preset)
     IntegratorSettings integrator;        // the preset's, with the experiment's own keys applied

@@ -14,12 +14,43 @@
 
 namespace geobarrier {
 
+// What a crossing is, once the saddle orbits near the crossings are known (classify_crossings).
+enum class CrossingKind {
+    unclassified, // no forcing period given
+    saddle_orbit, // at a saddle orbit, where its own stable and unstable manifolds meet: no tangle
+    homoclinic,   // between a stable and an unstable barrier that both pass through one saddle orbit
+    other,        // anything else: heteroclinic, or pieces not traced to a saddle orbit found in this run
+};
+const char *crossing_kind_name(CrossingKind kind);
+
 // A point where a forward-time and a backward-time barrier cross.
 struct BarrierCrossing {
     double x = 0.0, y = 0.0;
     std::size_t forward = 0, backward = 0; // indices into the two barrier lists
     double angle_degrees = 0.0;            // between the two curves at the crossing, in (0, 90]
+    CrossingKind kind = CrossingKind::unclassified;
+    std::size_t orbit = 0; // saddle_orbit, homoclinic: the index of the saddle orbit
 };
+
+// A saddle orbit of period T: a fixed point of the period map P = F_{t0}^{t0 + T} whose multipliers (the eigenvalues
+// of DP) are real, one larger than 1 in magnitude and one smaller. For a T-periodic forcing it is a hyperbolic
+// trajectory of period T, and its stable and unstable manifolds at t0 are what forward and backward barriers approach.
+struct SaddleOrbit {
+    double x = 0.0, y = 0.0;
+    double multipliers[2] = {0.0, 0.0}; // |multipliers[0]| > 1 > |multipliers[1]|
+};
+
+// Newton's method on P(z) = z from each start point (x, y pairs): the saddle orbits it converges to within `within`
+// of their start, each once (two within `within` of each other are one). The Jacobian DP is the flow map's gradient
+// (the experiment's gradient method); a start whose iterates leave the bounds, move more than `within` away, or do
+// not settle in 30 steps gives nothing.
+std::vector<SaddleOrbit> saddle_orbits_near(const ResolvedExperiment &experiment, double period,
+                                            const std::vector<double> &starts, double within);
+
+// Sets each crossing's kind: saddle_orbit within `within` of a saddle orbit, homoclinic where both barriers pass within
+// `within` of one saddle orbit, else other.
+void classify_crossings(std::vector<BarrierCrossing> &crossings, const nlohmann::json &forward,
+                        const nlohmann::json &backward, const std::vector<SaddleOrbit> &orbits, double within);
 
 // The crossings of two lists of barriers (as in barriers.json: "points" [[x, y], ...] and "closed") at which the
 // curves meet at more than min_angle_degrees: where two barriers run along each other (an unforced separatrix is
@@ -33,8 +64,11 @@ std::vector<BarrierCrossing> transverse_crossings(const nlohmann::json &forward,
 // "time": {"directions": "both"}: the experiment run forward (t0 to t0 + |t1 - t0|) into <out>/forward and backward
 // (t0 to t0 - |t1 - t0|) into <out>/backward, each a complete run with its own manifest, then <out>/tangle.json (the
 // barriers' transverse crossings) and, with plots, <out>/tangle.png (both barrier sets and the crossings over the
-// larger of the two FTLE fields). Each folder is published when its run finishes: a failed backward run leaves a
-// finished forward run and no tangle. Writes files only (RunOptions::write_files; keep_results is refused).
+// larger of the two FTLE fields). With "time": {"period": T}, the crossings are classified (classify_crossings) and
+// tangle.json lists the saddle orbits found at them. <out>/manifest.json, written last, names the two runs and counts
+// the crossings by kind (a sweep's figures can point into it, e.g. "/tangle/homoclinic"). Each folder is published when
+// its run finishes: a failed backward run leaves a finished forward run and no tangle. Writes files only
+// (RunOptions::write_files; keep_results is refused).
 RunSummary run_both_directions(const ResolvedExperiment &experiment, const RunOptions &options);
 
 } // namespace geobarrier

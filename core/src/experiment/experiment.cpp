@@ -246,6 +246,12 @@ void read_time(const json &section, Experiment &e) {
     if (e.t1 == e.t0) throw ConfigError("/time/t1", "equals t0; the interval must have nonzero length");
     // "both": the forward (t0 to t0 + |t1 - t0|) and the backward (t0 to t0 - |t1 - t0|) runs in one (tangle.hpp).
     e.both_directions = t.string("directions", "one", {"one", "both"}) == "both";
+    if (t.has("period")) {
+        e.forcing_period = t.positive("period");
+        if (!e.both_directions)
+            throw ConfigError("/time/period", "classifies the crossings of \"directions\": \"both\"; this experiment "
+                                              "runs one direction");
+    }
     t.finish();
 }
 
@@ -796,6 +802,7 @@ void echo_settings(const ResolvedExperiment &r, json &resolved) {
     }
     resolved["time"] = {{"t0", e.t0}, {"t1", e.t1}};
     if (e.both_directions) resolved["time"]["directions"] = "both";
+    if (e.forcing_period) resolved["time"]["period"] = *e.forcing_period;
     resolved["quality"] = e.quality;
     resolved["integrator"] = {{"method", e.integrator.method},
                               {"engine", e.integrator.engine},

@@ -1,6 +1,7 @@
 // Both directions in one run and the transverse crossings of their barriers (tangle.hpp).
 #include "run/mpi.hpp"
 #include <geobarrier/errors.hpp>
+#include <geobarrier/flow_map.hpp>
 #include <geobarrier/output.hpp>
 #include <geobarrier/tangle.hpp>
 
@@ -8,6 +9,8 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
+#include <chrono>
 #include <cmath>
 #include <limits>
 #include <string>
@@ -20,7 +23,8 @@ using nlohmann::json;
 
 namespace {
 
-constexpr double min_crossing_angle = 10.0; // degrees (transverse_crossings)
+constexpr double min_crossing_angle = 10.0;  // degrees (transverse_crossings)
+constexpr std::size_t shooting_segments = 8; // saddle_orbits_near
 
 struct Segment {
     double ax, ay, bx, by;
@@ -97,13 +101,44 @@ bool crossing(const Segment &a, const Segment &b, double &s, double &t) {
     return s >= 0.0 && s < 1.0 && t >= 0.0 && t < 1.0;
 }
 
+// The distance from (x, y) to the segment from (ax, ay) to (bx, by).
+double distance_to_segment(double x, double y, double ax, double ay, double bx, double by) {
+    const double dx = bx - ax, dy = by - ay, length2 = dx * dx + dy * dy;
+    const double s = length2 > 0.0 ? std::clamp(((x - ax) * dx + (y - ay) * dy) / length2, 0.0, 1.0) : 0.0;
+    return std::hypot(x - ax - s * dx, y - ay - s * dy);
+}
+
+// Whether a barrier (barriers.json item) passes within `within` of (x, y).
+bool passes_within(const json &barrier, double x, double y, double within) {
+    const json &points = barrier.at("points");
+    for (std::size_t k = 0; k + 1 < points.size(); ++k)
+        if (distance_to_segment(x, y, points[k][0], points[k][1], points[k + 1][0], points[k + 1][1]) <= within)
+            return true;
+    return points.size() == 1 && std::hypot(double(points[0][0]) - x, double(points[0][1]) - y) <= within;
+}
+
+// A 2 x 2 matrix's eigenvalues when they are real, larger magnitude first.
+std::optional<std::array<double, 2>> real_eigenvalues(const std::array<double, 4> &m) {
+    const double half_trace = 0.5 * (m[0] + m[3]), det = m[0] * m[3] - m[1] * m[2];
+    const double disc = half_trace * half_trace - det;
+    if (!(disc > 0.0)) return std::nullopt;
+    const double root = std::sqrt(disc);
+    std::array<double, 2> l = {half_trace + root, half_trace - root};
+    if (std::abs(l[1]) > std::abs(l[0])) std::swap(l[0], l[1]);
+    return l;
+}
+
 json crossings_json(const std::vector<BarrierCrossing> &crossings) {
     json out = json::array();
-    for (const BarrierCrossing &c : crossings)
-        out.push_back({{"point", {c.x, c.y}},
-                       {"forward", c.forward},
-                       {"backward", c.backward},
-                       {"angle_degrees", c.angle_degrees}});
+    for (const BarrierCrossing &c : crossings) {
+        json item = {{"point", {c.x, c.y}},
+                     {"forward", c.forward},
+                     {"backward", c.backward},
+                     {"angle_degrees", c.angle_degrees},
+                     {"kind", crossing_kind_name(c.kind)}};
+        if (c.kind == CrossingKind::saddle_orbit || c.kind == CrossingKind::homoclinic) item["orbit"] = c.orbit;
+        out.push_back(std::move(item));
+    }
     return out;
 }
 
@@ -112,6 +147,7 @@ RunSummary run_direction(const Experiment &e, double sign, const fs::path &folde
     json source = e.source;
     source["time"]["t1"] = e.t0 + sign * std::abs(e.t1 - e.t0);
     source["time"].erase("directions");
+    source["time"].erase("period");
     const ResolvedExperiment r = resolve_experiment(parse_experiment(source, e.file));
     RunOptions o = options;
     o.output_dir = folder;
@@ -154,21 +190,23 @@ void plot_tangle(const fs::path &file, const Experiment &e, const RunSummary &fo
         mask[k] = static_cast<std::uint8_t>(forward.mask[k] & backward.mask[k]);
     }
     FieldPlot plot;
-    plot.title = fmt::format("repelling (red, t = {:g} to {:g}) and attracting (white) barriers, {} crossings", e.t0,
-                             e.t0 + std::abs(e.t1 - e.t0), crossings.size());
+    const auto at_orbits = std::count_if(crossings.begin(), crossings.end(),
+                                         [](const BarrierCrossing &c) { return c.kind == CrossingKind::saddle_orbit; });
+    plot.title = fmt::format("repelling (red) and attracting (white) barriers at t = {:g}: {} crossings", e.t0,
+                             crossings.size() - static_cast<std::size_t>(at_orbits));
+    if (at_orbits > 0) plot.title += fmt::format(", {} at saddle orbits", at_orbits);
     plot.colorbar_label = "max(forward FTLE, backward FTLE)";
     append_curves(forward.barriers, "red", plot.curves);
     append_curves(backward.barriers, "white", plot.curves);
-    if (!crossings.empty()) {
+    // Crossings at saddle orbits (no tangle) in cyan, the others in magenta.
+    for (const bool at_orbit : {true, false}) {
         PlotCurve dots;
-        dots.color = "magenta";
+        dots.color = at_orbit ? "cyan" : "magenta";
         dots.points_only = true;
         dots.marker_px = 9.0;
-        for (const BarrierCrossing &c : crossings) {
-            dots.xy.push_back(c.x);
-            dots.xy.push_back(c.y);
-        }
-        plot.curves.push_back(std::move(dots));
+        for (const BarrierCrossing &c : crossings)
+            if ((c.kind == CrossingKind::saddle_orbit) == at_orbit) dots.xy.insert(dots.xy.end(), {c.x, c.y});
+        if (!dots.xy.empty()) plot.curves.push_back(std::move(dots));
     }
     plot_field_png(file, e.grid, values, mask, plot);
 }
@@ -211,6 +249,154 @@ std::vector<BarrierCrossing> transverse_crossings(const json &forward, const jso
     return out;
 }
 
+const char *crossing_kind_name(CrossingKind kind) {
+    switch (kind) {
+    case CrossingKind::saddle_orbit:
+        return "saddle_orbit";
+    case CrossingKind::homoclinic:
+        return "homoclinic";
+    case CrossingKind::other:
+        return "other";
+    case CrossingKind::unclassified:
+        break;
+    }
+    return "unclassified";
+}
+
+std::vector<SaddleOrbit> saddle_orbits_near(const ResolvedExperiment &r, double period,
+                                            const std::vector<double> &starts, double within) {
+    const Experiment &e = r.experiment;
+    const std::size_t n = starts.size() / 2;
+    const GradientMethod method = r.system.has_jacobian() && r.gradient != GradientMethod::auxiliary_grid
+                                      ? GradientMethod::variational
+                                      : GradientMethod::auxiliary_grid;
+    // Multiple shooting: the orbit's states z_0 .. z_{m-1} at t0 + i period / m, each segment's flow map F_i, and the
+    // conditions F_i(z_i) = z_{i+1 mod m}. A saddle orbit's period map can stretch by hundreds (unforced Duffing's
+    // saddle over 2 pi: e^(2 pi)); a start a grid spacing off is then far outside Newton's reach on P itself, but
+    // within it on segments that stretch by the m-th root of that.
+    constexpr std::size_t m = shooting_segments;
+    using Matrix2 = std::array<double, 4>; // row-major
+    const auto times = [](const Matrix2 &p, const Matrix2 &q) {
+        return Matrix2{p[0] * q[0] + p[1] * q[2], p[0] * q[1] + p[1] * q[3], p[2] * q[0] + p[3] * q[2],
+                       p[2] * q[1] + p[3] * q[3]};
+    };
+    std::vector<std::array<double, 2 * m>> z(n); // z_i of point k: z[k][2 i], z[k][2 i + 1]
+    std::vector<std::uint8_t> lost(n, 0);
+    const auto segment_map = [&](std::size_t count, const std::vector<double> &from, double t_from, double t_to,
+                                 bool gradient) {
+        return flow_map_at_points(
+            r.dynamics(), count, [&](std::size_t i, double &x, double &y) { x = from[2 * i], y = from[2 * i + 1]; },
+            t_from, t_to, e.integrator, gradient ? method : GradientMethod::none, e.aux_offset * e.grid.dx(),
+            e.aux_offset * e.grid.dy(), true, masking(e.bounds));
+    };
+    // The starting states: from the start forward over the first half of the period, and, as a periodic orbit is back
+    // at its start one period on, backward from t0 + period over the second half: nowhere stretched by more than the
+    // square root of the period map's multiplier.
+    for (std::size_t i = 0; i < m; ++i) {
+        const double t = e.t0 + period * static_cast<double>(i) / static_cast<double>(m);
+        const GridFlowMap map = segment_map(n, starts, i <= m / 2 ? e.t0 : e.t0 + period, t, false);
+        for (std::size_t k = 0; k < n; ++k) {
+            if (map.mask[k]) lost[k] = 1;
+            z[k][2 * i] = i == 0 ? starts[2 * k] : map.flow_x[k];
+            z[k][2 * i + 1] = i == 0 ? starts[2 * k + 1] : map.flow_y[k];
+        }
+    }
+    // Newton stops when its step is far below the grid's resolution: the barriers it is compared with are no sharper.
+    const double settled_step = 1e-4 * std::min(e.grid.dx(), e.grid.dy());
+    std::vector<std::uint8_t> settled(n, 0);
+    std::vector<Matrix2> dP(n);
+    for (int step = 0; step < 30; ++step) {
+        std::vector<std::size_t> active;
+        for (std::size_t k = 0; k < n; ++k)
+            if (!lost[k] && !settled[k]) active.push_back(k);
+        if (active.empty()) break;
+        // Newton's step for F_i(z_i) = z_{i+1}: dz_{i+1} = G_i dz_i + R_i with G_i = DF_i and R_i = F_i(z_i) - z_{i+1},
+        // around the cycle: (I - G_{m-1} ... G_0) dz_0 = c, c accumulated as the recursion runs from dz_0 = 0.
+        std::vector<Matrix2> product(active.size(), Matrix2{1.0, 0.0, 0.0, 1.0});
+        std::vector<std::array<double, 2 * m>> offsets(active.size()); // dz_i - (G_{i-1} ... G_0) dz_0
+        std::vector<std::array<Matrix2, m>> products(active.size());   // G_{i-1} ... G_0
+        std::vector<double> from(2 * active.size());
+        for (std::size_t i = 0; i < m; ++i) {
+            for (std::size_t a = 0; a < active.size(); ++a) {
+                from[2 * a] = z[active[a]][2 * i], from[2 * a + 1] = z[active[a]][2 * i + 1];
+                products[a][i] = product[a];
+                if (i == 0) offsets[a][0] = offsets[a][1] = 0.0;
+            }
+            const double t = e.t0 + period * static_cast<double>(i) / static_cast<double>(m);
+            const GridFlowMap map = segment_map(active.size(), from, t, t + period / static_cast<double>(m), true);
+            const std::size_t next = (i + 1) % m;
+            for (std::size_t a = 0; a < active.size(); ++a) {
+                if (map.mask[a]) {
+                    lost[active[a]] = 1;
+                    continue;
+                }
+                Matrix2 g;
+                for (int q = 0; q < 4; ++q)
+                    g[q] =
+                        map.dF_exponent.empty() ? map.dF[4 * a + q] : std::ldexp(map.dF[4 * a + q], map.dF_exponent[a]);
+                const double rx = map.flow_x[a] - z[active[a]][2 * next];
+                const double ry = map.flow_y[a] - z[active[a]][2 * next + 1];
+                const double ox = offsets[a][2 * i], oy = offsets[a][2 * i + 1];
+                const double cx = g[0] * ox + g[1] * oy + rx, cy = g[2] * ox + g[3] * oy + ry;
+                if (next != 0) offsets[a][2 * next] = cx, offsets[a][2 * next + 1] = cy;
+                product[a] = times(g, product[a]);
+                if (next == 0) offsets[a][0] = cx, offsets[a][1] = cy; // c, once around the cycle
+            }
+        }
+        for (std::size_t a = 0; a < active.size(); ++a) {
+            const std::size_t k = active[a];
+            if (lost[k]) continue;
+            const Matrix2 &M = product[a];
+            const double a00 = 1.0 - M[0], a01 = -M[1], a10 = -M[2], a11 = 1.0 - M[3], det = a00 * a11 - a01 * a10;
+            const double c0 = offsets[a][0], c1 = offsets[a][1];
+            const double d0 = (a11 * c0 - a01 * c1) / det, d1 = (a00 * c1 - a10 * c0) / det;
+            double largest = 0.0;
+            for (std::size_t i = 0; i < m; ++i) {
+                const Matrix2 &P = products[a][i];
+                const double ox = i == 0 ? 0.0 : offsets[a][2 * i], oy = i == 0 ? 0.0 : offsets[a][2 * i + 1];
+                const double sx = P[0] * d0 + P[1] * d1 + ox, sy = P[2] * d0 + P[3] * d1 + oy;
+                z[k][2 * i] += sx, z[k][2 * i + 1] += sy;
+                largest = std::max({largest, std::abs(sx), std::abs(sy)});
+            }
+            dP[k] = M;
+            if (!std::isfinite(largest) || std::hypot(z[k][0] - starts[2 * k], z[k][1] - starts[2 * k + 1]) > within)
+                lost[k] = 1;
+            else if (largest < settled_step)
+                settled[k] = 1;
+        }
+    }
+    std::vector<SaddleOrbit> orbits;
+    for (std::size_t k = 0; k < n; ++k) {
+        if (!settled[k]) continue;
+        const auto multipliers = real_eigenvalues(dP[k]);
+        if (!multipliers || !(std::abs((*multipliers)[0]) > 1.0 && std::abs((*multipliers)[1]) < 1.0)) continue;
+        const double x = z[k][0], y = z[k][1];
+        const bool known = std::any_of(orbits.begin(), orbits.end(),
+                                       [&](const SaddleOrbit &o) { return std::hypot(o.x - x, o.y - y) <= within; });
+        if (!known) orbits.push_back({x, y, {(*multipliers)[0], (*multipliers)[1]}});
+    }
+    return orbits;
+}
+
+void classify_crossings(std::vector<BarrierCrossing> &crossings, const json &forward, const json &backward,
+                        const std::vector<SaddleOrbit> &orbits, double within) {
+    for (BarrierCrossing &c : crossings) {
+        c.kind = CrossingKind::other;
+        for (std::size_t o = 0; o < orbits.size(); ++o)
+            if (std::hypot(c.x - orbits[o].x, c.y - orbits[o].y) <= within) {
+                c.kind = CrossingKind::saddle_orbit, c.orbit = o;
+                break;
+            }
+        if (c.kind != CrossingKind::other) continue;
+        for (std::size_t o = 0; o < orbits.size(); ++o)
+            if (passes_within(forward[c.forward], orbits[o].x, orbits[o].y, within) &&
+                passes_within(backward[c.backward], orbits[o].x, orbits[o].y, within)) {
+                c.kind = CrossingKind::homoclinic, c.orbit = o;
+                break;
+            }
+    }
+}
+
 RunSummary run_both_directions(const ResolvedExperiment &r, const RunOptions &options) {
     const Experiment &e = r.experiment;
     if (!options.write_files || options.keep_results)
@@ -219,6 +405,7 @@ RunSummary run_both_directions(const ResolvedExperiment &r, const RunOptions &op
     if (r.extractors.empty())
         throw ConfigError("/time/directions", "\"both\" looks for crossings of barriers, but the experiment has no "
                                               "\"extractors\"");
+    const auto start = std::chrono::steady_clock::now();
     const fs::path out = options.output_dir ? *options.output_dir : e.output_dir;
     const RunSummary forward = run_direction(e, +1.0, out / "forward", options);
     const RunSummary backward = run_direction(e, -1.0, out / "backward", options);
@@ -229,25 +416,75 @@ RunSummary run_both_directions(const ResolvedExperiment &r, const RunOptions &op
     summary.files.insert(summary.files.end(), backward.files.begin(), backward.files.end());
     // Within two grid spacings, two crossings are one: a barrier folded back on itself, or two pieces ending there.
     const double merge = 2.0 * std::max(e.grid.dx(), e.grid.dy());
-    const std::vector<BarrierCrossing> crossings =
+    std::vector<BarrierCrossing> crossings =
         transverse_crossings(forward.barriers, backward.barriers, min_crossing_angle, merge);
-    const json tangle = {{"t0", e.t0},
-                         {"horizon", std::abs(e.t1 - e.t0)},
-                         {"forward", "forward/barriers.json"},
-                         {"backward", "backward/barriers.json"},
-                         {"forward_barriers", forward.barriers.size()},
-                         {"backward_barriers", backward.barriers.size()},
-                         {"min_angle_degrees", min_crossing_angle},
-                         {"merge_distance", merge},
-                         {"crossings", crossings_json(crossings)}};
+    // Barriers end or bend a few grid spacings from a saddle orbit (the strain field degenerates there), so their
+    // crossing can lie that far from it: measured on damped Duffing (delta 0.1) up to 2.7 grid spacings.
+    const double orbit_reach = 4.0 * std::max(e.grid.dx(), e.grid.dy());
+    std::vector<SaddleOrbit> orbits;
+    if (e.forcing_period) {
+        std::vector<double> starts;
+        for (const BarrierCrossing &c : crossings) starts.insert(starts.end(), {c.x, c.y});
+        orbits = saddle_orbits_near(r, *e.forcing_period, starts, orbit_reach);
+        classify_crossings(crossings, forward.barriers, backward.barriers, orbits, orbit_reach);
+    }
+    // "tangle": every crossing but those at saddle orbits (all of them when none could be told apart).
+    const auto count = [&](CrossingKind kind) {
+        return static_cast<std::size_t>(std::count_if(crossings.begin(), crossings.end(),
+                                                      [&](const BarrierCrossing &c) { return c.kind == kind; }));
+    };
+    json counts = {{"total", crossings.size()}, {"tangle", crossings.size() - count(CrossingKind::saddle_orbit)}};
+    if (e.forcing_period)
+        for (const CrossingKind kind : {CrossingKind::saddle_orbit, CrossingKind::homoclinic, CrossingKind::other})
+            counts[crossing_kind_name(kind)] = count(kind);
+    json tangle = {{"t0", e.t0},
+                   {"horizon", std::abs(e.t1 - e.t0)},
+                   {"forward", "forward/barriers.json"},
+                   {"backward", "backward/barriers.json"},
+                   {"forward_barriers", forward.barriers.size()},
+                   {"backward_barriers", backward.barriers.size()},
+                   {"min_angle_degrees", min_crossing_angle},
+                   {"merge_distance", merge},
+                   {"orbit_reach", orbit_reach},
+                   {"counts", counts},
+                   {"crossings", crossings_json(crossings)}};
+    if (e.forcing_period) {
+        tangle["period"] = *e.forcing_period;
+        tangle["saddle_orbits"] = json::array();
+        for (const SaddleOrbit &o : orbits)
+            tangle["saddle_orbits"].push_back(
+                {{"point", {o.x, o.y}}, {"multipliers", {o.multipliers[0], o.multipliers[1]}}});
+    }
+    json files = json::array({"forward", "backward", "tangle.json"});
     if (e.plots) {
         plot_tangle(out / "tangle.png", e, forward, backward, crossings);
         summary.files.push_back(out / "tangle.png");
+        files.push_back("tangle.png");
     }
     write_text_file(out / "tangle.json", tangle.dump(1) + "\n");
     summary.files.push_back(out / "tangle.json");
-    spdlog::info("tangle: {} repelling and {} attracting barriers, {} transverse crossings", forward.barriers.size(),
-                 backward.barriers.size(), crossings.size());
+    // The folder's manifest, written last: what a sweep reads (its "experiment" is the experiment as given).
+    files.push_back("manifest.json");
+    const json manifest = {
+        {"experiment", e.source},
+        {"directions", "both"},
+        {"runs", {{"forward", "forward/manifest.json"}, {"backward", "backward/manifest.json"}}},
+        {"crossings", counts},
+        {"wall_seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()},
+        {"files", files}};
+    write_text_file(out / "manifest.json", manifest.dump(2) + "\n");
+    summary.files.push_back(out / "manifest.json");
+    summary.manifest = manifest;
+    if (e.forcing_period)
+        spdlog::info(
+            "tangle: {} repelling and {} attracting barriers, {} transverse crossings: {} at saddle orbits, {} "
+            "of a tangle ({} homoclinic)",
+            forward.barriers.size(), backward.barriers.size(), crossings.size(), count(CrossingKind::saddle_orbit),
+            counts["tangle"].get<std::size_t>(), count(CrossingKind::homoclinic));
+    else
+        spdlog::info("tangle: {} repelling and {} attracting barriers, {} transverse crossings (give \"time\": "
+                     "{{\"period\": ...}} to tell the crossings at saddle orbits from those of a tangle)",
+                     forward.barriers.size(), backward.barriers.size(), crossings.size());
     return summary;
 }
 

@@ -21,7 +21,7 @@ from . import _fields
 from ._errors import ConfigError, Error, IoError, NumericalError, PluginError
 from ._geobarrier import version as __version__
 from . import _geobarrier as _native
-from ._arrays import CauchyGreen, Forcing, System, cauchy_green, flow_map, ftle
+from ._arrays import CauchyGreen, Forcing, System, barriers, cauchy_green, flow_map, ftle
 from ._barriers import Barrier, Barriers
 from ._fields import Fields
 from ._plot import plot
@@ -29,7 +29,7 @@ from ._progress import InContext, ProgressBar, ProgressLine, default_progress
 
 __all__ = ["run", "validate", "plugins", "set_log_level", "plot", "Result", "Barrier", "Barriers", "Fields",
            "Error", "ConfigError", "PluginError", "NumericalError", "IoError", "ProgressLine", "ProgressBar",
-           "flow_map", "cauchy_green", "ftle", "System", "Forcing", "CauchyGreen"]
+           "flow_map", "cauchy_green", "ftle", "barriers", "System", "Forcing", "CauchyGreen"]
 
 
 class Result:

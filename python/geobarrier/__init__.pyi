@@ -12,7 +12,7 @@ import numpy.typing as npt
 __version__: str
 __all__ = ["run", "validate", "plugins", "set_log_level", "plot", "Result", "Barrier", "Barriers", "Fields",
            "Error", "ConfigError", "PluginError", "NumericalError", "IoError", "ProgressLine", "ProgressBar",
-           "flow_map", "cauchy_green", "ftle", "System", "Forcing", "CauchyGreen"]
+           "flow_map", "cauchy_green", "ftle", "barriers", "System", "Forcing", "CauchyGreen"]
 
 _Experiment = Union[Dict[str, Any], str, "os.PathLike[str]"]
 _ProgressCallback = Callable[[str, int, int], object]
@@ -181,3 +181,10 @@ def cauchy_green(DF: npt.ArrayLike, T: Optional[float] = ...) -> CauchyGreen:
     """C = DF^T DF of each gradient with its eigenvalues and eigenvectors (and the FTLE with T)."""
 def ftle(F: npt.ArrayLike, T: float, *, of: Literal["DF", "C"] = ...) -> Any:
     """The FTLE of each gradient DF (or tensor C with of="C") over the time T: (N,) or a float."""
+@overload
+def barriers(fields: Any, extractor: str = ..., *, candidates: Literal[False] = ..., threads: Optional[int] = ...,
+             plugin_paths: Union[_Path, Sequence[_Path]] = ..., **params: Any) -> Barriers:
+    """One extractor on a run's fields (or fields.nc's); Barriers, or (barriers, candidates) with candidates=True."""
+@overload
+def barriers(fields: Any, extractor: str = ..., *, candidates: Literal[True], threads: Optional[int] = ...,
+             plugin_paths: Union[_Path, Sequence[_Path]] = ..., **params: Any) -> Tuple[Barriers, Barriers]: ...

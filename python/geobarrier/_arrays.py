@@ -343,3 +343,75 @@ def ftle(F, T, *, of="DF"):
     duration = _real(T, "T", nonzero=True)
     values = (_native.ftle_of_gradients if of == "DF" else _native.ftle_of_tensors)(array, duration)
     return float(values[0]) if single else values
+
+
+def _field_arrays(fields):
+    """(attrs, {name: (ny, nx) float64 array}, mask) of an xarray Dataset or a geobarrier.Fields."""
+    if hasattr(fields, "data_vars"):  # xarray.Dataset
+        names = [str(n) for n in fields.data_vars]
+        values = {n: np.asarray(fields[n].values) for n in names}
+    elif hasattr(fields, "variable_attrs") and hasattr(fields, "keys"):  # geobarrier.Fields
+        values = {n: np.asarray(fields[n]) for n in fields.keys()}
+    else:
+        raise TypeError(f"fields: expected the fields of a run (an xarray.Dataset or geobarrier.Fields), got "
+                        f"{type(fields).__name__}")
+    if "mask" not in values:
+        raise ConfigError("fields: has no \"mask\" variable (a run's fields, or fields.nc, have one)", "fields")
+    mask = values.pop("mask")
+    if mask.dtype.kind not in "iu":
+        raise TypeError(f"fields: the mask is of dtype {mask.dtype}, expected unsigned integers (MaskBits)")
+    arrays = {}
+    for name, value in values.items():
+        if value.dtype.kind in "fiu" and value.ndim == 2:
+            arrays[name] = np.ascontiguousarray(value, dtype=np.float64)
+    return dict(getattr(fields, "attrs", {})), arrays, np.ascontiguousarray(mask, dtype=np.uint8)
+
+
+def barriers(fields, extractor="hyperbolic", *, candidates=False, threads=None, plugin_paths=(), **params):
+    """Runs one barrier extractor ("hyperbolic", "elliptic", "parabolic" or a plugin's name) with its parameters
+    on fields computed before: a run's ``result.fields`` (xarray.Dataset or geobarrier.Fields) or fields.nc opened
+    with xarray. The fields carry the experiment they were computed with (the "experiment" attribute): its grid, time
+    interval, system, forcing and integrator are the extractor's, for the curves it advects, so the fields of a run
+    give that run's barriers. They must hold the extractor's required fields (e.g. the hyperbolic extractor's
+    strain_deviation: run with the products "eigenvalues", "eigenvectors" and "strain_deviation"). Returns a
+    Barriers list, or with ``candidates=True`` the pair (barriers, candidates)."""
+    from ._barriers import Barrier, Barriers
+
+    attrs, arrays, mask = _field_arrays(fields)
+    if not isinstance(extractor, str):
+        raise TypeError(f"extractor: an extractor plugin's name is a str, not {type(extractor).__name__}")
+    try:
+        experiment = json.loads(attrs["experiment"])
+        if not isinstance(experiment, dict):
+            raise ValueError
+    except (KeyError, TypeError, ValueError):
+        raise ConfigError("fields: no \"experiment\" attribute (the resolved experiment a run writes into its "
+                          "fields and fields.nc); fields computed elsewhere are not supported yet", "fields") from None
+    # The experiment as written, with its echo-only keys dropped and this extractor in place of its own.
+    experiment.pop("validation", None)
+    experiment.get("integrator", {}).pop("fixed_steps", None)
+    experiment.get("system", {}).pop("compiled", None)
+    experiment["time"] = {k: v for k, v in experiment.get("time", {}).items() if k in ("t0", "t1")}
+    experiment["products"] = ["ftle"]
+    experiment["extractors"] = [{"plugin": extractor, "params": json.loads(_params_text(params))}]
+    experiment["output"] = {"dir": "unused", "plots": False}
+    paths = _plugin_paths(plugin_paths)
+    if paths:
+        experiment["plugin_paths"] = list(experiment.get("plugin_paths", [])) + paths
+    handle_interrupt = (threading.current_thread() is threading.main_thread()
+                        and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+    try:
+        found, others = _native.extract_barriers(json.dumps(experiment), mask, arrays, _threads(threads),
+                                                 handle_interrupt)
+    except ConfigError as e:
+        # The extractor's own settings by their Python names: "/extractors/0/params/x" is x, its plugin "extractor".
+        for prefix, name in (("/extractors/0/params", ""), ("/extractors/0/plugin", "extractor"),
+                             ("/extractors/0", "extractor")):
+            if e.path.startswith(prefix):
+                where = name + e.path[len(prefix):]
+                raise ConfigError(where + str(e)[str(e).index(": "):], where) from None
+        raise
+    result = Barriers(Barrier(b) for b in json.loads(found))
+    if candidates:
+        return result, Barriers(Barrier(b) for b in json.loads(others))
+    return result

@@ -41,3 +41,6 @@ def ftle_of_tensors(C: npt.NDArray[np.float64], T: float) -> npt.NDArray[np.floa
 def cauchy_green(DF: npt.NDArray[np.float64]) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64],
                                                         npt.NDArray[np.float64]]:
     """C = DF^T DF (N, n, n), its eigenvalues (N, n) ascending and eigenvectors (N, n, n; column i for eigenvalue i)."""
+def extract_barriers(experiment: str, mask: npt.NDArray[np.uint8], fields: Dict[str, npt.NDArray[np.float64]],
+                     threads: int, handle_interrupt: bool) -> Tuple[str, str]:
+    """One extractor on given fields with the experiment they came from: barriers and candidates as JSON text."""

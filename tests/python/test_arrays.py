@@ -267,6 +267,39 @@ def test_a_system_written_as_equations_integrates_like_the_plugin():
     np.testing.assert_allclose(our_DF, their_DF, rtol=1e-9, atol=1e-11)
 
 
+# --- barriers from fields computed before ---
+
+def test_barriers_on_a_runs_fields_are_the_runs_barriers(tmp_path):
+    experiment = base_experiment(grid={"x": [-1.9, 1.9], "y": [-1.1, 1.1], "n": [191, 111]},
+                                 time={"t0": 0, "t1": T},
+                                 products=["ftle", "eigenvalues", "eigenvectors", "strain_deviation"],
+                                 extractors=[{"plugin": "elliptic"}, {"plugin": "hyperbolic"}])
+    r = geobarrier.run(experiment)
+    numpy_fields = geobarrier.run(experiment, xarray=False).fields
+    for name in ("elliptic", "hyperbolic"):
+        theirs = [b for b in r.barriers if b.extractor == name]
+        their_candidates = [b for b in r.candidates if b.extractor == name]
+        for fields in (r.fields, numpy_fields):
+            ours, candidates = geobarrier.barriers(fields, name, candidates=True)
+            assert len(ours) == len(theirs) > 0 and len(candidates) == len(their_candidates)
+            for a, b in zip(list(ours) + list(candidates), theirs + their_candidates):
+                assert np.array_equal(a.points, b.points) and a.to_dict() == b.to_dict()
+    # fields.nc opened with xarray, against the program's barriers.json.
+    import json
+
+    import xarray
+
+    experiment = dict(experiment, products=["ftle", "eigenvalues", "eigenvectors"],
+                      extractors=[{"plugin": "elliptic", "params": {"launch_points": 300}}])
+    done = run_program("run", write_json(tmp_path / "e.json", experiment), "--out", tmp_path / "cli", "--quiet")
+    assert done.returncode == 0, done.stderr
+    with xarray.open_dataset(tmp_path / "cli" / "fields.nc") as dataset:
+        ours = geobarrier.barriers(dataset, "elliptic", launch_points=300)
+    theirs = json.loads((tmp_path / "cli" / "barriers.json").read_text())["barriers"]
+    assert len(ours) == len(theirs) > 0
+    assert all(np.array_equal(a.points, np.array(b["points"])) for a, b in zip(ours, theirs))
+
+
 # --- bad input: each argument named, no crash ---
 
 def bad_calls():
@@ -332,7 +365,26 @@ def bad_calls():
         ("ftle-huge", lambda: geobarrier.ftle(np.broadcast_to(np.eye(2), (10**12, 2, 2)), 1), MemoryError, "F"),
         ("cauchy-green-shape", lambda: geobarrier.cauchy_green(np.zeros(4)), geobarrier.ConfigError, "DF"),
         ("cauchy-green-T-string", lambda: geobarrier.cauchy_green(DF, "1"), TypeError, "T"),
+        ("barriers-fields-array", lambda: geobarrier.barriers(np.zeros((3, 3))), TypeError, "fields"),
+        ("barriers-field-missing", lambda: geobarrier.barriers(run_fields(), "hyperbolic"), geobarrier.ConfigError,
+         "fields"),
+        ("barriers-extractor-unknown", lambda: geobarrier.barriers(run_fields(), "elliptc"), geobarrier.ConfigError,
+         "extractor"),
+        ("barriers-extractor-int", lambda: geobarrier.barriers(run_fields(), 3), TypeError, "extractor"),
+        ("barriers-param-unknown", lambda: geobarrier.barriers(run_fields(), "elliptic", famlies=2),
+         geobarrier.ConfigError, "famlies"),
+        ("barriers-no-experiment", lambda: geobarrier.barriers(run_fields(attrs={}), "elliptic"),
+         geobarrier.ConfigError, "fields"),
+        ("barriers-threads", lambda: geobarrier.barriers(run_fields(), "elliptic", threads=-1),
+         geobarrier.ConfigError, "threads"),
     ]
+
+
+def run_fields(attrs=None):
+    fields = geobarrier.run(base_experiment(products=["ftle", "eigenvalues", "eigenvectors"])).fields
+    if attrs is not None:
+        fields.attrs = attrs
+    return fields
 
 
 @pytest.mark.parametrize("case", bad_calls(), ids=lambda c: c[0])

@@ -317,3 +317,28 @@ TEST_CASE("two threads of one process: the second run into the folder is refused
     check_one_run(out, dir / "ref-a");
     fs::remove_all(dir);
 }
+
+TEST_CASE("both directions: the folder and each direction's subfolder are held; an earlier run's files go") {
+    const fs::path dir = scratch("both"), hooks = dir / "hooks", out = dir / "out";
+    fs::create_directories(hooks);
+    const fs::path a = experiment(dir, "a", 0.08, false);
+    json both = json::parse(read_text(experiment(dir, "both", 0.08, true)));
+    both["time"]["directions"] = "both";
+    std::ofstream(dir / "both.json") << both.dump(1);
+    REQUIRE(wait_for(start(dir, "earlier", run_args(a, out))) == 0);
+    const Process first = start(dir, "first", run_args(dir / "both.json", out), "locked", hooks);
+    wait_until_paused(first, hooks, "locked"); // inside the forward run
+    const Process second = start(dir, "second", run_args(a, out));
+    check_refused(second, wait_for(second), out, "run");
+    const Process third = start(dir, "third", run_args(a, out / "forward"));
+    check_refused(third, wait_for(third), out / "forward", "run");
+    release(hooks, "locked");
+    CHECK_MESSAGE(wait_for(first) == 0, read_text(first.err));
+    std::set<std::string> names;
+    for (const auto &e : fs::directory_iterator(out)) names.insert(e.path().filename().string());
+    const json manifest = json::parse(read_text(out / "manifest.json"));
+    std::set<std::string> listed;
+    for (const json &f : manifest.at("files")) listed.insert(f.get<std::string>());
+    CHECK(names == listed); // the earlier run's fields.nc and ftle.png are gone, no lock file, no staging folder
+    fs::remove_all(dir);
+}

@@ -8,6 +8,7 @@
 
 #include <fcntl.h>
 #include <spawn.h>
+#include <sys/file.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -174,5 +175,37 @@ TEST_CASE("mpirun -np 2 geobarrier sweep: the ranks share the members, rank 0 wr
          at = log.find("swept 5 members", at + 1))
         ++reports;
     CHECK(reports == 1);
+    fs::remove_all(dir);
+}
+
+TEST_CASE("mpirun -np 2 geobarrier run into a folder another writer holds: refused by rank 0, every rank ends") {
+    // The other writer is this test, holding the folder's lock as a run would (docs/robustness.md).
+    const fs::path dir = fs::temp_directory_path() / ("geobarrier-mpi-busy-" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir / "out");
+    std::ofstream(dir / "exp.json") << R"({
+        "system": {"plugin": "duffing"}, "forcing": {"plugin": "cosine"},
+        "grid": {"x": [-1.6, 1.6], "y": [-1.1, 1.1], "n": [16, 12]}, "time": {"t0": 0, "t1": 2},
+        "products": ["ftle"]})";
+    const int fd = ::open((dir / "out" / ".geobarrier-lock").c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    REQUIRE(fd >= 0);
+    REQUIRE(::flock(fd, LOCK_EX | LOCK_NB) == 0);
+    const std::string holder = "geobarrier run (pid " + std::to_string(::getpid()) + ")\n";
+    REQUIRE(::write(fd, holder.data(), holder.size()) == static_cast<ssize_t>(holder.size()));
+    std::vector<std::string> command = mpirun(2);
+    for (const std::string &a : {geobarrier::test::geobarrier_program().string(), std::string("run"),
+                                 (dir / "exp.json").string(), std::string("--out"), (dir / "out").string()})
+        command.push_back(a);
+    const int code = run(command, dir / "busy.log"); // MPI_Abort(2) on rank 0 ends rank 1, which waits for tiles
+    CHECK(code != 0);
+    std::ifstream in(dir / "busy.log");
+    std::stringstream log;
+    log << in.rdbuf();
+    CHECK(log.str().find("geobarrier: error: " + (dir / "out").string() + ": another geobarrier run (pid " +
+                         std::to_string(::getpid()) + ") is writing into this output folder") != std::string::npos);
+    ::close(fd);
+    std::vector<std::string> left;
+    for (const auto &e : fs::directory_iterator(dir / "out")) left.push_back(e.path().filename().string());
+    CHECK(left == std::vector<std::string>{".geobarrier-lock"}); // ours; nothing of the refused run
     fs::remove_all(dir);
 }

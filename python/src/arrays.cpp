@@ -26,6 +26,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
 #include <utility>
@@ -50,13 +51,23 @@ struct NativeSystem {
     System system;
     json schema; // plugin_info_to_json of the plugin (the equations' generated plugin: its constants)
     json params; // resolved parameters
+    // A plugin that is not GB_THREAD_SAFE_CONCURRENT may be called from one thread at a time (abi.h): calls from
+    // several Python threads with the same object take turns on it.
+    std::shared_ptr<std::mutex> turns = std::make_shared<std::mutex>();
 };
 
 struct NativeForcing {
     Forcing forcing;
     json schema;
     json params; // resolved parameters; a composite's terms under "terms"
+    std::shared_ptr<std::mutex> turns = std::make_shared<std::mutex>();
 };
+
+// The turn of an object whose plugin must not be called from several threads at once; no lock for the others.
+std::unique_lock<std::mutex> turn_of(const PluginInfo &info, std::mutex &turns) {
+    return info.thread_safety == GB_THREAD_SAFE_CONCURRENT ? std::unique_lock<std::mutex>()
+                                                           : std::unique_lock<std::mutex>(turns);
+}
 
 // Parameters as the experiment layer reads them: string parameters with the unit "path" made absolute, here against
 // the current folder (an experiment's are against its file's folder).
@@ -239,6 +250,8 @@ py::tuple flow_map(const NativeSystem &system, const NativeForcing &forcing, con
         py::gil_scoped_release no_gil;
         const InterruptScope interrupts(handle_interrupt);
         try {
+            const std::unique_lock<std::mutex> system_turn = turn_of(system.system.info(), *system.turns);
+            const std::unique_lock<std::mutex> forcing_turn = turn_of(forcing.forcing.info(), *forcing.turns);
             const ScopedThreads scoped(threads);
             result = flow_map_of_states(
                 dynamics, count, [&](std::size_t k, double *state) { std::memcpy(state, start + n * k, n * 8); }, t0,
@@ -567,6 +580,7 @@ void register_array_functions(py::module_ &m) {
                 std::vector<double> out(static_cast<std::size_t>(t.shape(0)));
                 {
                     py::gil_scoped_release no_gil;
+                    const std::unique_lock<std::mutex> turn = turn_of(f.forcing.info(), *f.turns);
                     f.forcing.evaluate(out.size(), t.data(), out.data());
                 }
                 return owned_array(std::move(out), {t.shape(0)});

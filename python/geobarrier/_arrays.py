@@ -30,11 +30,20 @@ def _schema(schema_text):
 
 
 def _params_text(params):
+    """Parameters as JSON text for the core; NaN and infinity (which JSON has not) raise naming the parameter."""
+    def not_finite(value, path):
+        if isinstance(value, float) and not math.isfinite(value):
+            return path, value
+        items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+        return next((found for key, v in items for found in [not_finite(v, f"{path}/{key}")] if found), None)
+
     try:
         return json.dumps(params, allow_nan=False, default=lambda v: v.tolist() if hasattr(v, "tolist") else str(v))
     except ValueError:
-        bad = next((k for k, v in params.items() if isinstance(v, float) and not math.isfinite(v)), "")
-        raise ConfigError(f"/{bad}: {params[bad]!r} is not finite", f"/{bad}") from None
+        path, value = not_finite(json.loads(json.dumps(params, default=lambda v: v.tolist() if hasattr(
+            v, "tolist") else str(v))), "") or ("", math.nan)
+        raise ConfigError(f"{path or '/'}: {value!r} is not finite (JSON has no NaN or infinity)", path or "/") \
+            from None
 
 
 def _plugin_paths(plugin_paths):
@@ -74,10 +83,18 @@ class System:
         """A system written as equations, as an experiment's "equations" system (docs/experiment-format.md): e.g.
         ``System.from_equations(["x", "v"], ["v", "x - x^3 - d*v + f"], {"d": 0.15})`` (f is the forcing). It is
         compiled once with this build's compiler and cached; new constants need no new compile."""
-        params = {"state": list(state) if not isinstance(state, str) else state,
-                  "rhs": list(rhs) if not isinstance(rhs, str) else rhs}
+        params = {}
+        for name, value in (("state", state), ("rhs", rhs)):
+            try:
+                params[name] = value if isinstance(value, str) else list(value)
+            except TypeError:
+                raise TypeError(f"{name}: expected a list of strings, got {type(value).__name__}") from None
         if constants is not None:
-            params["constants"] = dict(constants)
+            try:
+                params["constants"] = dict(constants)
+            except (TypeError, ValueError):
+                raise TypeError(f"constants: expected a dict of names and numbers, got {type(constants).__name__}") \
+                    from None
         system = cls.__new__(cls)
         system._native = _native.make_equations_system(_params_text(params))
         return system

@@ -267,6 +267,25 @@ def test_a_system_written_as_equations_integrates_like_the_plugin():
     np.testing.assert_allclose(our_DF, their_DF, rtol=1e-9, atol=1e-11)
 
 
+def test_a_plugin_file_and_faulty_plugins_raise_or_mask_but_never_crash():
+    rotation = geobarrier.System(TEST_PLUGIN_DIR / "geobarrier-rigid-rotation.so")
+    assert rotation.name == "rigid-rotation" and geobarrier.flow_map(rotation, [[1.0, 0.0]], 0, 1).shape == (1, 2)
+    folder = [TEST_PLUGIN_DIR / "bad-input"]
+    with pytest.raises(geobarrier.PluginError, match="deliberate failure in rhs"):
+        geobarrier.flow_map(geobarrier.System("throwing-system", plugin_paths=folder), np.zeros((100, 2)), 0, 1)
+    with pytest.raises(geobarrier.PluginError, match="deliberate failure in the factory"):
+        geobarrier.System("throwing-factory", plugin_paths=folder)
+    with pytest.raises(geobarrier.ConfigError) as info:
+        geobarrier.System("seven-dimensional", plugin_paths=folder)
+    assert info.value.path == "name" and "dimension 7" in str(info.value)
+    # NaN from the field or from the forcing: masked points, NaN rows, no exception.
+    states = geobarrier.flow_map(geobarrier.System("nan-system", plugin_paths=folder), np.zeros((10, 2)), 0, 1)
+    assert np.isnan(states).all()
+    states = geobarrier.flow_map(geobarrier.System("forced-oscillator", plugin_paths=folder), np.zeros((10, 2)), 0, 1,
+                                 forcing=geobarrier.Forcing("nan-forcing", plugin_paths=folder))
+    assert np.isnan(states).all()
+
+
 # --- barriers from fields computed before ---
 
 def test_barriers_on_a_runs_fields_are_the_runs_barriers(tmp_path):

@@ -3,6 +3,8 @@
 
 #include <geobarrier/errors.hpp>
 
+#include <spdlog/spdlog.h>
+
 #include <cerrno>
 #include <chrono>
 #include <cstdlib>
@@ -78,6 +80,14 @@ std::optional<FolderLock> FolderLock::acquire(const fs::path &folder, const std:
         }
         if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
             const int err = errno;
+            if (err == ENOLCK || err == EOPNOTSUPP || err == ENOSYS || err == EINVAL) {
+                // A file system that cannot lock (NFS without its lock service, some FUSE file systems): runs there
+                // worked before the lock existed, so they still do, kept apart only within this process.
+                spdlog::warn("{}: the file system cannot lock files ({}); two geobarrier processes writing this "
+                             "folder at once are not kept apart",
+                             folder.string(), std::strerror(err));
+                return FolderLock(folder, fd, key);
+            }
             const std::string other = holder_of(fd);
             ::close(fd);
             unreserve(key);

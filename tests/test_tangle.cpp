@@ -10,10 +10,13 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <string>
+#include <utility>
 
 namespace fs = std::filesystem;
 using nlohmann::json;
@@ -164,12 +167,106 @@ TEST_CASE("both directions of the escape oscillator: no tangle below Melnikov's 
     fs::remove_all(dir);
 }
 
+namespace {
+
+// x' = y, y' = -x + x^2 - delta y + gamma cos(omega t) from t_from to t_to by classical Runge-Kutta with `steps` steps:
+// the test's own integrator, independent of the engine's.
+std::pair<double, double> escape_rk4(double x, double y, double t_from, double t_to, double delta, double gamma,
+                                     double omega, int steps) {
+    const double h = (t_to - t_from) / steps;
+    const auto f = [&](double t, double px, double py) {
+        return std::pair<double, double>{py, -px + px * px - delta * py + gamma * std::cos(omega * t)};
+    };
+    double t = t_from;
+    for (int k = 0; k < steps; ++k, t = t_from + k * h) {
+        const auto [k1x, k1y] = f(t, x, y);
+        const auto [k2x, k2y] = f(t + h / 2, x + h / 2 * k1x, y + h / 2 * k1y);
+        const auto [k3x, k3y] = f(t + h / 2, x + h / 2 * k2x, y + h / 2 * k2y);
+        const auto [k4x, k4y] = f(t + h, x + h * k3x, y + h * k3y);
+        x += h / 6 * (k1x + 2 * k2x + 2 * k3x + k4x);
+        y += h / 6 * (k1y + 2 * k2y + 2 * k3y + k4y);
+    }
+    return {x, y};
+}
+
+// The distance from (x, y) to a barrier's polyline.
+double distance_to(const json &barrier, double x, double y) {
+    double best = std::numeric_limits<double>::infinity();
+    const json &p = barrier["points"];
+    for (std::size_t k = 0; k + 1 < p.size(); ++k) {
+        const double ax = p[k][0], ay = p[k][1], bx = p[k + 1][0], by = p[k + 1][1];
+        const double dx = bx - ax, dy = by - ay, l2 = dx * dx + dy * dy;
+        const double s = l2 > 0 ? std::clamp(((x - ax) * dx + (y - ay) * dy) / l2, 0.0, 1.0) : 0.0;
+        best = std::min(best, std::hypot(x - ax - s * dx, y - ay - s * dy));
+    }
+    return best;
+}
+
+} // namespace
+
+TEST_CASE("grown manifolds: one period back (stable) or on (unstable), they map onto their barriers, without gaps") {
+    // The escape oscillator below Melnikov's threshold. A repelling barrier grown backward over one period is
+    // P^-1(barrier): its points, integrated one period forward by the test's own Runge-Kutta, land on the barrier
+    // (curve advection inserts midpoints of the barrier's own polyline); attracting ones alike, backward.
+    const fs::path dir = fs::temp_directory_path() / ("geobarrier-test-grown-" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    ::setenv("GEOBARRIER_EQUATIONS_CACHE", (dir / "cache").c_str(), 1);
+    json j = json::parse(test::read_text(test::source_dir() / "experiments" / "escape-oscillator.json"));
+    const double pi = std::acos(-1.0), omega = 0.85, period = 2 * pi / omega, gamma = 0.05;
+    j["grid"]["n"] = {141, 121};
+    j["forcing"]["params"]["amplitude"] = gamma;
+    j["time"]["directions"] = "both";
+    j["time"]["period"] = period;
+    j["time"]["grow_periods"] = 1;
+    j["output"]["plots"] = true;
+    const json tangle = run_tangle(j, dir / "out");
+    CHECK(fs::exists(dir / "out" / "grown.png"));
+    const json &grown = tangle["grown"];
+    const double spacing = 2.8 / 140;
+    for (const bool repelling : {true, false}) {
+        CAPTURE(repelling);
+        const json barriers =
+            json::parse(test::read_text(dir / "out" / (repelling ? "forward" : "backward") / "barriers.json"))
+                .at("barriers");
+        const json &report = grown[repelling ? "repelling" : "attracting"];
+        REQUIRE(report.size() == barriers.size());
+        double longest_growth = 0.0;
+        for (const json &r : report) {
+            CHECK(r["refined"] == true);
+            CHECK(r["max_gap_in_box"].get<double>() <= grown["max_gap"].get<double>() * (1 + 1e-9));
+            longest_growth = std::max(longest_growth, r["grown_length"].get<double>() / r["length"].get<double>());
+        }
+        // The stable manifold grows backward along itself (1.8x here); the unstable one, forward, leaves the bounds
+        // over the hilltop on one side and winds into the well on the other, so its length need not grow.
+        if (repelling) CHECK(longest_growth > 1.5);
+        double worst = 0.0;
+        std::size_t checked = 0;
+        for (const json &piece : grown[repelling ? "repelling_pieces" : "attracting_pieces"]) {
+            const json &points = piece["points"];
+            for (std::size_t k = 0; k < points.size(); k += 7) {
+                // P^-1(barrier) lives at t0 - period, P(barrier) at t0 + period (t0 = 0).
+                const auto [x, y] =
+                    escape_rk4(points[k][0], points[k][1], repelling ? -period : period, 0.0, 0.1, gamma, omega, 4000);
+                worst = std::max(worst, distance_to(barriers[piece["barrier"].get<std::size_t>()], x, y));
+                ++checked;
+            }
+        }
+        MESSAGE(std::string(repelling ? "repelling" : "attracting")
+                << ": " << checked << " points, farthest from the barrier " << worst);
+        CHECK(checked > 50);
+        CHECK(worst < 0.05 * spacing);
+    }
+    ::unsetenv("GEOBARRIER_EQUATIONS_CACHE");
+    fs::remove_all(dir);
+}
+
 TEST_CASE("damped Duffing: the tangle begins within 10% of Melnikov's threshold, at two dampings") {
     // x'' = x - x^3 - delta x' + gamma cos t; Melnikov: gamma_c = 4 delta cosh(pi / 2) / (3 sqrt(2) pi).
     const fs::path dir = fs::temp_directory_path() / ("geobarrier-test-melnikov-" + std::to_string(::getpid()));
     fs::remove_all(dir);
     json j = json::parse(test::read_text(test::source_dir() / "experiments" / "duffing-tangle.json"));
     j["output"]["plots"] = false;
+    j["time"].erase("grow_periods"); // the counts are the barriers' own
     const double pi = std::acos(-1.0);
     for (const double delta : {0.1, 0.2}) {
         const double gamma_c = 4 * delta * std::cosh(pi / 2) / (3 * std::sqrt(2.0) * pi);

@@ -7,6 +7,7 @@
 #include <geobarrier/flow_map.hpp>
 #include <geobarrier/grid.hpp>
 
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <functional>
@@ -77,6 +78,12 @@ struct CurveAdvectionSettings {
     // Insert points until no gap between consecutive image points exceeds this fraction of the image's size (the
     // diagonal of its bounding box).
     double max_gap_fraction = 0.005;
+    // When > 0: the largest image gap as a length instead (a grown manifold's image can reach far beyond the region
+    // looked at, and a fraction of its size would be coarse there).
+    double max_gap = 0.0;
+    // When set (x_min, x_max, y_min, y_max): gaps whose image lies wholly beyond one edge of this box are left as they
+    // are (only what can show inside the box is refined; such gaps do not count against `converged`).
+    std::optional<std::array<double, 4>> refine_box;
     std::size_t max_points = 200000; // stop inserting at this many points (converged = false)
     std::size_t max_rounds = 40;     // insertion rounds (each halves the offending gaps)
     // Gaps whose initial-curve parameter spacing falls below this fraction of the initial length are not split

@@ -66,6 +66,8 @@ struct Experiment {
     // "time": {"period": P}: the forcing's period, with which run_both_directions tells the crossings at a saddle
     // orbit from those of a tangle (tangle.hpp); unset: crossings unclassified.
     std::optional<double> forcing_period;
+    // "time": {"grow_periods": k}: the barriers of both directions grown over k forcing periods (tangle.hpp).
+    std::size_t grow_periods = 0;
     std::optional<Bounds> bounds;
     std::string quality = "standard";     // the preset: draft | standard | publication (quality_preset)
     IntegratorSettings integrator;        // the preset's, with the experiment's own keys applied

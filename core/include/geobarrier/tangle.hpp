@@ -61,14 +61,27 @@ void classify_crossings(std::vector<BarrierCrossing> &crossings, const nlohmann:
 std::vector<BarrierCrossing> transverse_crossings(const nlohmann::json &forward, const nlohmann::json &backward,
                                                   double min_angle_degrees = 10.0, double merge_distance = 0.0);
 
+// Barriers grown along their manifolds: each advected from t0 to t_to with point insertion (curves.hpp), refined to
+// a grid spacing wherever its image can show inside the grid's box. Run backward from a repelling barrier (a stable
+// manifold) or forward from an attracting one (an unstable manifold), the flow stretches the curve along its manifold
+// (by up to a saddle orbit's larger multiplier per period) and contracts it across, the direction of its error; over
+// whole periods of a periodic forcing the image is a longer piece of the same manifold at t0.
+struct GrownBarriers {
+    nlohmann::json pieces =
+        nlohmann::json::array(); // {"points", "closed": false, "barrier"}: the images inside the box
+    nlohmann::json report = nlohmann::json::array(); // per barrier: lengths, points, gaps (tangle.json's "grown")
+};
+GrownBarriers grow_barriers(const ResolvedExperiment &experiment, const nlohmann::json &barriers, double t_to);
+
 // "time": {"directions": "both"}: the experiment run forward (t0 to t0 + |t1 - t0|) into <out>/forward and backward
 // (t0 to t0 - |t1 - t0|) into <out>/backward, each a complete run with its own manifest, then <out>/tangle.json (the
 // barriers' transverse crossings) and, with plots, <out>/tangle.png (both barrier sets and the crossings over the
 // larger of the two FTLE fields). With "time": {"period": T}, the crossings are classified (classify_crossings) and
 // tangle.json lists the saddle orbits found at them. <out>/manifest.json, written last, names the two runs and counts
-// the crossings by kind (a sweep's figures can point into it, e.g. "/tangle/homoclinic"). Each folder is published when
-// its run finishes: a failed backward run leaves a finished forward run and no tangle. Writes files only
-// (RunOptions::write_files; keep_results is refused).
+// the crossings by kind (a sweep's figures can point into it, e.g. "/crossings/tangle"). With "grow_periods": k, the
+// barriers are grown over k periods (grow_barriers), their crossings classified alike, and <out>/grown.png drawn. Each
+// folder is published when its run finishes: a failed backward run leaves a finished forward run and no tangle. Writes
+// files only (RunOptions::write_files; keep_results is refused).
 RunSummary run_both_directions(const ResolvedExperiment &experiment, const RunOptions &options);
 
 } // namespace geobarrier

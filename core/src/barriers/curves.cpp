@@ -322,6 +322,20 @@ double image_size(const std::list<Node> &nodes) {
     return xmax >= xmin ? std::hypot(xmax - xmin, ymax - ymin) : 0.0;
 }
 
+// The largest image gap allowed: absolute, or a fraction of the image's size.
+double gap_limit(const CurveAdvectionSettings &settings, const std::list<Node> &nodes) {
+    return settings.max_gap > 0.0 ? settings.max_gap : settings.max_gap_fraction * image_size(nodes);
+}
+
+// Whether the image of the gap from a to b lies wholly beyond one edge of the settings' refine_box (so it cannot
+// show inside the box).
+bool beyond_box(const CurveAdvectionSettings &settings, const Node &a, const Node &b) {
+    if (!settings.refine_box) return false;
+    const auto &box = *settings.refine_box;
+    return (a.x1 < box[0] && b.x1 < box[0]) || (a.x1 > box[1] && b.x1 > box[1]) || (a.y1 < box[2] && b.y1 < box[2]) ||
+           (a.y1 > box[3] && b.y1 > box[3]);
+}
+
 } // namespace
 
 std::vector<AdvectedCurve> advect_curves(const std::vector<std::vector<double>> &curves,
@@ -364,12 +378,12 @@ std::vector<AdvectedCurve> advect_curves(const std::vector<std::vector<double>> 
         for (std::size_t c = 0; c < count; ++c) {
             if (!active[c]) continue;
             std::list<Node> &ns = nodes[c];
-            const double max_gap = settings.max_gap_fraction * image_size(ns);
+            const double max_gap = gap_limit(settings, ns);
             const std::size_t before = splits.size();
             too_long_left[c] = 0;
             auto consider = [&](std::list<Node>::iterator a, std::list<Node>::iterator b, bool wrap) {
                 if (!a->valid || !b->valid) return;
-                if (std::hypot(b->x1 - a->x1, b->y1 - a->y1) <= max_gap) return;
+                if (std::hypot(b->x1 - a->x1, b->y1 - a->y1) <= max_gap || beyond_box(settings, *a, *b)) return;
                 if (std::hypot(b->x0 - a->x0, b->y0 - a->y0) <= min_gap0[c]) {
                     too_long_left[c] = 1;
                     return;
@@ -428,13 +442,16 @@ std::vector<AdvectedCurve> advect_curves(const std::vector<std::vector<double>> 
         o.size1 = image_size(nodes[c]);
         const std::size_t m = o.xy1.size() / 2;
         const std::size_t gaps = (o.closed && m > 2) ? m : (m ? m - 1 : 0);
+        double counted_gap = 0.0; // the largest gap the refinement was to close
         for (std::size_t k = 0; k < gaps; ++k) {
             const std::size_t l = (k + 1) % m;
-            o.max_gap =
-                std::max(o.max_gap, std::hypot(o.xy1[2 * l] - o.xy1[2 * k], o.xy1[2 * l + 1] - o.xy1[2 * k + 1]));
+            const double gap = std::hypot(o.xy1[2 * l] - o.xy1[2 * k], o.xy1[2 * l + 1] - o.xy1[2 * k + 1]);
+            o.max_gap = std::max(o.max_gap, gap);
+            const Node a{0, 0, o.xy1[2 * k], o.xy1[2 * k + 1], 0, true},
+                b{0, 0, o.xy1[2 * l], o.xy1[2 * l + 1], 0, true};
+            if (!beyond_box(settings, a, b)) counted_gap = std::max(counted_gap, gap);
         }
-        o.converged =
-            o.masked == 0 && !too_long_left[c] && o.max_gap <= settings.max_gap_fraction * o.size1 * (1 + 1e-12);
+        o.converged = o.masked == 0 && !too_long_left[c] && counted_gap <= gap_limit(settings, nodes[c]) * (1 + 1e-12);
     }
     return out;
 }

@@ -252,6 +252,10 @@ void read_time(const json &section, Experiment &e) {
             throw ConfigError("/time/period", "classifies the crossings of \"directions\": \"both\"; this experiment "
                                               "runs one direction");
     }
+    e.grow_periods = t.count("grow_periods", 0, 1, 10);
+    if (e.grow_periods > 0 && !e.forcing_period)
+        throw ConfigError("/time/grow_periods", "grows barriers over whole forcing periods; give the forcing's "
+                                                "\"period\" too");
     t.finish();
 }
 
@@ -803,6 +807,7 @@ void echo_settings(const ResolvedExperiment &r, json &resolved) {
     resolved["time"] = {{"t0", e.t0}, {"t1", e.t1}};
     if (e.both_directions) resolved["time"]["directions"] = "both";
     if (e.forcing_period) resolved["time"]["period"] = *e.forcing_period;
+    if (e.grow_periods > 0) resolved["time"]["grow_periods"] = e.grow_periods;
     resolved["quality"] = e.quality;
     resolved["integrator"] = {{"method", e.integrator.method},
                               {"engine", e.integrator.engine},

@@ -148,6 +148,7 @@ RunSummary run_direction(const Experiment &e, double sign, const fs::path &folde
     source["time"]["t1"] = e.t0 + sign * std::abs(e.t1 - e.t0);
     source["time"].erase("directions");
     source["time"].erase("period");
+    source["time"].erase("grow_periods");
     const ResolvedExperiment r = resolve_experiment(parse_experiment(source, e.file));
     RunOptions o = options;
     o.output_dir = folder;
@@ -164,10 +165,11 @@ const FieldResult *field_named(const RunSummary &s, const std::string &name) {
 }
 
 void append_curves(const json &barriers, const char *color, std::vector<PlotCurve> &curves) {
+    const double width = barriers.size() > 50 ? 1.0 : 2.0; // grown manifolds: many pieces, thinner
     for (const json &b : barriers) {
         PlotCurve c;
         c.color = color;
-        c.width = 2.0;
+        c.width = width;
         c.closed = b.value("closed", false);
         for (const json &p : b.at("points")) {
             c.xy.push_back(p[0]);
@@ -180,7 +182,8 @@ void append_curves(const json &barriers, const char *color, std::vector<PlotCurv
 // tangle.png: the larger of the two FTLE fields, the repelling barriers (red), the attracting ones (white) and the
 // crossings (magenta discs).
 void plot_tangle(const fs::path &file, const Experiment &e, const RunSummary &forward, const RunSummary &backward,
-                 const std::vector<BarrierCrossing> &crossings) {
+                 const json &repelling, const json &attracting, const std::vector<BarrierCrossing> &crossings,
+                 const std::string &what) {
     const FieldResult *f = field_named(forward, "ftle"), *b = field_named(backward, "ftle");
     if (!f || !b) return;
     std::vector<double> values(f->values.size());
@@ -192,12 +195,12 @@ void plot_tangle(const fs::path &file, const Experiment &e, const RunSummary &fo
     FieldPlot plot;
     const auto at_orbits = std::count_if(crossings.begin(), crossings.end(),
                                          [](const BarrierCrossing &c) { return c.kind == CrossingKind::saddle_orbit; });
-    plot.title = fmt::format("repelling (red) and attracting (white) barriers at t = {:g}: {} crossings", e.t0,
-                             crossings.size() - static_cast<std::size_t>(at_orbits));
+    plot.title =
+        fmt::format("{} at t = {:g}: {} crossings", what, e.t0, crossings.size() - static_cast<std::size_t>(at_orbits));
     if (at_orbits > 0) plot.title += fmt::format(", {} at saddle orbits", at_orbits);
     plot.colorbar_label = "max(forward FTLE, backward FTLE)";
-    append_curves(forward.barriers, "red", plot.curves);
-    append_curves(backward.barriers, "white", plot.curves);
+    append_curves(repelling, "red", plot.curves);
+    append_curves(attracting, "white", plot.curves);
     // Crossings at saddle orbits (no tangle) in cyan, the others in magenta.
     for (const bool at_orbit : {true, false}) {
         PlotCurve dots;
@@ -210,6 +213,25 @@ void plot_tangle(const fs::path &file, const Experiment &e, const RunSummary &fo
     }
     plot_field_png(file, e.grid, values, mask, plot);
 }
+
+// Counts of crossings by kind: "tangle" is every crossing but those at saddle orbits (all of them when unclassified).
+json crossing_counts(const std::vector<BarrierCrossing> &crossings, bool classified) {
+    const auto count = [&](CrossingKind kind) {
+        return static_cast<std::size_t>(std::count_if(crossings.begin(), crossings.end(),
+                                                      [&](const BarrierCrossing &c) { return c.kind == kind; }));
+    };
+    json counts = {{"total", crossings.size()}, {"tangle", crossings.size() - count(CrossingKind::saddle_orbit)}};
+    if (classified)
+        for (const CrossingKind kind : {CrossingKind::saddle_orbit, CrossingKind::homoclinic, CrossingKind::other})
+            counts[crossing_kind_name(kind)] = count(kind);
+    return counts;
+}
+
+// "grow_periods": both directions' barriers grown over k periods (the repelling ones backward, the attracting ones
+// forward), their crossings classified as the barriers' are (a grown piece counts as its barrier: it holds the
+// barrier's saddle orbit if the barrier did), and grown.png; tangle.json's "grown".
+json grown_tangle(const ResolvedExperiment &r, const RunSummary &forward, const RunSummary &backward,
+                  std::vector<SaddleOrbit> orbits, const fs::path &picture);
 
 } // namespace
 
@@ -428,15 +450,7 @@ RunSummary run_both_directions(const ResolvedExperiment &r, const RunOptions &op
         orbits = saddle_orbits_near(r, *e.forcing_period, starts, orbit_reach);
         classify_crossings(crossings, forward.barriers, backward.barriers, orbits, orbit_reach);
     }
-    // "tangle": every crossing but those at saddle orbits (all of them when none could be told apart).
-    const auto count = [&](CrossingKind kind) {
-        return static_cast<std::size_t>(std::count_if(crossings.begin(), crossings.end(),
-                                                      [&](const BarrierCrossing &c) { return c.kind == kind; }));
-    };
-    json counts = {{"total", crossings.size()}, {"tangle", crossings.size() - count(CrossingKind::saddle_orbit)}};
-    if (e.forcing_period)
-        for (const CrossingKind kind : {CrossingKind::saddle_orbit, CrossingKind::homoclinic, CrossingKind::other})
-            counts[crossing_kind_name(kind)] = count(kind);
+    const json counts = crossing_counts(crossings, e.forcing_period.has_value());
     json tangle = {{"t0", e.t0},
                    {"horizon", std::abs(e.t1 - e.t0)},
                    {"forward", "forward/barriers.json"},
@@ -457,9 +471,17 @@ RunSummary run_both_directions(const ResolvedExperiment &r, const RunOptions &op
     }
     json files = json::array({"forward", "backward", "tangle.json"});
     if (e.plots) {
-        plot_tangle(out / "tangle.png", e, forward, backward, crossings);
+        plot_tangle(out / "tangle.png", e, forward, backward, forward.barriers, backward.barriers, crossings,
+                    "repelling (red) and attracting (white) barriers");
         summary.files.push_back(out / "tangle.png");
         files.push_back("tangle.png");
+    }
+    if (e.grow_periods > 0) {
+        tangle["grown"] = grown_tangle(r, forward, backward, orbits, out / "grown.png");
+        if (e.plots) {
+            summary.files.push_back(out / "grown.png");
+            files.push_back("grown.png");
+        }
     }
     write_text_file(out / "tangle.json", tangle.dump(1) + "\n");
     summary.files.push_back(out / "tangle.json");
@@ -470,6 +492,7 @@ RunSummary run_both_directions(const ResolvedExperiment &r, const RunOptions &op
         {"directions", "both"},
         {"runs", {{"forward", "forward/manifest.json"}, {"backward", "backward/manifest.json"}}},
         {"crossings", counts},
+        {"grown_crossings", e.grow_periods > 0 ? tangle["grown"]["counts"] : json()},
         {"wall_seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()},
         {"files", files}};
     write_text_file(out / "manifest.json", manifest.dump(2) + "\n");
@@ -479,13 +502,62 @@ RunSummary run_both_directions(const ResolvedExperiment &r, const RunOptions &op
         spdlog::info(
             "tangle: {} repelling and {} attracting barriers, {} transverse crossings: {} at saddle orbits, {} "
             "of a tangle ({} homoclinic)",
-            forward.barriers.size(), backward.barriers.size(), crossings.size(), count(CrossingKind::saddle_orbit),
-            counts["tangle"].get<std::size_t>(), count(CrossingKind::homoclinic));
+            forward.barriers.size(), backward.barriers.size(), crossings.size(),
+            counts["saddle_orbit"].get<std::size_t>(), counts["tangle"].get<std::size_t>(),
+            counts["homoclinic"].get<std::size_t>());
     else
         spdlog::info("tangle: {} repelling and {} attracting barriers, {} transverse crossings (give \"time\": "
                      "{{\"period\": ...}} to tell the crossings at saddle orbits from those of a tangle)",
                      forward.barriers.size(), backward.barriers.size(), crossings.size());
     return summary;
 }
+
+namespace {
+
+json grown_tangle(const ResolvedExperiment &r, const RunSummary &forward, const RunSummary &backward,
+                  std::vector<SaddleOrbit> orbits, const fs::path &picture) {
+    const Experiment &e = r.experiment;
+    const double span = static_cast<double>(e.grow_periods) * *e.forcing_period;
+    spdlog::info("growing {} repelling and {} attracting barriers over {} period(s)", forward.barriers.size(),
+                 backward.barriers.size(), e.grow_periods);
+    const GrownBarriers repelling = grow_barriers(r, forward.barriers, e.t0 - span);
+    const GrownBarriers attracting = grow_barriers(r, backward.barriers, e.t0 + span);
+    const double merge = 2.0 * std::max(e.grid.dx(), e.grid.dy()), reach = 2.0 * merge;
+    std::vector<BarrierCrossing> crossings =
+        transverse_crossings(repelling.pieces, attracting.pieces, min_crossing_angle, merge);
+    // Saddle orbits at the new crossings too (those of the barriers' crossings are known already).
+    std::vector<double> starts;
+    for (const BarrierCrossing &c : crossings) {
+        const bool known = std::any_of(orbits.begin(), orbits.end(),
+                                       [&](const SaddleOrbit &o) { return std::hypot(o.x - c.x, o.y - c.y) <= reach; });
+        if (!known) starts.insert(starts.end(), {c.x, c.y});
+    }
+    for (const SaddleOrbit &o : saddle_orbits_near(r, *e.forcing_period, starts, reach)) orbits.push_back(o);
+    std::vector<BarrierCrossing> by_barrier = crossings; // pieces named by their barriers, for classify_crossings
+    for (BarrierCrossing &c : by_barrier) {
+        c.forward = repelling.pieces[c.forward]["barrier"].get<std::size_t>();
+        c.backward = attracting.pieces[c.backward]["barrier"].get<std::size_t>();
+    }
+    classify_crossings(by_barrier, forward.barriers, backward.barriers, orbits, reach);
+    for (std::size_t k = 0; k < crossings.size(); ++k)
+        crossings[k].kind = by_barrier[k].kind, crossings[k].orbit = by_barrier[k].orbit;
+    if (e.plots)
+        plot_tangle(picture, e, forward, backward, repelling.pieces, attracting.pieces, crossings,
+                    fmt::format("barriers grown over {} period(s)", e.grow_periods));
+    json saddles = json::array();
+    for (const SaddleOrbit &o : orbits)
+        saddles.push_back({{"point", {o.x, o.y}}, {"multipliers", {o.multipliers[0], o.multipliers[1]}}});
+    return {{"periods", e.grow_periods},
+            {"max_gap", std::min(e.grid.dx(), e.grid.dy())},
+            {"repelling", repelling.report},
+            {"attracting", attracting.report},
+            {"repelling_pieces", repelling.pieces},
+            {"attracting_pieces", attracting.pieces},
+            {"saddle_orbits", saddles},
+            {"counts", crossing_counts(crossings, true)},
+            {"crossings", crossings_json(crossings)}};
+}
+
+} // namespace
 
 } // namespace geobarrier

@@ -167,24 +167,35 @@ class CauchyGreen:
 
 @overload
 def flow_map(system: System, points: npt.ArrayLike, t0: float, t1: float, *, forcing: Optional[Forcing] = ...,
-             derivative: Literal[False] = ..., quality: _Quality = ..., threads: Optional[int] = ...) -> _Array:
-    """The final states (N, n) of the points integrated from t0 to t1; with derivative=True also DF (N, n, n)."""
+             derivative: Literal[False] = ..., log_det: Literal[False] = ..., quality: _Quality = ...,
+             threads: Optional[int] = ...) -> _Array:
+    """The final states (N, n) of the points integrated from t0 to t1; with derivative=True also DF (N, n, n), and
+    with log_det=True also log|det DF| (N,)."""
 @overload
 def flow_map(system: System, points: npt.ArrayLike, t0: float, t1: float, *, forcing: Optional[Forcing] = ...,
-             derivative: Literal[True], quality: _Quality = ...,
+             derivative: Literal[True], log_det: Literal[False] = ..., quality: _Quality = ...,
              threads: Optional[int] = ...) -> Tuple[_Array, _Array]: ...
 @overload
 def flow_map(system: System, points: npt.ArrayLike, t0: float, t1: float, *, forcing: Optional[Forcing] = ...,
-             derivative: bool, quality: _Quality = ...,
-             threads: Optional[int] = ...) -> Union[_Array, Tuple[_Array, _Array]]: ...
-def cauchy_green(DF: npt.ArrayLike, T: Optional[float] = ...) -> CauchyGreen:
+             derivative: Literal[True], log_det: Literal[True], quality: _Quality = ...,
+             threads: Optional[int] = ...) -> Tuple[_Array, _Array, Any]: ...
+@overload
+def flow_map(system: System, points: npt.ArrayLike, t0: float, t1: float, *, forcing: Optional[Forcing] = ...,
+             derivative: bool, log_det: bool = ..., quality: _Quality = ...,
+             threads: Optional[int] = ...) -> Union[_Array, Tuple[_Array, _Array], Tuple[_Array, _Array, Any]]: ...
+def cauchy_green(DF: npt.ArrayLike, T: Optional[float] = ..., *, log_det: Optional[npt.ArrayLike] = ...) -> CauchyGreen:
     """C = DF^T DF of each gradient with its eigenvalues and eigenvectors (and the FTLE with T)."""
 def ftle(F: npt.ArrayLike, T: float, *, of: Literal["DF", "C"] = ...) -> Any:
     """The FTLE of each gradient DF (or tensor C with of="C") over the time T: (N,) or a float."""
 @overload
-def barriers(fields: Any, extractor: str = ..., *, candidates: Literal[False] = ..., threads: Optional[int] = ...,
+def barriers(fields: Any, extractor: str = ..., *, system: Optional[System] = ..., forcing: Optional[Forcing] = ...,
+             t0: Optional[float] = ..., t1: Optional[float] = ..., quality: _Quality = ...,
+             candidates: Literal[False] = ..., threads: Optional[int] = ...,
              plugin_paths: Union[_Path, Sequence[_Path]] = ..., **params: Any) -> Barriers:
-    """One extractor on a run's fields (or fields.nc's); Barriers, or (barriers, candidates) with candidates=True."""
+    """One extractor on a run's fields (or fields.nc's, or given fields with their system); Barriers, or
+    (barriers, candidates) with candidates=True."""
 @overload
-def barriers(fields: Any, extractor: str = ..., *, candidates: Literal[True], threads: Optional[int] = ...,
+def barriers(fields: Any, extractor: str = ..., *, system: Optional[System] = ..., forcing: Optional[Forcing] = ...,
+             t0: Optional[float] = ..., t1: Optional[float] = ..., quality: _Quality = ...,
+             candidates: Literal[True], threads: Optional[int] = ...,
              plugin_paths: Union[_Path, Sequence[_Path]] = ..., **params: Any) -> Tuple[Barriers, Barriers]: ...

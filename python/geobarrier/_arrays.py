@@ -75,8 +75,10 @@ class System:
     """
 
     def __init__(self, name, /, *, plugin_paths=(), **params):
-        self._native = _native.make_system(_name(name, "system"), _params_text(params),
-                                           _plugin_paths(plugin_paths))
+        text, paths = _params_text(params), _plugin_paths(plugin_paths)
+        self._native = _native.make_system(_name(name, "system"), text, paths)
+        # As an experiment names it (barriers() on fields computed elsewhere builds one).
+        self._spec, self._plugin_paths = {"plugin": _name(name, "system"), "params": json.loads(text)}, paths
 
     @classmethod
     def from_equations(cls, state, rhs, constants=None):
@@ -96,7 +98,9 @@ class System:
                 raise TypeError(f"constants: expected a dict of names and numbers, got {type(constants).__name__}") \
                     from None
         system = cls.__new__(cls)
-        system._native = _native.make_equations_system(_params_text(params))
+        text = _params_text(params)
+        system._native = _native.make_equations_system(text)
+        system._spec, system._plugin_paths = {"plugin": "equations", "params": json.loads(text)}, []
         return system
 
     @property
@@ -151,8 +155,15 @@ class Forcing:
             if not isinstance(term, Forcing):
                 raise TypeError(f"{'base' if base is not None else f'terms[{k}]'}: a Forcing, not "
                                 f"{type(term).__name__}")
-        self._native = _native.make_forcing(_name(name, "forcing"), _params_text(params),
-                                            [t._native for t in given], _plugin_paths(plugin_paths))
+        text, paths = _params_text(params), _plugin_paths(plugin_paths)
+        self._native = _native.make_forcing(_name(name, "forcing"), text, [t._native for t in given], paths)
+        self._spec, self._plugin_paths = {"plugin": _name(name, "forcing"), "params": json.loads(text)}, paths
+        if base is not None:
+            self._spec["base"] = base._spec
+        elif given:
+            self._spec["terms"] = [t._spec for t in given]
+        for term in given:
+            self._plugin_paths = self._plugin_paths + [p for p in term._plugin_paths if p not in self._plugin_paths]
 
     @property
     def name(self):
@@ -244,12 +255,16 @@ def _threads(threads):
     return int(threads)
 
 
-def flow_map(system, points, t0, t1, *, forcing=None, derivative=False, quality="standard", threads=None):
+def flow_map(system, points, t0, t1, *, forcing=None, derivative=False, log_det=False, quality="standard",
+             threads=None):
     """The flow map F(x0) of ``system`` from t0 to t1 (t1 < t0: backward) at the initial states ``points``, on the
     engine of ``geobarrier run`` with the integrator of the quality preset ("draft", "standard", "publication"; as
     an experiment without an "integrator" section). Returns the final states, an (N, n) float64 array (n the
     system's dimension), or with ``derivative=True`` the pair (states, DF) with DF the (N, n, n) gradient of the
-    flow map from the variational equations (DF[k, i, j] = d F_i / d x_j at point k; it needs the system's Jacobian).
+    flow map from the variational equations (DF[k, i, j] = d F_i / d x_j at point k; it needs the system's Jacobian),
+    and with ``log_det=True`` too the triple (states, DF, log_det): log|det DF| (N,) by Liouville's formula, the
+    integral of the divergence along the trajectory, which cauchy_green(DF, log_det=...) uses for the smallest
+    eigenvalue as the program does.
     A masked trajectory (it blew up, hit the step limit, left the system's domain) has NaN in its row.
 
     points     (N, n) array of initial states, or one state (n,) (then the results have no N axis); any real dtype,
@@ -272,8 +287,11 @@ def flow_map(system, points, t0, t1, *, forcing=None, derivative=False, quality=
         raise TypeError(f"quality: expected one of {', '.join(_QUALITIES)}, got {type(quality).__name__}")
     if quality not in _QUALITIES:
         raise ConfigError(f"quality: {quality!r} is not one of {', '.join(_QUALITIES)}", "quality")
-    if not isinstance(derivative, (bool, np.bool_)):
-        raise TypeError(f"derivative: expected True or False, got {type(derivative).__name__}")
+    for name, flag in (("derivative", derivative), ("log_det", log_det)):
+        if not isinstance(flag, (bool, np.bool_)):
+            raise TypeError(f"{name}: expected True or False, got {type(flag).__name__}")
+    if log_det and not derivative:
+        raise ConfigError("log_det: True needs derivative=True (it comes with DF)", "log_det")
     t0, t1 = _real(t0, "t0"), _real(t1, "t1")
     if t0 == t1:
         raise ConfigError(f"t1: equals t0 ({t0!r}); give an interval of non-zero length", "t1")
@@ -293,11 +311,14 @@ def flow_map(system, points, t0, t1, *, forcing=None, derivative=False, quality=
     array = _real_array(points, "points").reshape(count, n)
     handle_interrupt = (threading.current_thread() is threading.main_thread()
                         and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
-    states, dF, _mask, _stats = _native.flow_map(system._native, forcing._native, array, t0, t1, bool(derivative),
-                                                 quality, threads, handle_interrupt)
+    states, dF, log_dets, _mask, _stats = _native.flow_map(system._native, forcing._native, array, t0, t1,
+                                                           bool(derivative), quality, threads, handle_interrupt)
     if single:
         states = states[0]
         dF = None if dF is None else dF[0]
+        log_dets = None if log_dets is None else float(log_dets[0])
+    if log_det:
+        return states, dF, log_dets
     return (states, dF) if derivative else states
 
 
@@ -333,15 +354,22 @@ class CauchyGreen:
         return f"<geobarrier.CauchyGreen of {self.C.shape[0] if self.C.ndim == 3 else 1} point(s)>"
 
 
-def cauchy_green(DF, T=None):
+def cauchy_green(DF, T=None, *, log_det=None):
     """The Cauchy–Green strain tensor C = DFᵀDF of each gradient in ``DF`` ((N, n, n) or (n, n), e.g. from
     flow_map(..., derivative=True)) with its eigenvalues and eigenvectors, computed as the core computes its fields:
     for n = 2 lambda2 from the dominant root and lambda1 = det(DF)² / lambda2 (no cancellation), xi1 rotated from xi2;
     for n > 2 from the singular value decomposition of DF. With ``T`` (the integration time t1 - t0), also the FTLE.
-    A DF with NaN or Inf entries (a masked point) gives NaN. Returns a CauchyGreen."""
+    With ``log_det`` (log|det DF| per gradient, from flow_map(..., log_det=True); zeros for an area-preserving flow)
+    the smallest eigenvalue comes from it, as in the program's fields: det DF from the entries loses digits where DF
+    stretches strongly (lambda1 off by percents where lambda2 ~ 1e8). A DF with NaN or Inf entries (a masked point)
+    gives NaN. Returns a CauchyGreen."""
     array, single = _tensors(DF, "DF")
+    if log_det is not None:
+        log_det = _real_array(log_det, "log_det", allow_nan=True).reshape(-1)
+        if log_det.shape != (array.shape[0],):
+            raise ConfigError(f"log_det: {log_det.size} values for {array.shape[0]} gradients", "log_det")
     duration = None if T is None else _real(T, "T", nonzero=True)
-    C, eigenvalues, eigenvectors = _native.cauchy_green(array)
+    C, eigenvalues, eigenvectors = _native.cauchy_green(array, log_det)
     ftle_values = None if duration is None else _native.ftle_of_gradients(array, duration)
     if single:
         C, eigenvalues, eigenvectors = C[0], eigenvalues[0], eigenvectors[0]
@@ -363,67 +391,135 @@ def ftle(F, T, *, of="DF"):
 
 
 def _field_arrays(fields):
-    """(attrs, {name: (ny, nx) float64 array}, mask) of an xarray Dataset or a geobarrier.Fields."""
+    """(attrs, {name: (ny, nx) float64 array}, mask or None, x, y) of an xarray Dataset or a geobarrier.Fields."""
     if hasattr(fields, "data_vars"):  # xarray.Dataset
-        names = [str(n) for n in fields.data_vars]
-        values = {n: np.asarray(fields[n].values) for n in names}
+        values = {str(n): np.asarray(fields[n].values) for n in fields.data_vars}
+        x = np.asarray(fields["x"].values) if "x" in fields.coords else None
+        y = np.asarray(fields["y"].values) if "y" in fields.coords else None
     elif hasattr(fields, "variable_attrs") and hasattr(fields, "keys"):  # geobarrier.Fields
         values = {n: np.asarray(fields[n]) for n in fields.keys()}
+        x, y = np.asarray(fields.x), np.asarray(fields.y)
     else:
-        raise TypeError(f"fields: expected the fields of a run (an xarray.Dataset or geobarrier.Fields), got "
-                        f"{type(fields).__name__}")
-    if "mask" not in values:
-        raise ConfigError("fields: has no \"mask\" variable (a run's fields, or fields.nc, have one)", "fields")
-    mask = values.pop("mask")
-    if mask.dtype.kind not in "iu":
-        raise TypeError(f"fields: the mask is of dtype {mask.dtype}, expected unsigned integers (MaskBits)")
+        raise TypeError(f"fields: expected an xarray.Dataset (variables over coordinates y, x) or the fields of a "
+                        f"run, got {type(fields).__name__}")
+    mask = values.pop("mask", None)
+    if mask is not None:
+        if mask.dtype.kind not in "iu":
+            raise TypeError(f"fields: the mask is of dtype {mask.dtype}, expected unsigned integers (MaskBits)")
+        mask = np.ascontiguousarray(mask, dtype=np.uint8)
     arrays = {}
     for name, value in values.items():
         if value.dtype.kind in "fiu" and value.ndim == 2:
             arrays[name] = np.ascontiguousarray(value, dtype=np.float64)
-    return dict(getattr(fields, "attrs", {})), arrays, np.ascontiguousarray(mask, dtype=np.uint8)
+    return dict(getattr(fields, "attrs", {})), arrays, mask, x, y
 
 
-def barriers(fields, extractor="hyperbolic", *, candidates=False, threads=None, plugin_paths=(), **params):
+def _axis(values, name):
+    """(min, max, n) of an evenly spaced coordinate, as an experiment's grid gives it."""
+    if values is None or values.ndim != 1 or values.size < 3 or values.dtype.kind not in "fiu":
+        raise ConfigError(f"fields: no coordinate {name} of 3 or more numbers", "fields")
+    values = values.astype(np.float64)
+    step = (values[-1] - values[0]) / (values.size - 1)
+    if not np.isfinite(values).all() or not step > 0 or \
+            not np.allclose(np.diff(values), step, rtol=1e-9, atol=0):
+        raise ConfigError(f"fields: the coordinate {name} is not increasing in even steps (a grid's)", "fields")
+    return [float(values[0]), float(values[-1])], int(values.size)
+
+
+def _experiment_of(fields_attrs, x, y, system, forcing, t0, t1, quality):
+    """The experiment the extractor runs in: fields' own ("experiment" attribute), or one made of the system and
+    forcing given, over the fields' coordinates."""
+    if system is None:
+        try:
+            experiment = json.loads(fields_attrs["experiment"])
+            if not isinstance(experiment, dict):
+                raise ValueError
+        except (KeyError, TypeError, ValueError):
+            raise ConfigError("system: the fields have no \"experiment\" attribute (the resolved experiment a run "
+                              "writes into its "
+                              "fields and fields.nc): give the system (and forcing, t0, t1) the fields belong to",
+                              "system") from None
+        # The experiment as written, with its echo-only keys dropped.
+        experiment.pop("validation", None)
+        experiment.get("integrator", {}).pop("fixed_steps", None)
+        experiment.get("system", {}).pop("compiled", None)
+        experiment["time"] = {k: v for k, v in experiment.get("time", {}).items() if k in ("t0", "t1")}
+        return experiment
+    if not isinstance(system, System):
+        raise TypeError(f"system: expected a geobarrier.System, got {type(system).__name__}")
+    if forcing is not None and not isinstance(forcing, Forcing):
+        raise TypeError(f"forcing: expected a geobarrier.Forcing or None, got {type(forcing).__name__}")
+    if system.dimension != 2:
+        raise ConfigError(f"system: '{system.name}' has dimension {system.dimension}; barriers() on given fields "
+                          "takes planar systems", "system")
+    times = {}
+    for name, value in (("t0", t0), ("t1", t1)):
+        value = fields_attrs.get(name) if value is None else value
+        if value is None:
+            raise ConfigError(f"{name}: the fields do not say it; give {name}", name)
+        times[name] = _real(value.item() if hasattr(value, "item") else value, name)
+    if times["t0"] == times["t1"]:
+        raise ConfigError(f"t1: equals t0 ({times['t0']!r})", "t1")
+    if quality not in _QUALITIES:
+        raise ConfigError(f"quality: {quality!r} is not one of {', '.join(_QUALITIES)}", "quality")
+    (x_range, nx), (y_range, ny) = _axis(x, "x"), _axis(y, "y")
+    experiment = {"system": system._spec, "grid": {"x": x_range, "y": y_range, "n": [nx, ny]}, "time": times,
+                  "quality": quality}
+    paths = list(system._plugin_paths)
+    if forcing is not None:
+        experiment["forcing"] = forcing._spec
+        paths += [p for p in forcing._plugin_paths if p not in paths]
+    if paths:
+        experiment["plugin_paths"] = paths
+    return experiment
+
+
+def barriers(fields, extractor="hyperbolic", *, system=None, forcing=None, t0=None, t1=None, quality="standard",
+             candidates=False, threads=None, plugin_paths=(), **params):
     """Runs one barrier extractor ("hyperbolic", "elliptic", "parabolic" or a plugin's name) with its parameters
-    on fields computed before: a run's ``result.fields`` (xarray.Dataset or geobarrier.Fields) or fields.nc opened
-    with xarray. The fields carry the experiment they were computed with (the "experiment" attribute): its grid, time
-    interval, system, forcing and integrator are the extractor's, for the curves it advects, so the fields of a run
-    give that run's barriers. They must hold the extractor's required fields (e.g. the hyperbolic extractor's
-    strain_deviation: run with the products "eigenvalues", "eigenvectors" and "strain_deviation"). Returns a
-    Barriers list, or with ``candidates=True`` the pair (barriers, candidates)."""
+    on fields computed before, and returns a Barriers list, or with ``candidates=True`` the pair (barriers,
+    candidates).
+
+    From a run: ``result.fields`` (xarray.Dataset or geobarrier.Fields) or fields.nc opened with xarray carry the
+    experiment they were computed with (the "experiment" attribute): its grid, time interval, system, forcing and
+    integrator are the extractor's, for the curves it advects, so a run's fields give that run's barriers.
+
+    From elsewhere: an xarray.Dataset of (y, x) variables over evenly spaced coordinates x and y (3 or more each),
+    with ``system`` (a planar geobarrier.System), ``forcing``, ``t0``, ``t1`` (unless the Dataset's attributes say
+    them) and ``quality`` (the integrator of the advected curves). A "mask" variable (MaskBits) is optional; without
+    one, points where a field is NaN are masked.
+
+    The fields must hold the extractor's required fields, by the names of fields.nc: lambda1, lambda2, xi1_x, xi1_y,
+    ftle (the products "eigenvalues", "eigenvectors", "ftle"), and for the hyperbolic extractor strain_deviation."""
     from ._barriers import Barrier, Barriers
 
-    attrs, arrays, mask = _field_arrays(fields)
+    attrs, arrays, mask, x, y = _field_arrays(fields)
     if not isinstance(extractor, str):
         raise TypeError(f"extractor: an extractor plugin's name is a str, not {type(extractor).__name__}")
-    try:
-        experiment = json.loads(attrs["experiment"])
-        if not isinstance(experiment, dict):
-            raise ValueError
-    except (KeyError, TypeError, ValueError):
-        raise ConfigError("fields: no \"experiment\" attribute (the resolved experiment a run writes into its "
-                          "fields and fields.nc); fields computed elsewhere are not supported yet", "fields") from None
-    # The experiment as written, with its echo-only keys dropped and this extractor in place of its own.
-    experiment.pop("validation", None)
-    experiment.get("integrator", {}).pop("fixed_steps", None)
-    experiment.get("system", {}).pop("compiled", None)
-    experiment["time"] = {k: v for k, v in experiment.get("time", {}).items() if k in ("t0", "t1")}
+    experiment = _experiment_of(attrs, x, y, system, forcing, t0, t1, quality)
     experiment["products"] = ["ftle"]
     experiment["extractors"] = [{"plugin": extractor, "params": json.loads(_params_text(params))}]
     experiment["output"] = {"dir": "unused", "plots": False}
     paths = _plugin_paths(plugin_paths)
     if paths:
         experiment["plugin_paths"] = list(experiment.get("plugin_paths", [])) + paths
+    if mask is None:
+        shape = next(iter(arrays.values())).shape if arrays else (0, 0)
+        mask = np.zeros(shape, dtype=np.uint8)
+        for value in arrays.values():
+            if value.shape == shape:
+                mask[~np.isfinite(value)] |= 2  # mask_non_finite (fields.nc's flag_masks)
     handle_interrupt = (threading.current_thread() is threading.main_thread()
                         and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
     try:
         found, others = _native.extract_barriers(json.dumps(experiment), mask, arrays, _threads(threads),
                                                  handle_interrupt)
     except ConfigError as e:
-        # The extractor's own settings by their Python names: "/extractors/0/params/x" is x, its plugin "extractor".
+        # Settings by their Python names: "/extractors/0/params/x" is x, the extractor's plugin "extractor", the
+        # system's parameters "/system/params/a" are the System's (as System() names them: "/a").
         for prefix, name in (("/extractors/0/params", ""), ("/extractors/0/plugin", "extractor"),
-                             ("/extractors/0", "extractor")):
+                             ("/extractors/0", "extractor"), ("/grid", "fields"), ("/time/t0", "t0"),
+                             ("/time/t1", "t1"), ("/time", "t1")):
             if e.path.startswith(prefix):
                 where = name + e.path[len(prefix):]
                 raise ConfigError(where + str(e)[str(e).index(": "):], where) from None

@@ -32,14 +32,16 @@ def make_forcing(name: str, params: str, terms: List[Any], plugin_paths: List[st
 def flow_map(system: Any, forcing: Any, points: npt.NDArray[np.float64], t0: float, t1: float, derivative: bool,
              quality: str, threads: int, handle_interrupt: bool) -> Tuple[npt.NDArray[np.float64],
                                                                          Optional[npt.NDArray[np.float64]],
+                                                                         Optional[npt.NDArray[np.float64]],
                                                                          npt.NDArray[np.uint8], str]:
-    """Final states (N, n), DF (N, n, n) or None, the mask (N,) and the integrator statistics (JSON text)."""
+    """Final states (N, n), DF (N, n, n) and log|det DF| (N,) or None, the mask (N,) and the integrator statistics
+    (JSON text)."""
 def ftle_of_gradients(DF: npt.NDArray[np.float64], T: float) -> npt.NDArray[np.float64]:
     """The FTLE of each gradient of an (N, n, n) array over |T|."""
 def ftle_of_tensors(C: npt.NDArray[np.float64], T: float) -> npt.NDArray[np.float64]:
     """The FTLE of each Cauchy-Green tensor of an (N, n, n) array over |T|."""
-def cauchy_green(DF: npt.NDArray[np.float64]) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64],
-                                                        npt.NDArray[np.float64]]:
+def cauchy_green(DF: npt.NDArray[np.float64], log_det: Optional[npt.NDArray[np.float64]]
+                 ) -> Tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]]:
     """C = DF^T DF (N, n, n), its eigenvalues (N, n) ascending and eigenvectors (N, n, n; column i for eigenvalue i)."""
 def extract_barriers(experiment: str, mask: npt.NDArray[np.uint8], fields: Dict[str, npt.NDArray[np.float64]],
                      threads: int, handle_interrupt: bool) -> Tuple[str, str]:

@@ -276,7 +276,7 @@ py::tuple flow_map(const NativeSystem &system, const NativeForcing &forcing, con
         throw py::error_already_set();
     }
     const auto N = static_cast<py::ssize_t>(count), dim = static_cast<py::ssize_t>(n);
-    py::object dF = py::none();
+    py::object dF = py::none(), log_det = py::none();
     if (derivative) {
         const std::size_t nn = std::size_t{n} * n;
         {
@@ -288,9 +288,10 @@ py::tuple flow_map(const NativeSystem &system, const NativeForcing &forcing, con
             }
         }
         dF = owned_array(std::move(result.dF), {N, dim, dim});
+        log_det = owned_array(std::move(result.log_det), {N});
     }
-    return py::make_tuple(owned_array(std::move(result.state), {N, dim}), dF, owned_array(std::move(result.mask), {N}),
-                          result.stats.to_json().dump());
+    return py::make_tuple(owned_array(std::move(result.state), {N, dim}), dF, log_det,
+                          owned_array(std::move(result.mask), {N}), result.stats.to_json().dump());
 }
 
 // The gradients or tensors of a (count, n, n) array, checked.
@@ -372,9 +373,14 @@ py::array_t<double> ftle_of_tensors(const Doubles &C, double T) {
 // geobarrier._geobarrier.cauchy_green: C = DF^T DF, its eigenvalues (ascending) and unit eigenvectors (column i of
 // a point's matrix belongs to eigenvalue i, as numpy.linalg.eigh gives them) with the core's code: for n = 2
 // cauchy_green_at (lambda2 from the dominant root, lambda1 = det(DF)^2 / lambda2, xi1 = rotated xi2; a degenerate
-// point gets the axes), otherwise cauchy_green_nd (singular value decomposition of DF). NaN where DF is not finite.
-py::tuple cauchy_green(const Doubles &dF) {
+// point gets the axes), otherwise cauchy_green_nd (singular value decomposition of DF). With log_det (log|det DF| by
+// Liouville's formula, as flow_map gives it) the smallest eigenvalue comes from it, as the runner's fields do: free of
+// the cancellation that det DF from the entries suffers at strongly stretched points. NaN where DF is not finite.
+py::tuple cauchy_green(const Doubles &dF, const std::optional<Doubles> &log_det) {
     const Tensors t = tensors_of(dF, "DF");
+    if (log_det && (log_det->ndim() != 1 || log_det->shape(0) != static_cast<py::ssize_t>(t.count)))
+        throw ConfigError("log_det", "expected an array of shape (N,), one log|det DF| per gradient");
+    const double *log_dets = log_det ? log_det->data() : nullptr;
     const std::size_t nn = std::size_t{t.n} * t.n;
     std::vector<double> C(nn * t.count, nan_value), lambda(std::size_t{t.n} * t.count, nan_value),
         vectors(nn * t.count, nan_value);
@@ -396,14 +402,15 @@ py::tuple cauchy_green(const Doubles &dF) {
                 }
             double *l = lambda.data() + std::size_t{n} * k, *v = vectors.data() + nn * k;
             if (n == 2) {
-                const CauchyGreenPoint p = cauchy_green_at(f[0], f[1], f[2], f[3], 1.0);
+                const CauchyGreenPoint p =
+                    cauchy_green_at(f[0], f[1], f[2], f[3], 1.0, 0, log_dets ? log_dets[k] : nan_value);
                 if (!std::isfinite(p.lambda2)) continue;
                 l[0] = p.lambda1;
                 l[1] = p.lambda2;
                 v[0] = p.xi1_x, v[1] = p.xi2_x; // columns: xi1, xi2
                 v[2] = p.xi1_y, v[3] = p.xi2_y;
             } else {
-                const CauchyGreenND r = cauchy_green_nd(f, n, 1.0);
+                const CauchyGreenND r = cauchy_green_nd(f, n, 1.0, 0, log_dets ? log_dets[k] : nan_value);
                 for (unsigned a = 0; a < n; ++a) {
                     l[a] = r.lambda[a];
                     for (unsigned j = 0; j < n; ++j) v[j * n + a] = r.eigenvectors[std::size_t{a} * n + j];
@@ -593,7 +600,7 @@ void register_array_functions(py::module_ &m) {
           py::arg("derivative"), py::arg("quality"), py::arg("threads"), py::arg("handle_interrupt"));
     m.def("ftle_of_gradients", &ftle_of_gradients, py::arg("DF"), py::arg("T"));
     m.def("ftle_of_tensors", &ftle_of_tensors, py::arg("C"), py::arg("T"));
-    m.def("cauchy_green", &cauchy_green, py::arg("DF"));
+    m.def("cauchy_green", &cauchy_green, py::arg("DF"), py::arg("log_det"));
     m.def("extract_barriers", &extract_barriers, py::arg("experiment"), py::arg("mask"), py::arg("fields"),
           py::arg("threads"), py::arg("handle_interrupt"));
 }

@@ -319,6 +319,37 @@ def test_barriers_on_a_runs_fields_are_the_runs_barriers(tmp_path):
     assert all(np.array_equal(a.points, np.array(b["points"])) for a, b in zip(ours, theirs))
 
 
+def test_flow_map_cauchy_green_and_barriers_compose_into_the_runs_results():
+    # Fields computed "elsewhere" (here: by the array functions), without the run's mask or experiment attribute,
+    # and the system given: the same eigen-fields and the same barriers as the run, bit for bit.
+    import xarray
+
+    experiment = base_experiment(grid={"x": [-1.9, 1.9], "y": [-1.1, 1.1], "n": [191, 111]},
+                                 time={"t0": 0, "t1": T}, products=["ftle", "eigenvalues", "eigenvectors"],
+                                 extractors=[{"plugin": "elliptic"}])
+    r = geobarrier.run(experiment)
+    system, forcing = duffing()
+    x, y = r.fields.x.values, r.fields.y.values
+    _, DF, log_det = geobarrier.flow_map(system, grid_points(x, y), 0, T, forcing=forcing, derivative=True,
+                                         log_det=True)
+    cg = geobarrier.cauchy_green(DF, T, log_det=log_det)
+    shape = (len(y), len(x))
+    computed = {"ftle": cg.ftle, "lambda1": cg.eigenvalues[:, 0], "lambda2": cg.eigenvalues[:, 1],
+                "xi1_x": cg.eigenvectors[:, 0, 0], "xi1_y": cg.eigenvectors[:, 1, 0]}
+    degenerate = (r.fields.mask.values & 32) != 0  # the eigenvectors are fill values there in the run's fields
+    for name, values in computed.items():
+        theirs = r.fields[name].values
+        same = values.reshape(shape) == theirs
+        assert same[~degenerate].all() if name.startswith("xi") else same.all(), name
+    # Without log_det, lambda1 comes from det DF's entries: close, not equal, where DF stretches most.
+    assert not np.array_equal(geobarrier.cauchy_green(DF).eigenvalues[:, 0], cg.eigenvalues[:, 0])
+    fields = xarray.Dataset({n: (("y", "x"), v.reshape(shape)) for n, v in computed.items()}, coords={"x": x, "y": y})
+    ours = geobarrier.barriers(fields, "elliptic", system=system, forcing=forcing, t0=0, t1=T)
+    assert len(ours) == len(r.barriers) > 0
+    for a, b in zip(ours, r.barriers):
+        assert np.array_equal(a.points, b.points) and a.to_dict() == b.to_dict()
+
+
 # --- bad input: each argument named, no crash ---
 
 def bad_calls():
@@ -399,10 +430,31 @@ def bad_calls():
         ("barriers-param-unknown", lambda: geobarrier.barriers(run_fields(), "elliptic", famlies=2),
          geobarrier.ConfigError, "famlies"),
         ("barriers-no-experiment", lambda: geobarrier.barriers(run_fields(attrs={}), "elliptic"),
+         geobarrier.ConfigError, "system"),
+        ("barriers-system-not-a-System", lambda: geobarrier.barriers(run_fields(), "elliptic", system="duffing"),
+         TypeError, "system"),
+        ("barriers-no-t1", lambda: geobarrier.barriers(run_fields(attrs={}), "elliptic", system=system, t0=0),
+         geobarrier.ConfigError, "t1"),
+        ("barriers-uneven-x", lambda: geobarrier.barriers(uneven_fields(), "elliptic", system=system, t0=0, t1=1),
          geobarrier.ConfigError, "fields"),
+        ("barriers-4d-system", lambda: geobarrier.barriers(
+            run_fields(), "elliptic", system=geobarrier.System("coupled-duffing"), t0=0, t1=1),
+         geobarrier.ConfigError, "system"),
+        ("log-det-without-derivative", lambda: fm(system, good, 0, 1, log_det=True), geobarrier.ConfigError,
+         "log_det"),
+        ("cauchy-green-log-det-shape", lambda: geobarrier.cauchy_green(DF, log_det=np.zeros(5)),
+         geobarrier.ConfigError, "log_det"),
         ("barriers-threads", lambda: geobarrier.barriers(run_fields(), "elliptic", threads=-1),
          geobarrier.ConfigError, "threads"),
     ]
+
+
+def uneven_fields():
+    import xarray
+
+    fields = run_fields()
+    return xarray.Dataset({n: fields[n] for n in ("ftle", "lambda1", "lambda2", "xi1_x", "xi1_y")},
+                          coords={"x": fields.x.values ** 3, "y": fields.y.values})
 
 
 def run_fields(attrs=None):

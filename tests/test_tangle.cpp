@@ -155,6 +155,15 @@ TEST_CASE("both directions of the escape oscillator: no tangle below Melnikov's 
               doctest::Approx(std::exp(-0.1 * 2 * pi / 0.85)).epsilon(1e-5));
         CHECK(counts["saddle_orbit"] == 1);
         if (gamma == 0.05) {
+            // The safe basin's boundary is the hilltop's stable manifold: the top-ranked repelling barrier bounds it.
+            const json barriers = json::parse(test::read_text(out / "forward" / "barriers.json"))["barriers"];
+            std::size_t top = barriers.size();
+            for (std::size_t b = 0; b < barriers.size(); ++b)
+                if (barriers[b].value("global_minimum", false)) top = b;
+            REQUIRE(top < barriers.size());
+            CHECK(barriers[top]["basin_boundary_share"].get<double>() > 0.9);
+            const json &bounding = forward["escape"]["bounding_barriers"];
+            CHECK(std::find(bounding.begin(), bounding.end(), json(top)) != bounding.end());
             CHECK(orbit["point"][0].get<double>() == doctest::Approx(0.97050).epsilon(1e-5));
             CHECK(orbit["point"][1].get<double>() == doctest::Approx(0.00124).epsilon(1e-2));
         }

@@ -384,6 +384,44 @@ json describe_escape(const Grid &g, const GridFlowMap &flow) {
             {"captured_area", share * (g.x_max - g.x_min) * (g.y_max - g.y_min)}};
 }
 
+// The barriers that bound the safe basin: each barrier's share of points within two grid spacings of the boundary
+// between captured points (no exit over the horizon) and escaping ones, as "basin_boundary_share" in its item, and the
+// indices of those with at least half their points there as the manifest's escape "bounding_barriers".
+void mark_basin_boundary(const Grid &g, const GridFlowMap &flow, json &items, json &escape) {
+    const auto state = [&](std::size_t i, std::size_t j) { // 0 masked, 1 captured, 2 escaped
+        const std::size_t k = j * g.nx + i;
+        return (flow.mask[k] & mask_trajectory_bits) ? 0 : std::isnan(flow.exit_time[k]) ? 1 : 2;
+    };
+    std::vector<std::uint8_t> boundary(g.size(), 0);
+    for (std::size_t j = 0; j < g.ny; ++j)
+        for (std::size_t i = 0; i < g.nx; ++i) {
+            const int s = state(i, j);
+            if (s == 0) continue;
+            const bool edge = (i + 1 < g.nx && state(i + 1, j) == 3 - s) || (j + 1 < g.ny && state(i, j + 1) == 3 - s);
+            if (edge) boundary[j * g.nx + i] = 1;
+        }
+    constexpr long reach = 2; // grid spacings
+    json bounding = json::array();
+    for (std::size_t b = 0; b < items.size(); ++b) {
+        const json &points = items[b]["points"];
+        std::size_t near = 0;
+        for (const json &p : points) {
+            const long i0 = std::lround((p[0].get<double>() - g.x_min) / g.dx());
+            const long j0 = std::lround((p[1].get<double>() - g.y_min) / g.dy());
+            bool found = false;
+            for (long j = j0 - reach; j <= j0 + reach && !found; ++j)
+                for (long i = i0 - reach; i <= i0 + reach && !found; ++i)
+                    found = i >= 0 && j >= 0 && i < static_cast<long>(g.nx) && j < static_cast<long>(g.ny) &&
+                            boundary[static_cast<std::size_t>(j) * g.nx + static_cast<std::size_t>(i)];
+            near += found;
+        }
+        const double share = points.empty() ? 0.0 : static_cast<double>(near) / static_cast<double>(points.size());
+        items[b]["basin_boundary_share"] = share;
+        if (share >= 0.5) bounding.push_back(b);
+    }
+    escape["bounding_barriers"] = bounding;
+}
+
 // Stages 1 and 2: the flow map, with the gradient only when something needs it, and the Cauchy–Green eigenvalues,
 // eigenvectors and FTLE, tile by tile (tiles.hpp): only the fields the products, extractors and pictures read are
 // kept for the whole grid.
@@ -724,7 +762,9 @@ RunSummary run_stages(const ResolvedExperiment &r, const RunOptions &options) {
     GridStages grid;
     compute_flow_and_cauchy_green(r, options, plan_fields(r), record, grid);
     compute_deviation_fields(r, record, grid);
-    const FoundBarriers found = run_extractors(r, options, grid, out, plots, record);
+    FoundBarriers found = run_extractors(r, options, grid, out, plots, record);
+    if (record.manifest.contains("escape"))
+        mark_basin_boundary(e.grid, grid.flow, found.items, record.manifest["escape"]);
     const std::vector<fs::path> validation_files =
         run_validation_products(r, options, found.barriers, out, plots, record);
     summary.files.insert(summary.files.end(), validation_files.begin(), validation_files.end());

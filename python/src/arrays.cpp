@@ -4,6 +4,7 @@
 // gradients with the core's own code (cauchy_green.hpp). Arrays cross as NumPy buffers, never as JSON; the GIL is
 // released while the core computes. The Python side (python/geobarrier/_arrays.py) checks the arguments and names
 // them in its errors; the checks here are the last line, so that no call can crash the interpreter.
+#include "interrupt_scope.hpp"
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/equations.hpp>
@@ -11,9 +12,9 @@
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/flow_map.hpp>
 #include <geobarrier/plugin.hpp>
+#include <geobarrier/threads.hpp>
 
 #include <Eigen/Dense>
-#include <omp.h>
 #include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
@@ -37,6 +38,7 @@
 
 namespace py = pybind11;
 namespace fs = std::filesystem;
+using geobarrier::python::InterruptScope;
 using nlohmann::json;
 
 namespace {
@@ -152,46 +154,6 @@ NativeForcing make_forcing(const std::string &name, const std::string &params_te
                          json{{"params", resolved}, {"terms", term_params}}};
 }
 
-// SIGINT (Ctrl-C, a notebook's "interrupt kernel") while the core computes: the core's cancellation request, as for
-// run() (bindings.cpp); Python's own handler is back when the call returns.
-extern "C" void on_array_interrupt(int signal) { request_cancel(signal); }
-
-class InterruptScope {
-  public:
-    explicit InterruptScope(bool enabled) : m_enabled(enabled) {
-        if (!m_enabled) return;
-        clear_cancel();
-        struct sigaction action {};
-        action.sa_handler = on_array_interrupt;
-        sigemptyset(&action.sa_mask);
-        action.sa_flags = SA_RESTART;
-        sigaction(SIGINT, &action, &m_previous);
-    }
-    ~InterruptScope() {
-        if (m_enabled) sigaction(SIGINT, &m_previous, nullptr);
-    }
-    InterruptScope(const InterruptScope &) = delete;
-    InterruptScope &operator=(const InterruptScope &) = delete;
-
-  private:
-    bool m_enabled;
-    struct sigaction m_previous {};
-};
-
-// OpenMP's thread count for one call (the runner's rule: 0 = the default), restored afterwards.
-class ScopedThreads {
-  public:
-    explicit ScopedThreads(int threads) : m_saved(omp_get_max_threads()) {
-        if (threads > 0) omp_set_num_threads(threads);
-    }
-    ~ScopedThreads() { omp_set_num_threads(m_saved); }
-    ScopedThreads(const ScopedThreads &) = delete;
-    ScopedThreads &operator=(const ScopedThreads &) = delete;
-
-  private:
-    int m_saved;
-};
-
 // A setting the engine refuses, named by the Python argument that set it.
 const char *argument_of(EngineSetting setting) {
     switch (setting) {
@@ -252,7 +214,7 @@ py::tuple flow_map(const NativeSystem &system, const NativeForcing &forcing, con
         try {
             const std::unique_lock<std::mutex> system_turn = turn_of(system.system.info(), *system.turns);
             const std::unique_lock<std::mutex> forcing_turn = turn_of(forcing.forcing.info(), *forcing.turns);
-            const ScopedThreads scoped(threads);
+            const ScopedThreadCount scoped(threads);
             result = flow_map_of_states(
                 dynamics, count, [&](std::size_t k, double *state) { std::memcpy(state, start + n * k, n * 8); }, t0,
                 t1, settings, derivative);
@@ -476,7 +438,7 @@ py::tuple extract_barriers(const std::string &experiment_text,
         const InterruptScope interrupts(handle_interrupt);
         fs::path scratch;
         try {
-            const ScopedThreads scoped(threads);
+            const ScopedThreadCount scoped(threads);
             const ResolvedExperiment r = resolve_experiment(parse_experiment_text(experiment_text));
             const Experiment &e = r.experiment;
             if (r.extractors.size() != 1) throw ConfigError("extractor", "give one extractor");

@@ -3,6 +3,7 @@
 // Experiments and results cross the boundary as JSON text (the experiment format is JSON anyway); the Python package
 // (python/geobarrier/__init__.py) builds dicts, xarray Datasets and barrier objects from them. One translation unit
 // that instantiates no heavy template: the core does the work.
+#include "interrupt_scope.hpp"
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
@@ -30,6 +31,7 @@
 
 namespace py = pybind11;
 namespace fs = std::filesystem;
+using geobarrier::python::InterruptScope;
 using nlohmann::json;
 
 // The array functions (flow_map, cauchy_green, ftle, systems and forcings as objects): arrays.cpp.
@@ -50,33 +52,6 @@ geobarrier::Experiment read_experiment(const std::string &text, const std::strin
     if (text.empty()) return geobarrier::load_experiment(file);
     return geobarrier::parse_experiment_text(text, file);
 }
-
-// SIGINT (Ctrl-C, a notebook's "interrupt kernel") during a run: the core's cancellation request, noticed by the
-// flow-map engine and the runner between batches (cancel.hpp). Python's own handler could only run once the run
-// returns, so for the length of the run this one takes its place; the previous one is restored afterwards.
-extern "C" void on_interrupt(int signal) { geobarrier::request_cancel(signal); }
-
-class InterruptScope {
-  public:
-    explicit InterruptScope(bool enabled) : m_enabled(enabled) {
-        if (!m_enabled) return;
-        geobarrier::clear_cancel();
-        struct sigaction action {};
-        action.sa_handler = on_interrupt;
-        sigemptyset(&action.sa_mask);
-        action.sa_flags = SA_RESTART;
-        sigaction(SIGINT, &action, &m_previous);
-    }
-    ~InterruptScope() {
-        if (m_enabled) sigaction(SIGINT, &m_previous, nullptr);
-    }
-    InterruptScope(const InterruptScope &) = delete;
-    InterruptScope &operator=(const InterruptScope &) = delete;
-
-  private:
-    bool m_enabled;
-    struct sigaction m_previous {};
-};
 
 // Thrown through the core (which passes exceptions of its worker threads on) when the Python progress callback
 // raised; the Python exception itself is kept and raised once the GIL is held again.

@@ -16,6 +16,7 @@
 #include <geobarrier/output.hpp>
 #include <geobarrier/shear.hpp>
 #include <geobarrier/tangle.hpp>
+#include <geobarrier/threads.hpp>
 
 #include <omp.h>
 #include <spdlog/spdlog.h>
@@ -93,21 +94,6 @@ FieldDoc field_doc(const std::string &name) {
     const auto it = docs.find(name);
     return it == docs.end() ? FieldDoc{"", "1"} : it->second;
 }
-
-// The OpenMP thread count of a run, set for the calling thread and restored when the run ends, so that a program
-// embedding the library (the Python module, a sweep) keeps its own setting.
-class ScopedThreadCount {
-  public:
-    explicit ScopedThreadCount(int threads) : m_saved(omp_get_max_threads()) {
-        if (threads > 0) omp_set_num_threads(threads);
-    }
-    ~ScopedThreadCount() { omp_set_num_threads(m_saved); }
-    ScopedThreadCount(const ScopedThreadCount &) = delete;
-    ScopedThreadCount &operator=(const ScopedThreadCount &) = delete;
-
-  private:
-    int m_saved;
-};
 
 // Where a run that writes no files (RunOptions::write_files = false) lets extractors and validation products put
 // theirs: a fresh folder under the system's temporary folder, removed with the staging folder (never published).

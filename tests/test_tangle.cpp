@@ -253,9 +253,10 @@ TEST_CASE("grown manifolds: one period back (stable) or on (unstable), they map 
         for (const json &piece : grown[repelling ? "repelling_pieces" : "attracting_pieces"]) {
             const json &points = piece["points"];
             for (std::size_t k = 0; k < points.size(); k += 7) {
-                // P^-1(barrier) lives at t0 - period, P(barrier) at t0 + period (t0 = 0).
+                // P^-j(barrier) lives at t0 - j period, P^j(barrier) at t0 + j period (t0 = 0; j = 0: the barrier).
+                const double span = piece["periods"].get<double>() * period;
                 const auto [x, y] =
-                    escape_rk4(points[k][0], points[k][1], repelling ? -period : period, 0.0, 0.1, gamma, omega, 4000);
+                    escape_rk4(points[k][0], points[k][1], repelling ? -span : span, 0.0, 0.1, gamma, omega, 4000);
                 worst = std::max(worst, distance_to(barriers[piece["barrier"].get<std::size_t>()], x, y));
                 ++checked;
             }

@@ -17,6 +17,7 @@ default build/bin/geobarrier). Needs numpy, scipy and pytest (Debian's python3-s
 import json
 import math
 import os
+import subprocess
 import sys
 
 import numpy as np
@@ -295,3 +296,30 @@ def test_extractor_meets_the_thresholds(name, tmp_path):
     assert r["recall"] >= bs.THRESHOLDS["recall"], summary
     assert r["max_pieces"] <= bs.THRESHOLDS["pieces"], summary
     assert r["top_on_truth"], summary
+
+
+@pytest.mark.skipif(not ALL, reason="the escape truth takes minutes to grow the first time; BARRIER_ACCURACY_ALL=1 "
+                    "runs it")
+def test_grown_manifolds_of_the_escape_oscillator_meet_the_thresholds(tmp_path):
+    """Both directions with grow_periods 2 (experiments/escape-oscillator.json's system, 281 x 241): the grown
+    repelling and attracting barriers (the barriers and their images over one and two periods) against the stable
+    and unstable manifolds grown with SciPy. The attracting barriers alone cover 0.61 of the unstable manifold within
+    the horizon's reach; grown, all of it."""
+    if not os.access(BIN, os.X_OK):
+        pytest.skip(f"no geobarrier program at {BIN}")
+    forward = bs.CASES["escape-below-forward"]
+    exp = bs.case_experiment(forward, (281, 241), str(tmp_path / "out"))
+    exp["time"].update({"directions": "both", "period": 2 * math.pi / 0.85, "grow_periods": 2})
+    with open(tmp_path / "exp.json", "w") as f:
+        json.dump(exp, f)
+    subprocess.run([BIN, "run", str(tmp_path / "exp.json"), "--quiet"], check=True)
+    with open(tmp_path / "out" / "tangle.json") as f:
+        grown = json.load(f)["grown"]
+    for case_name, key in (("escape-below-forward", "repelling_pieces"), ("escape-below-backward",
+                                                                          "attracting_pieces")):
+        case = bs.CASES[case_name]
+        doc = {"barriers": [{"kind": "hyperbolic", "closed": False, "points": p["points"], "rank": i + 1,
+                             "global_minimum": i == 0} for i, p in enumerate(grown[key])]}
+        r = bs.score(doc, bs.truth_full(case), case.tol, case.box, horizon=case.horizon)
+        assert r["precision"] >= bs.THRESHOLDS["precision"], (case_name, r["precision"], r["recall"])
+        assert r["recall"] >= bs.THRESHOLDS["recall"], (case_name, r["precision"], r["recall"])

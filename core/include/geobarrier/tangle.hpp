@@ -72,6 +72,12 @@ struct GrownBarriers {
     nlohmann::json report = nlohmann::json::array(); // per barrier: lengths, points, gaps (tangle.json's "grown")
 };
 GrownBarriers grow_barriers(const ResolvedExperiment &experiment, const nlohmann::json &barriers, double t_to);
+// The manifolds grown from barriers over 0, 1, ..., `periods` whole periods (direction -1: backward, for repelling
+// barriers; +1: forward, for attracting ones): the union of the barriers (0 periods) and their images, which is the
+// manifold as far as it reaches, where the image over `periods` alone loses the parts near the saddle orbit that the
+// stretching has carried away. Each piece and report entry says its "periods".
+GrownBarriers grow_barriers_over_periods(const ResolvedExperiment &experiment, const nlohmann::json &barriers,
+                                         int direction, std::size_t periods, double period);
 
 // "time": {"directions": "both"}: the experiment run forward (t0 to t0 + |t1 - t0|) into <out>/forward and backward
 // (t0 to t0 - |t1 - t0|) into <out>/backward, each a complete run with its own manifest, then <out>/tangle.json (the

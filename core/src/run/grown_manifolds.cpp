@@ -84,4 +84,26 @@ GrownBarriers grow_barriers(const ResolvedExperiment &r, const json &barriers, d
     return grown;
 }
 
+GrownBarriers grow_barriers_over_periods(const ResolvedExperiment &r, const json &barriers, int direction,
+                                         std::size_t periods, double period) {
+    GrownBarriers all;
+    for (std::size_t b = 0; b < barriers.size(); ++b)
+        all.pieces.push_back({{"points", barriers[b].at("points")},
+                              {"closed", barriers[b].value("closed", false)},
+                              {"barrier", b},
+                              {"periods", 0}});
+    for (std::size_t j = 1; j <= periods; ++j) {
+        GrownBarriers grown = grow_barriers(r, barriers, r.experiment.t0 + direction * static_cast<double>(j) * period);
+        for (json &piece : grown.pieces) {
+            piece["periods"] = j;
+            all.pieces.push_back(std::move(piece));
+        }
+        for (json &entry : grown.report) {
+            entry["periods"] = j;
+            all.report.push_back(std::move(entry));
+        }
+    }
+    return all;
+}
+
 } // namespace geobarrier

@@ -517,11 +517,12 @@ namespace {
 json grown_tangle(const ResolvedExperiment &r, const RunSummary &forward, const RunSummary &backward,
                   std::vector<SaddleOrbit> orbits, const fs::path &picture) {
     const Experiment &e = r.experiment;
-    const double span = static_cast<double>(e.grow_periods) * *e.forcing_period;
     spdlog::info("growing {} repelling and {} attracting barriers over {} period(s)", forward.barriers.size(),
                  backward.barriers.size(), e.grow_periods);
-    const GrownBarriers repelling = grow_barriers(r, forward.barriers, e.t0 - span);
-    const GrownBarriers attracting = grow_barriers(r, backward.barriers, e.t0 + span);
+    const GrownBarriers repelling =
+        grow_barriers_over_periods(r, forward.barriers, -1, e.grow_periods, *e.forcing_period);
+    const GrownBarriers attracting =
+        grow_barriers_over_periods(r, backward.barriers, +1, e.grow_periods, *e.forcing_period);
     const double merge = 2.0 * std::max(e.grid.dx(), e.grid.dy()), reach = 2.0 * merge;
     std::vector<BarrierCrossing> crossings =
         transverse_crossings(repelling.pieces, attracting.pieces, min_crossing_angle, merge);

@@ -1,6 +1,7 @@
 // The manifest's "provenance" object (provenance.hpp): timestamp, host CPU and instruction set, the build's
 // compiler, flags and commit (captured when CMake configured the build), SHA-256 of every plugin file, whether the
-// system plugin's fused step ran, and the files the extractors wrote beside the runner's own.
+// system plugin's fused step ran, the files the extractors wrote beside the runner's own, and the size and SHA-256 of
+// every output file.
 #include "output/provenance.hpp"
 
 #include <geobarrier/errors.hpp>
@@ -231,6 +232,26 @@ json extractor_files(const std::vector<fs::path> &listed, const fs::path &stagin
     return json(std::vector<std::string>(others.begin(), others.end()));
 }
 
+// Every regular file of the run in its staging folder (the runner's and the extractors'), with its size and SHA-256:
+// what a resumed sweep checks before it reuses a finished member (a file deleted, cut short or changed since).
+json output_files(const std::vector<fs::path> &listed, const json &extractor_names, const fs::path &staging) {
+    std::set<std::string> names;
+    for (const fs::path &f : listed) names.insert(f.filename().string());
+    for (const json &name : extractor_names)
+        if (name.is_string()) names.insert(name.get<std::string>());
+    names.erase("manifest.json");
+    json out = json::array();
+    for (const std::string &name : names) {
+        const fs::path file = staging / name;
+        std::error_code ec;
+        if (!fs::is_regular_file(file, ec)) continue;
+        const std::uintmax_t bytes = fs::file_size(file, ec);
+        if (ec) continue;
+        out.push_back({{"file", name}, {"bytes", bytes}, {"sha256", sha256_file(file)}});
+    }
+    return out;
+}
+
 } // namespace
 
 std::string sha256_hex(const std::string &bytes) {
@@ -254,12 +275,14 @@ std::string sha256_file(const fs::path &file) {
 
 json run_provenance(const ResolvedExperiment &run, const json &manifest, const std::vector<fs::path> &listed,
                     const fs::path &staging) {
+    const json extractors = extractor_files(listed, staging);
     return {{"created", utc_timestamp()},
             {"host", host()},
             {"build", build()},
             {"plugin_files", plugin_hashes(manifest.value("plugins", json::array()))},
             {"fused_step", fused_step(run, manifest)},
-            {"extractor_files", extractor_files(listed, staging)}};
+            {"extractor_files", extractors},
+            {"output_files", output_files(listed, extractors, staging)}};
 }
 
 } // namespace geobarrier::detail

@@ -1,6 +1,7 @@
 // Where, when and with what a run was made, for manifest.json's "provenance" object: enough to tell two runs'
 // numbers apart after the fact (which machine and instruction set, which build and commit, which plugin files
-// byte for byte, whether the plugin's fused step did the integration, and which files the extractors wrote).
+// byte for byte, whether the plugin's fused step did the integration, which files the extractors wrote, and the size
+// and SHA-256 of every output file, which a resumed sweep checks before it reuses a member).
 #ifndef GEOBARRIER_PROVENANCE_HPP
 #define GEOBARRIER_PROVENANCE_HPP
 

@@ -1,6 +1,7 @@
 // Parameter sweeps (see sweep.hpp): parsing and checking the sweep file, running the members in forked processes
 // (or in-process on MPI ranks), resuming, and the summary table and picture.
 #include "output/folder_lock.hpp"
+#include "output/provenance.hpp"
 #include "run/mpi.hpp"
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
@@ -29,6 +30,7 @@
 
 #include <fcntl.h>
 #include <signal.h>
+#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -441,10 +443,71 @@ std::optional<json> finished_manifest(const fs::path &folder, const json &experi
     return std::nullopt;
 }
 
+// Why the files of a finished member cannot be reused, or "" when they can: every file its manifest lists must be
+// there (a folder it lists, with its own manifest, is checked the same way: the two directions of a tangle), with
+// the size and SHA-256 the manifest's "provenance"/"output_files" records (manifests written before those were
+// recorded are checked for presence only).
+std::string member_files_problem(const fs::path &folder, const json &manifest, int depth = 0) {
+    std::error_code ec;
+    for (const json &item : manifest.value("files", json::array())) {
+        if (!item.is_string()) continue;
+        const std::string name = item.get<std::string>();
+        if (name.empty() || name == "manifest.json" || name.find('/') != std::string::npos) continue;
+        const fs::path path = folder / name;
+        if (!fs::exists(path, ec)) return name + " is missing";
+        if (!fs::is_directory(path, ec) || depth > 0) continue;
+        if (!fs::is_regular_file(path / "manifest.json", ec)) return name + "/manifest.json is missing";
+        try {
+            const std::string problem =
+                member_files_problem(path, json::parse(read_text(path / "manifest.json", "a manifest")), depth + 1);
+            if (!problem.empty()) return name + "/" + problem;
+        } catch (const std::exception &) {
+            return name + "/manifest.json cannot be read";
+        }
+    }
+    const json provenance = manifest.value("provenance", json::object());
+    if (!provenance.is_object()) return "";
+    for (const json &entry : provenance.value("output_files", json::array())) {
+        if (!entry.is_object() || !entry.value("file", json()).is_string()) continue;
+        const std::string name = entry["file"].get<std::string>();
+        if (name.empty() || name.find('/') != std::string::npos || name[0] == '.') continue;
+        const fs::path path = folder / name;
+        if (!fs::is_regular_file(path, ec)) return name + " is missing";
+        const std::uintmax_t bytes = fs::file_size(path, ec);
+        if (entry.value("bytes", json()).is_number_unsigned() && (ec || bytes != entry["bytes"].get<std::uintmax_t>()))
+            return name + " has " + std::to_string(bytes) + " bytes where the manifest records " +
+                   std::to_string(entry["bytes"].get<std::uintmax_t>()) + " (cut short or changed)";
+        if (entry.value("sha256", json()).is_string()) {
+            std::string digest;
+            try {
+                digest = detail::sha256_file(path);
+            } catch (const IoError &) {
+                return name + " cannot be read";
+            }
+            if (digest != entry["sha256"].get<std::string>())
+                return name + " does not have the SHA-256 its manifest records (changed since it was written)";
+        }
+    }
+    return "";
+}
+
 // The exit codes of `geobarrier run`, for a member run here or in a forked process.
 constexpr int member_ok = 0, member_failed = 1, member_bad_input = 2;
 
 extern "C" void record_stop_signal(int signal) { request_cancel(signal); }
+
+// The sweep process a forked member belongs to (set in the member right after the fork).
+pid_t member_supervisor = 0;
+
+// SIGINT/SIGTERM in a member. From the sweep (which forwards the signals it gets) it stops the member cleanly. The
+// kernel sends SIGTERM as well when the sweep process dies (PR_SET_PDEATHSIG), however it died, SIGKILL included:
+// then the member's parent has changed, and the member ends at once with its whole process group, any compiler it
+// started included, so that nothing of a dead sweep keeps running (or keeps its folder locked). What it leaves, a
+// staging folder, is removed by the next run into the folder.
+extern "C" void member_stop_signal(int signal) {
+    if (::getppid() != member_supervisor) ::kill(0, SIGKILL);
+    request_cancel(signal);
+}
 
 // Runs one member in this process with stdout and stderr going to `log`; returns the exit code `geobarrier run`
 // would give. The member's output folder is written by the runner's staging: whole or not at all.
@@ -492,17 +555,28 @@ int run_member_here(const Sweep &s, const SweepMember &m, const fs::path &folder
 // Starts a member in a child process. The child records SIGINT/SIGTERM without the program's "second signal kills"
 // rule, because the sweep forwards the signal to it even when it got one itself (a terminal's Ctrl-C, a scheduler
 // signalling every process of the job): it must still stop cleanly.
+//
+// The member runs in a process group of its own (so that a signal reaches the compiler an `equations` member may run
+// too) and ends with the sweep process: see member_stop_signal.
 pid_t start_member(const Sweep &s, const SweepMember &m, const fs::path &folder, const fs::path &log, int threads) {
     std::fflush(nullptr);
+    const pid_t supervisor = ::getpid();
     const pid_t pid = ::fork();
     if (pid < 0) throw IoError(std::string("cannot start a process for ") + m.name + ": " + std::strerror(errno));
-    if (pid > 0) return pid;
+    if (pid > 0) {
+        ::setpgid(pid, pid); // here as well as in the child: whichever runs first, the group exists on return
+        return pid;
+    }
+    ::setpgid(0, 0);
+    member_supervisor = supervisor;
     struct sigaction action {};
-    action.sa_handler = record_stop_signal;
+    action.sa_handler = member_stop_signal;
     sigemptyset(&action.sa_mask);
     action.sa_flags = SA_RESTART;
     sigaction(SIGINT, &action, nullptr);
     sigaction(SIGTERM, &action, nullptr);
+    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+    if (::getppid() != supervisor) std::_Exit(128 + SIGKILL); // the sweep died before the line above
     omp_set_num_threads(threads);
     std::_Exit(run_member_here(s, m, folder, log, threads));
 }
@@ -780,12 +854,18 @@ std::vector<std::size_t> members_to_run(const Sweep &s, const fs::path &out, boo
     std::vector<std::size_t> pending;
     for (std::size_t k = 0; k < s.members.size(); ++k) {
         results[k].name = s.members[k].name;
-        if (finished_manifest(out / s.members[k].name, s.members[k].experiment)) {
+        const fs::path folder = out / s.members[k].name;
+        const std::optional<json> manifest = finished_manifest(folder, s.members[k].experiment);
+        const std::string problem = manifest ? member_files_problem(folder, *manifest) : std::string();
+        if (manifest && problem.empty()) {
             results[k].status = "reused";
             if (!quiet)
                 spdlog::info("{} ({}): complete from an earlier run, skipped", s.members[k].name,
                              describe_member(s, s.members[k]));
         } else {
+            if (manifest)
+                spdlog::warn("{} ({}): not reused: {} holds a finished run of it, but its {}; running it again",
+                             s.members[k].name, describe_member(s, s.members[k]), folder.string(), problem);
             pending.push_back(k);
         }
     }
@@ -853,7 +933,7 @@ SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
     while (next < pending.size() || !running.empty()) {
         const int signal = cancel_requested();
         if (signal && !forwarded) {
-            for (const auto &item : running) ::kill(item.first, signal);
+            for (const auto &item : running) ::killpg(item.first, signal); // the member and its compiler
             forwarded = signal;
         }
         while (!signal && next < pending.size() && running.size() < static_cast<std::size_t>(processes)) {

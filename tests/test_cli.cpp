@@ -181,27 +181,88 @@ TEST_CASE("GEOBARRIER_PLUGIN_PATH and plugin_paths add folders") {
     fs::remove_all(tmp);
 }
 
-TEST_CASE("a folder plugin shadowing a built-in one is a warning on stderr, from validate and run alike") {
-    // The warning was only in the manifest (run) or nowhere (validate); docs/robustness.md says stderr.
+TEST_CASE("only the libraries an experiment needs are mapped; validate lists them") {
+    // Every library of a plugin folder was mapped (its constructors run) for every experiment, validate included
+    // (issue 37). A folder holds rigid-rotation and a planted library whose constructor writes a marker file.
+    const fs::path tmp = scratch() / "planted";
+    fs::create_directories(tmp / "plugins");
+    const fs::path rotation = tmp / "plugins" / "geobarrier-rigid-rotation.so";
+    fs::copy_file(geobarrier::test::test_plugin_dir() / "geobarrier-rigid-rotation.so", rotation);
+    fs::copy_file(geobarrier::test::test_plugin_dir() / "planted" / "geobarrier-planted.so",
+                  tmp / "plugins" / "geobarrier-planted.so");
+    const fs::path marker = tmp / "marker";
+    const std::string env = "GEOBARRIER_TEST_MARKER=" + marker.string();
+    json j = tiny_experiment();
+    j["system"] = {{"plugin", "rigid-rotation"}};
+    j["forcing"] = {{"plugin", "none"}};
+    j["plugin_paths"] = {(tmp / "plugins").string()};
+    const fs::path file = write_experiment(tmp, "rotation.json", j);
+
+    const Result validated = run("validate " + file.string(), env, "2>/dev/null");
+    CHECK(validated.status == 0);
+    CHECK_MESSAGE(!fs::exists(marker), "validate ran the planted library's constructor");
+    CHECK(contains(validated.output, "  loads " + rotation.string() + " (system 'rigid-rotation'"));
+    CHECK(contains(validated.output,
+                   "  loads " + (geobarrier::test::plugin_dir() / "geobarrier-none.so").string() + " (forcing 'none'"));
+    CHECK_FALSE(contains(validated.output, "geobarrier-planted.so"));
+    CHECK_FALSE(contains(validated.output, "geobarrier-duffing.so")); // a built-in the experiment does not use
+    const Result ran = run("run " + file.string() + " --out " + (tmp / "out").string() + " --quiet", env);
+    CHECK(ran.status == 0);
+    CHECK_MESSAGE(!fs::exists(marker), "run ran the planted library's constructor");
+
+    // The check is a real one: listing every plugin maps every library (that is its job).
+    CHECK(run("plugins --plugin-path " + (tmp / "plugins").string(), env).status == 0);
+    CHECK(fs::exists(marker));
+    fs::remove_all(tmp);
+}
+
+TEST_CASE("a plugin named by no file is searched with a warning per library mapped") {
+    // linear-3d lives in geobarrier-linear-nd.so: no file is named after it, so the folders' libraries are mapped one
+    // at a time until it is found, with a warning for each that did not hold it (abi-1-1, circular-shear, ...).
+    const fs::path tmp = scratch() / "unnamed";
+    fs::create_directories(tmp);
+    json j = tiny_experiment();
+    j["system"] = {{"plugin", "linear-3d"}};
+    j["forcing"] = {{"plugin", "none"}};
+    j["grid"] = json::parse(R"({"axes": ["x1", "x2"], "x1": [-1, 1], "x2": [-1, 1], "n": [8, 8], "fixed": {"x3": 0}})");
+    j["plugin_paths"] = {geobarrier::test::test_plugin_dir().string()};
+    const Result r = run("validate " + write_experiment(tmp, "linear.json", j).string());
+    CHECK(r.status == 0);
+    CHECK(contains(r.output, "while looking for system 'linear-3d'"));
+    CHECK(contains(r.output, "name its library geobarrier-linear-3d.so"));
+    CHECK(contains(r.output, "geobarrier-linear-nd.so (system 'linear-3d', system 'linear-4d'"));
+    fs::remove_all(tmp);
+}
+
+TEST_CASE("a folder plugin named like a built-in one is refused unless named by path") {
+    // A folder's duffing silently replaced the built-in one (issue 37). Refused before it is mapped; the explicit
+    // form is the library's path in "plugin".
     const fs::path tmp = scratch() / "shadow";
     fs::create_directories(tmp / "plugins");
-    const fs::path own = tmp / "plugins" / "my-duffing.so";
+    const fs::path own = tmp / "plugins" / "geobarrier-duffing.so";
     fs::copy_file(geobarrier::test::plugin_dir() / "geobarrier-duffing.so", own);
     json j = tiny_experiment();
     j["plugin_paths"] = {(tmp / "plugins").string()};
-    const fs::path file = write_experiment(tmp, "shadow.json", j);
-    const std::string expected = "system 'duffing' is shadowed by " + own.string();
-    const Result validated = run("validate " + file.string(), "", "2>&1 >/dev/null");
+    const Result refused = run("validate " + write_experiment(tmp, "shadow.json", j).string());
+    CHECK(refused.status == 2);
+    CHECK(contains(refused.output, "/system/plugin"));
+    CHECK(contains(refused.output, own.string() + " is named like the built-in system 'duffing'"));
+    CHECK(std::count(refused.output.begin(), refused.output.end(), '\n') == 1);
+    j["system"]["plugin"] = own.string();
+    const fs::path file = write_experiment(tmp, "explicit.json", j);
+    const Result validated = run("validate " + file.string(), "", "2>/dev/null");
     CHECK(validated.status == 0);
-    CHECK(contains(validated.output,
-                   "geobarrier: warning: " + (geobarrier::test::plugin_dir() / "geobarrier-duffing.so").string()));
-    CHECK(contains(validated.output, expected));
-    const Result ran =
-        run("run " + file.string() + " --out " + (tmp / "out").string() + " --quiet", "", "2>&1 >/dev/null");
+    CHECK(contains(validated.output, "  loads " + own.string() + " (system 'duffing'; named by path)"));
+    CHECK_FALSE(contains(validated.output, (geobarrier::test::plugin_dir() / "geobarrier-duffing.so").string()));
+    const Result ran = run("run " + file.string() + " --out " + (tmp / "out").string() + " --quiet");
     CHECK(ran.status == 0);
-    CHECK(contains(ran.output, expected));
-    const json manifest = json::parse(geobarrier::test::read_text(tmp / "out" / "manifest.json"));
-    CHECK(contains(manifest["warnings"].dump(), expected));
+    // A folder library with another file name is not mapped at all: the built-in duffing is used.
+    fs::rename(own, tmp / "plugins" / "my-duffing.so");
+    j["system"]["plugin"] = "duffing";
+    const Result builtin = run("validate " + write_experiment(tmp, "other-name.json", j).string(), "", "2>&1");
+    CHECK(builtin.status == 0);
+    CHECK(contains(builtin.output, (geobarrier::test::plugin_dir() / "geobarrier-duffing.so").string()));
+    CHECK_FALSE(contains(builtin.output, "my-duffing.so"));
     fs::remove_all(tmp);
 }
 

@@ -119,6 +119,18 @@ int command_validate(const fs::path &file) {
     const nlohmann::json validation = validation_to_json(experiment.validation, experiment.t0, experiment.t1);
     for (const auto &item : validation.items()) std::cout << " validation:" << item.key();
     std::cout << ")\n";
+    // Every library the experiment maps (its code runs), and only those: the registry loads on demand.
+    std::vector<fs::path> listed;
+    for (const LoadedLibrary &l : resolved.registry.libraries()) {
+        std::cout << "  loads " << l.file.string() << " (";
+        for (std::size_t i = 0; i < l.plugins.size(); ++i) std::cout << (i ? ", " : "") << l.plugins[i];
+        std::cout << (l.plugins.empty() ? "no plugin" : "") << "; " << l.reason << ")\n";
+        listed.push_back(l.file);
+    }
+    const fs::path &system_file = resolved.system.info().file;
+    if (std::find(listed.begin(), listed.end(), system_file) == listed.end())
+        std::cout << "  loads " << system_file.string() << " (system '" << resolved.system.info().name
+                  << "'; compiled from the experiment)\n";
     // Warnings on stderr (e.g. a clamped rtol, a plugin folder's library skipped, a plugin shadowing another of its
     // name): stdout holds only the verdict.
     for (const auto &w : resolved.registry.warnings()) std::cerr << "geobarrier: warning: " << w << "\n";

@@ -235,13 +235,34 @@ class Extractor {
     const gb_extractor_vtable *m_table = nullptr;
 };
 
+// How a registry loads the libraries of its folders. `all`: every library of every folder, up front (what
+// `geobarrier plugins`, check-plugin --all and Python's plugins() list). `on_demand`: none up front; find() maps only
+// the libraries a lookup needs (experiments: resolve_experiment), so that no other library's code runs.
+enum class PluginLoading { all, on_demand };
+
+// A library a registry mapped (its constructors ran), the plugins it declares ("system 'duffing'") and why it was
+// loaded. `validate` lists them.
+struct LoadedLibrary {
+    std::filesystem::path file;
+    std::vector<std::string> plugins; // empty when the library was skipped (not a plugin; see warnings())
+    std::string reason;
+};
+
 // All plugins found in a list of folders. Files that are not plugins are
 // skipped with a warning (see warnings()); a plugin named twice keeps the
 // first one found, so earlier folders take precedence.
+//
+// On demand (PluginLoading::on_demand), find(kind, name) looks for a library named after the plugin, folder by
+// folder: geobarrier-NAME.so (the built-in plugins' names), libNAME.so, NAME.so, and maps only that one. A folder
+// library named like a built-in plugin (the built-in folder holds geobarrier-NAME.so) is refused before it is mapped:
+// it would shadow the built-in one; name it by path in the experiment ("plugin": "/path/geobarrier-NAME.so") to use
+// it. Only when no folder holds a file named after the plugin are the folders' other libraries mapped, one at a
+// time until the plugin is found, each with a warning that says how to name the file.
 class PluginRegistry {
   public:
     PluginRegistry() = default;
-    explicit PluginRegistry(const std::vector<std::filesystem::path> &folders);
+    explicit PluginRegistry(const std::vector<std::filesystem::path> &folders,
+                            PluginLoading loading = PluginLoading::all);
 
     // Folders searched by default, in order: `extra` (e.g. the experiment's
     // plugin_paths), GEOBARRIER_PLUGIN_PATH (':'-separated), then the plugins
@@ -253,6 +274,8 @@ class PluginRegistry {
     const std::deque<PluginHandle> &plugins() const { return m_plugins; }
     const std::vector<std::string> &warnings() const { return m_warnings; }
     const std::vector<std::filesystem::path> &folders() const { return m_folders; }
+    // Every library mapped so far, in the order it was mapped. Not safe to read while find() runs in another thread.
+    const std::vector<LoadedLibrary> &libraries() const { return m_libraries; }
 
     // Finds a plugin by kind and name, or loads it from a file when `name` is
     // a path (contains '/' or ends in ".so"). Unknown names are ConfigErrors at
@@ -261,8 +284,14 @@ class PluginRegistry {
     const PluginHandle &find(PluginKind kind, const std::string &name, const std::string &json_path) const;
 
   private:
-    void add_library(const std::filesystem::path &file, bool strict) const;
+    void add_library(const std::filesystem::path &file, bool strict, const std::string &reason) const;
+    const PluginHandle *find_loaded(PluginKind kind, const std::string &name,
+                                    const std::filesystem::path *file = nullptr) const;
+    const PluginHandle *find_on_demand(PluginKind kind, const std::string &name, const std::string &json_path) const;
+    std::vector<std::string> names_by_file(PluginKind kind) const;
     std::vector<std::filesystem::path> m_folders;
+    PluginLoading m_loading = PluginLoading::all;
+    mutable std::vector<LoadedLibrary> m_libraries;
     mutable std::deque<PluginHandle> m_plugins; // deque: find() hands out stable references
     mutable std::vector<std::string> m_warnings;
 };

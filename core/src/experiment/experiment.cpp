@@ -635,7 +635,8 @@ class PluginMaker {
         for (const PluginHandle &other : m_r.registry.plugins())
             if (other.info.kind == PluginKind::forcing && other.info.composite())
                 composites += (composites.empty() ? "" : ", ") + other.info.name;
-        return composites.empty() ? "none" : composites;
+        // The registry maps only the libraries the experiment names: the others' plugins are not known here.
+        return composites.empty() ? "see geobarrier plugins" : composites;
     }
 
     static void check_term_count(const PluginInfo &info, const PluginUse &use) {
@@ -841,16 +842,17 @@ void echo_settings(const ResolvedExperiment &r, json &resolved) {
 } // namespace
 
 ResolvedExperiment resolve_experiment(const Experiment &experiment) {
-    ResolvedExperiment r{experiment,
-                         PluginRegistry(PluginRegistry::default_folders(experiment.plugin_paths)),
-                         {},
-                         {},
-                         {},
-                         {},
-                         GradientMethod::none,
-                         false,
-                         false,
-                         json::object()};
+    ResolvedExperiment r{
+        experiment,
+        PluginRegistry(PluginRegistry::default_folders(experiment.plugin_paths), PluginLoading::on_demand),
+        {},
+        {},
+        {},
+        {},
+        GradientMethod::none,
+        false,
+        false,
+        json::object()};
     const Experiment &e = r.experiment;
     json resolved = e.source;
     const PluginMaker make(r);

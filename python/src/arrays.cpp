@@ -101,7 +101,7 @@ NativeSystem make_system(const std::string &name, const std::string &params_text
                          const std::vector<std::string> &plugin_paths) {
     const json params = parse_params(params_text);
     py::gil_scoped_release no_gil;
-    const PluginRegistry registry(folders_of(plugin_paths));
+    const PluginRegistry registry(folders_of(plugin_paths), PluginLoading::on_demand); // only what it names
     const PluginHandle &h = registry.find(PluginKind::system, name, "name");
     const ParamValues values = validate_params(h.info, absolute_path_params(h.info, params), "");
     NativeSystem s{System(h, values), plugin_info_to_json(h.info), params_to_json(h.info, values)};
@@ -135,7 +135,7 @@ NativeForcing make_forcing(const std::string &name, const std::string &params_te
         term_params.push_back(t->params);
     }
     py::gil_scoped_release no_gil;
-    const PluginRegistry registry(folders_of(plugin_paths));
+    const PluginRegistry registry(folders_of(plugin_paths), PluginLoading::on_demand); // only what it names
     const PluginHandle &h = registry.find(PluginKind::forcing, name, "name");
     const ParamValues values = validate_params(h.info, absolute_path_params(h.info, params), "");
     json resolved = params_to_json(h.info, values);

@@ -443,6 +443,9 @@ Experiment parse_experiment(const json &j, const fs::path &file) {
         e.aux_offset = default_aux_offset(e.integrator, e.grid);
     if (root.has("products")) e.products = read_products(root.get("products"));
     if (root.has("extractors")) e.extractors = read_extractors(root.get("extractors"));
+    if (e.both_directions && e.extractors.empty()) // before anything runs: validate and a sweep's checks say so
+        throw ConfigError("/time/directions",
+                          "\"both\" looks for crossings of barriers, but the experiment has no \"extractors\"");
     if (root.has("validation")) read_validation(root.get("validation"), e);
     if (root.has("plugin_paths")) e.plugin_paths = read_plugin_paths(root.get("plugin_paths"), base);
     read_output(root, file, e);

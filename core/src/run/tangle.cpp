@@ -424,9 +424,6 @@ RunSummary run_both_directions(const ResolvedExperiment &r, const RunOptions &op
     if (!options.write_files || options.keep_results)
         throw ConfigError("/time/directions", "\"both\" writes two runs and their tangle into the output folder; "
                                               "to keep results in memory, run the two directions one by one");
-    if (r.extractors.empty())
-        throw ConfigError("/time/directions", "\"both\" looks for crossings of barriers, but the experiment has no "
-                                              "\"extractors\"");
     const auto start = std::chrono::steady_clock::now();
     const fs::path out = options.output_dir ? *options.output_dir : e.output_dir;
     const RunSummary forward = run_direction(e, +1.0, out / "forward", options);

@@ -10,6 +10,7 @@ output of the cell that called run()."""
 
 import contextvars
 import sys
+import threading
 import time
 
 
@@ -127,11 +128,15 @@ def default_progress():
 
 class InContext:
     """Wraps a progress callback so that every call runs in the contextvars context of the thread that made it
-    (the run's caller): the core's worker threads have none of their own. The core makes one call at a time."""
+    (the run's caller): the core's worker threads have none of their own. A context can be entered by one thread at
+    a time, and two worker threads' calls can overlap (the callback may release the GIL while it writes), so the
+    calls take turns: without the lock the second raised "cannot enter context: ... is already entered"."""
 
     def __init__(self, callback):
         self.callback = callback
         self.context = contextvars.copy_context()
+        self.lock = threading.Lock()
 
     def __call__(self, stage, done, total):
-        return self.context.run(self.callback, stage, done, total)
+        with self.lock:
+            return self.context.run(self.callback, stage, done, total)

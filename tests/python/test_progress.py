@@ -103,3 +103,32 @@ def test_the_bar_a_notebook_gets(monkeypatch):
     monkeypatch.setattr(_progress, "in_notebook", lambda: True)
     chosen = _progress.default_progress()
     assert isinstance(chosen, geobarrier.ProgressBar) and chosen.tqdm_class is tqdm.std.tqdm
+
+
+def test_overlapping_progress_calls_take_turns():
+    """Two worker threads' progress calls can overlap (the callback releases the GIL while it writes or sleeps);
+    each must still run in the caller's context, one at a time, instead of raising "cannot enter context"."""
+    import threading
+    import time
+
+    from geobarrier._progress import InContext
+
+    marker = contextvars.ContextVar("marker", default="worker")
+    marker.set("caller")
+    seen, inside, overlap = [], [0], [False]
+
+    def callback(stage, done, total):
+        inside[0] += 1
+        overlap[0] = overlap[0] or inside[0] > 1
+        time.sleep(0.01)  # releases the GIL: the other thread's call arrives now
+        seen.append(marker.get())
+        inside[0] -= 1
+
+    wrapped = InContext(callback)
+    threads = [threading.Thread(target=lambda: [wrapped("flow map", k, 20) for k in range(20)]) for _ in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert seen == ["caller"] * 40
+    assert not overlap[0]

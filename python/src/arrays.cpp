@@ -10,6 +10,7 @@
 #include <geobarrier/equations.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
+#include <geobarrier/extraction.hpp>
 #include <geobarrier/flow_map.hpp>
 #include <geobarrier/plugin.hpp>
 #include <geobarrier/threads.hpp>
@@ -385,41 +386,11 @@ py::tuple cauchy_green(const Doubles &dF, const std::optional<Doubles> &log_det)
                           owned_array(std::move(vectors), {N, n, n}));
 }
 
-// The runner's advection service for extractors (runner.cpp, advection_services), for the experiment's system,
-// integrator, gradient method and bounds.
-ExtractServices advection_services(const ResolvedExperiment &r) {
-    ExtractServices services;
-    services.advect = [&r](std::size_t n, const double *xy, double t_from, double t_to, double *xy_out, double *dF_out,
-                           std::uint8_t *mask_out) {
-        const Experiment &ex = r.experiment;
-        const GradientMethod method = !dF_out ? GradientMethod::none
-                                      : r.system.has_jacobian() && r.gradient != GradientMethod::auxiliary_grid
-                                          ? GradientMethod::variational
-                                          : GradientMethod::auxiliary_grid;
-        const GridFlowMap a = flow_map_at_points(
-            r.dynamics(), n, [xy](std::size_t k, double &px, double &py) { px = xy[2 * k], py = xy[2 * k + 1]; },
-            t_from, t_to, ex.integrator, method, ex.aux_offset * ex.grid.dx(), ex.aux_offset * ex.grid.dy(), true,
-            masking(ex.bounds));
-        for (std::size_t k = 0; k < n; ++k) {
-            const std::uint8_t m = a.mask[k];
-            mask_out[k] = m;
-            xy_out[2 * k] = m ? nan_value : a.flow_x[k];
-            xy_out[2 * k + 1] = m ? nan_value : a.flow_y[k];
-            if (!dF_out) continue;
-            for (int q = 0; q < 4; ++q)
-                dF_out[4 * k + q] = m                       ? nan_value
-                                    : a.dF_exponent.empty() ? a.dF[4 * k + q]
-                                                            : std::ldexp(a.dF[4 * k + q], a.dF_exponent[k]);
-        }
-    };
-    return services;
-}
-
 // geobarrier._geobarrier.extract_barriers: one extractor on fields computed before (a run's, or fields.nc's), with
 // the experiment they were computed with (fields.nc's "experiment" attribute, its extractors replaced by this one):
 // the extractor, the system, forcing and integrator its advection uses, and the grid are those of resolve_experiment,
-// and the host's advection is the runner's (runner.cpp, advection_services), so a run's fields give the run's
-// barriers. `fields` maps names to (ny, nx) arrays; the extractor's required fields must be there. Returns the
+// and the extractor runs as in a run (extraction.hpp: run_extractor, advection_services), so a run's fields give the
+// run's barriers. `fields` maps names to (ny, nx) arrays; the extractor's required fields must be there. Returns the
 // barriers and the candidates as JSON text (barriers.json's items).
 py::tuple extract_barriers(const std::string &experiment_text,
                            const py::array_t<std::uint8_t, py::array::c_style | py::array::forcecast> &mask,
@@ -463,42 +434,14 @@ py::tuple extract_barriers(const std::string &experiment_text,
                                                     ", " + std::to_string(nx) + ")");
                 inputs.push_back({it->first.c_str(), a.data()});
             }
-            const ExtractServices services = advection_services(r);
-            const PluginInfo &sys = r.system.info();
-            const std::string names[2] = {sys.state_names.empty() ? "" : sys.state_names[0],
-                                          sys.state_names.empty() ? "" : sys.state_names[1]};
-            const std::string units[2] = {sys.state_units.empty() ? "" : sys.state_units[0],
-                                          sys.state_units.empty() ? "" : sys.state_units[1]};
-            const char *const name_ptrs[2] = {names[0].c_str(), names[1].c_str()};
-            const char *const unit_ptrs[2] = {units[0].c_str(), units[1].c_str()};
             // The extractor's own files (pictures: none are asked for) go to a private folder, removed afterwards.
             scratch = fs::temp_directory_path() / ("geobarrier-extract-" + std::to_string(::getpid()) + "-" +
                                                    std::to_string(reinterpret_cast<std::uintptr_t>(&scratch)));
             fs::create_directories(scratch);
-            const std::string out_text = scratch.string();
-            const gb_extract_input input{e.grid.x_min,
-                                         e.grid.x_max,
-                                         e.grid.y_min,
-                                         e.grid.y_max,
-                                         e.grid.nx,
-                                         e.grid.ny,
-                                         e.t0,
-                                         e.t1,
-                                         mask.data(),
-                                         static_cast<std::uint32_t>(inputs.size()),
-                                         inputs.data(),
-                                         out_text.c_str(),
-                                         0,
-                                         name_ptrs,
-                                         unit_ptrs};
-            for (const Barrier &b : x.extract(input, services)) {
-                json points = json::array();
-                for (std::size_t k = 0; k + 1 < b.xy.size(); k += 2) points.push_back({b.xy[k], b.xy[k + 1]});
-                json item = {{"kind", b.kind}, {"closed", b.closed}, {"extractor", x.info().name}, {"points", points}};
-                for (const auto &[name, value] : b.metrics) item[name] = value;
-                for (const auto &[name, value] : b.attributes) item[name] = json::parse(value);
-                (item.value("candidate", false) ? candidates : items).push_back(item);
-            }
+            FoundBarriers found;
+            run_extractor(r, x, inputs, mask.data(), scratch.string(), false, advection_services(r), found);
+            items = std::move(found.items);
+            candidates = std::move(found.candidates);
         } catch (const EngineSettingError &e) {
             try {
                 throw ConfigError(json_path_of(e.setting()), e.message());

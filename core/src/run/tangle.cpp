@@ -1,7 +1,7 @@
 // Both directions in one run and the transverse crossings of their barriers (tangle.hpp).
 #include "run/mpi.hpp"
 #include <geobarrier/errors.hpp>
-#include <geobarrier/flow_map.hpp>
+#include <geobarrier/extraction.hpp>
 #include <geobarrier/output.hpp>
 #include <geobarrier/tangle.hpp>
 
@@ -289,9 +289,6 @@ std::vector<SaddleOrbit> saddle_orbits_near(const ResolvedExperiment &r, double 
                                             const std::vector<double> &starts, double within) {
     const Experiment &e = r.experiment;
     const std::size_t n = starts.size() / 2;
-    const GradientMethod method = r.system.has_jacobian() && r.gradient != GradientMethod::auxiliary_grid
-                                      ? GradientMethod::variational
-                                      : GradientMethod::auxiliary_grid;
     // Multiple shooting: the orbit's states z_0 .. z_{m-1} at t0 + i period / m, each segment's flow map F_i, and the
     // conditions F_i(z_i) = z_{i+1 mod m}. A saddle orbit's period map can stretch by hundreds (unforced Duffing's
     // saddle over 2 pi: e^(2 pi)); a start a grid spacing off is then far outside Newton's reach on P itself, but
@@ -304,23 +301,31 @@ std::vector<SaddleOrbit> saddle_orbits_near(const ResolvedExperiment &r, double 
     };
     std::vector<std::array<double, 2 * m>> z(n); // z_i of point k: z[k][2 i], z[k][2 i + 1]
     std::vector<std::uint8_t> lost(n, 0);
+    // Each segment's flow map (and DF) with the host's advection service: the experiment's integrator and gradient
+    // method, as extractors advect.
+    const ExtractServices services = advection_services(r);
+    struct SegmentMap {
+        std::vector<double> xy, dF;
+        std::vector<std::uint8_t> mask;
+    };
     const auto segment_map = [&](std::size_t count, const std::vector<double> &from, double t_from, double t_to,
                                  bool gradient) {
-        return flow_map_at_points(
-            r.dynamics(), count, [&](std::size_t i, double &x, double &y) { x = from[2 * i], y = from[2 * i + 1]; },
-            t_from, t_to, e.integrator, gradient ? method : GradientMethod::none, e.aux_offset * e.grid.dx(),
-            e.aux_offset * e.grid.dy(), true, masking(e.bounds));
+        SegmentMap map{std::vector<double>(2 * count), std::vector<double>(gradient ? 4 * count : 0),
+                       std::vector<std::uint8_t>(count)};
+        services.advect(count, from.data(), t_from, t_to, map.xy.data(), gradient ? map.dF.data() : nullptr,
+                        map.mask.data());
+        return map;
     };
     // The starting states: from the start forward over the first half of the period, and, as a periodic orbit is back
     // at its start one period on, backward from t0 + period over the second half: nowhere stretched by more than the
     // square root of the period map's multiplier.
     for (std::size_t i = 0; i < m; ++i) {
         const double t = e.t0 + period * static_cast<double>(i) / static_cast<double>(m);
-        const GridFlowMap map = segment_map(n, starts, i <= m / 2 ? e.t0 : e.t0 + period, t, false);
+        const SegmentMap map = segment_map(n, starts, i <= m / 2 ? e.t0 : e.t0 + period, t, false);
         for (std::size_t k = 0; k < n; ++k) {
             if (map.mask[k]) lost[k] = 1;
-            z[k][2 * i] = i == 0 ? starts[2 * k] : map.flow_x[k];
-            z[k][2 * i + 1] = i == 0 ? starts[2 * k + 1] : map.flow_y[k];
+            z[k][2 * i] = i == 0 ? starts[2 * k] : map.xy[2 * k];
+            z[k][2 * i + 1] = i == 0 ? starts[2 * k + 1] : map.xy[2 * k + 1];
         }
     }
     // Newton stops when its step is far below the grid's resolution: the barriers it is compared with are no sharper.
@@ -345,19 +350,16 @@ std::vector<SaddleOrbit> saddle_orbits_near(const ResolvedExperiment &r, double 
                 if (i == 0) offsets[a][0] = offsets[a][1] = 0.0;
             }
             const double t = e.t0 + period * static_cast<double>(i) / static_cast<double>(m);
-            const GridFlowMap map = segment_map(active.size(), from, t, t + period / static_cast<double>(m), true);
+            const SegmentMap map = segment_map(active.size(), from, t, t + period / static_cast<double>(m), true);
             const std::size_t next = (i + 1) % m;
             for (std::size_t a = 0; a < active.size(); ++a) {
                 if (map.mask[a]) {
                     lost[active[a]] = 1;
                     continue;
                 }
-                Matrix2 g;
-                for (int q = 0; q < 4; ++q)
-                    g[q] =
-                        map.dF_exponent.empty() ? map.dF[4 * a + q] : std::ldexp(map.dF[4 * a + q], map.dF_exponent[a]);
-                const double rx = map.flow_x[a] - z[active[a]][2 * next];
-                const double ry = map.flow_y[a] - z[active[a]][2 * next + 1];
+                const Matrix2 g = {map.dF[4 * a], map.dF[4 * a + 1], map.dF[4 * a + 2], map.dF[4 * a + 3]};
+                const double rx = map.xy[2 * a] - z[active[a]][2 * next];
+                const double ry = map.xy[2 * a + 1] - z[active[a]][2 * next + 1];
                 const double ox = offsets[a][2 * i], oy = offsets[a][2 * i + 1];
                 const double cx = g[0] * ox + g[1] * oy + rx, cy = g[2] * ox + g[3] * oy + ry;
                 if (next != 0) offsets[a][2 * next] = cx, offsets[a][2 * next + 1] = cy;

@@ -159,12 +159,18 @@ void test_pause(const char *point) {
     if (at == nullptr || dir == nullptr || std::strcmp(at, point) != 0) return;
     const fs::path reached = fs::path(dir) / (std::string(point) + ".reached");
     const fs::path go = fs::path(dir) / (std::string(point) + ".go");
-    const int fd = ::open(reached.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
-    if (fd < 0) return; // another writer paused here first
-    const std::string pid = std::to_string(static_cast<long>(::getpid())) + "\n";
-    if (::write(fd, pid.data(), pid.size()) < 0) {
-    }
+    // The pid is written into a file of this process's own and linked to the hook's name: the name appears with its
+    // content (a test reads the pid as soon as it sees the file), and only the first writer's link succeeds.
+    const std::string pid = std::to_string(static_cast<long>(::getpid()));
+    const fs::path claim = fs::path(dir) / (std::string(point) + ".claim-" + pid);
+    const int fd = ::open(claim.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    if (fd < 0) return;
+    const std::string text = pid + "\n";
+    const bool written = ::write(fd, text.data(), text.size()) == static_cast<ssize_t>(text.size());
     ::close(fd);
+    const bool first = written && ::link(claim.c_str(), reached.c_str()) == 0;
+    ::unlink(claim.c_str());
+    if (!first) return; // another writer paused here first
     std::error_code ec;
     for (int k = 0; k < 120000 && !fs::exists(go, ec); ++k) std::this_thread::sleep_for(std::chrono::milliseconds(5));
 }

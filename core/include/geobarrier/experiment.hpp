@@ -62,6 +62,9 @@ struct Experiment {
     Grid grid;
     std::optional<GridSliceSpec> slice; // the grid's "axes" and "fixed" when given
     double t0 = 0.0, t1 = 1.0;
+    // "time": {"t0": [...] or {"from", "to", "count"}, "T": ...}: the initial times of the frames (frames.hpp), t0 the
+    // first of them and t1 = t0 + T; empty for a run of one initial time.
+    std::vector<double> frames;
     bool both_directions = false; // "time": {"directions": "both"}: forward and backward from t0 (run_both_directions)
     // "time": {"period": P}: the forcing's period, with which run_both_directions tells the crossings at a saddle
     // orbit from those of a tangle (tangle.hpp); unset: crossings unclassified.

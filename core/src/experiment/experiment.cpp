@@ -4,6 +4,7 @@
 #include <geobarrier/equations.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
+#include <geobarrier/frames.hpp>
 
 #include "engine/tiles.hpp"
 #include "experiment/json_reader.hpp"
@@ -241,9 +242,22 @@ Grid read_grid(const json &section, std::optional<GridSliceSpec> &slice_out) {
 
 void read_time(const json &section, Experiment &e) {
     ObjectReader t(section, "/time");
-    e.t0 = t.number("t0");
-    e.t1 = t.number("t1");
-    if (e.t1 == e.t0) throw ConfigError("/time/t1", "equals t0; the interval must have nonzero length");
+    // Frames (frames.hpp): several initial times, one horizon "T"; a single t0 takes "t1" or "T".
+    if (t.has("t0") && (t.get("t0").is_array() || t.get("t0").is_object())) {
+        e.frames = frame_initial_times(t.get("t0"), "/time/t0");
+        e.t0 = e.frames.front();
+    } else {
+        e.t0 = t.number("t0");
+    }
+    if (t.has("T") && t.has("t1"))
+        throw ConfigError("/time/T", "gives the horizon and \"t1\" the final time: give one of them (t1 = t0 + T)");
+    if (!e.frames.empty() && !t.has("T"))
+        throw ConfigError(t.has("t1") ? "/time/t1" : "/time",
+                          "several initial times take one horizon \"T\" (t1 = t0 + T, negative for "
+                          "backward time), not \"t1\"");
+    e.t1 = t.has("T") ? e.t0 + t.number("T") : t.number("t1");
+    if (e.t1 == e.t0)
+        throw ConfigError(t.has("T") ? "/time/T" : "/time/t1", "equals t0; the interval must have nonzero length");
     // "both": the forward (t0 to t0 + |t1 - t0|) and the backward (t0 to t0 - |t1 - t0|) runs in one (tangle.hpp).
     e.both_directions = t.string("directions", "one", {"one", "both"}) == "both";
     if (t.has("period")) {
@@ -252,6 +266,9 @@ void read_time(const json &section, Experiment &e) {
             throw ConfigError("/time/period", "classifies the crossings of \"directions\": \"both\"; this experiment "
                                               "runs one direction");
     }
+    if (!e.frames.empty() && e.both_directions)
+        throw ConfigError("/time/directions", "\"both\" is not supported with several initial times: run the frames "
+                                              "of each direction as two experiments");
     e.grow_periods = t.count("grow_periods", 0, 1, 10);
     if (e.grow_periods > 0 && !e.forcing_period)
         throw ConfigError("/time/grow_periods", "grows barriers over whole forcing periods; give the forcing's "
@@ -447,6 +464,9 @@ Experiment parse_experiment(const json &j, const fs::path &file) {
         throw ConfigError("/time/directions",
                           "\"both\" looks for crossings of barriers, but the experiment has no \"extractors\"");
     if (root.has("validation")) read_validation(root.get("validation"), e);
+    if (!e.frames.empty() && root.has("validation")) // its times are the run's: not defined for several frames yet
+        throw ConfigError("/validation", "validation products are not supported with several initial times "
+                                         "(\"time\": {\"t0\": [...]}): run them on a single t0");
     if (root.has("plugin_paths")) e.plugin_paths = read_plugin_paths(root.get("plugin_paths"), base);
     read_output(root, file, e);
     if (e.products.empty() && e.extractors.empty() && e.validation.empty())
@@ -809,6 +829,7 @@ void echo_settings(const ResolvedExperiment &r, json &resolved) {
             {"x", {e.grid.x_min, e.grid.x_max}}, {"y", {e.grid.y_min, e.grid.y_max}}, {"n", {e.grid.nx, e.grid.ny}}};
     }
     resolved["time"] = {{"t0", e.t0}, {"t1", e.t1}};
+    if (!e.frames.empty()) resolved["time"] = {{"t0", e.frames}, {"T", e.t1 - e.t0}}; // frames.hpp
     if (e.both_directions) resolved["time"]["directions"] = "both";
     if (e.forcing_period) resolved["time"]["period"] = *e.forcing_period;
     if (e.grow_periods > 0) resolved["time"]["grow_periods"] = e.grow_periods;

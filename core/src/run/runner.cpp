@@ -13,6 +13,7 @@
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/extraction.hpp>
+#include <geobarrier/frames.hpp>
 #include <geobarrier/line_field.hpp>
 #include <geobarrier/output.hpp>
 #include <geobarrier/shear.hpp>
@@ -694,13 +695,15 @@ RunSummary run_stages(const ResolvedExperiment &r, const RunOptions &options) {
     return finish_run(record, options, staging, run_start, std::move(summary));
 }
 
-// Both directions (tangle.cpp) into one folder: claimed for the whole of both runs (each run claims its own subfolder
-// as well); what an earlier run left there and the new manifest does not list is removed afterwards.
-RunSummary run_both_directions_claimed(const ResolvedExperiment &r, const RunOptions &options) {
-    if (!options.write_files || (mpi::sharing_tiles() && mpi::rank() != 0)) return run_both_directions(r, options);
+// Several runs into one folder, both directions (tangle.cpp) or frames (frames.cpp): claimed for the whole of the runs
+// (each run claims its own subfolder as well); what an earlier run left there and the new manifest does not list is
+// removed afterwards.
+RunSummary run_claimed(const ResolvedExperiment &r, const RunOptions &options,
+                       RunSummary (*runs)(const ResolvedExperiment &, const RunOptions &)) {
+    if (!options.write_files || (mpi::sharing_tiles() && mpi::rank() != 0)) return runs(r, options);
     OutputClaim claim(options.output_dir ? *options.output_dir : r.experiment.output_dir);
     const std::set<std::string> earlier = earlier_run_entries(claim.dir());
-    RunSummary summary = run_both_directions(r, options);
+    RunSummary summary = runs(r, options);
     claim.keep();
     std::set<std::string> stale = earlier;
     for (const json &name : summary.manifest.value("files", json::array()))
@@ -718,7 +721,8 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
                                          std::to_string(max_threads) + " (or 0: one per core)");
     // The engine names a bad setting by its own name; the experiment's JSON path goes with it here.
     return with_json_paths([&] {
-        if (r.experiment.both_directions) return run_both_directions_claimed(r, options); // two runs, their tangle
+        if (r.experiment.both_directions) return run_claimed(r, options, run_both_directions); // two runs, their tangle
+        if (!r.experiment.frames.empty()) return run_claimed(r, options, run_frames); // a run per frame, their tracks
         // Under mpirun the ranks other than 0 only compute their share of the flow map's tiles (tiles.hpp).
         if (mpi::sharing_tiles() && mpi::rank() != 0) return run_as_tile_worker(r, options);
         return run_stages(r, options);

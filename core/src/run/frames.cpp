@@ -1,0 +1,424 @@
+// Frames (one run per initial time) and the tracks of their barriers (frames.hpp).
+#include <geobarrier/curves.hpp>
+#include <geobarrier/errors.hpp>
+#include <geobarrier/flow_map.hpp>
+#include <geobarrier/frames.hpp>
+#include <geobarrier/output.hpp>
+
+#include "run/mpi.hpp"
+
+#include <fmt/format.h>
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <optional>
+#include <unordered_map>
+
+namespace geobarrier {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+std::string short_value(const json &v) {
+    std::string s = v.dump();
+    return s.size() > 60 ? s.substr(0, 57) + "..." : s;
+}
+
+double finite_number(const json &v, const std::string &path) {
+    if (!v.is_number()) throw ConfigError(path, short_value(v) + " is not a number; expected an initial time");
+    const double d = v.get<double>();
+    if (!std::isfinite(d)) throw ConfigError(path, short_value(v) + " is not finite");
+    return d;
+}
+
+std::string too_many(std::size_t n) {
+    return std::to_string(n) + " initial times; at most " + std::to_string(max_frames) +
+           " frames per run (each is a whole run, and every frame's barriers are held for the tracks): split the "
+           "times over several runs";
+}
+
+// {"from": a, "to": b, "count": n}: n evenly spaced times, both ends included.
+std::vector<double> evenly_spaced_times(const json &t0, const std::string &path) {
+    for (const auto &item : t0.items())
+        if (item.key() != "from" && item.key() != "to" && item.key() != "count")
+            throw ConfigError(path + "/" + item.key(), "unknown key (allowed here: from to count)");
+    for (const char *key : {"from", "to", "count"})
+        if (!t0.contains(key)) throw ConfigError(path, std::string("missing required key \"") + key + "\"");
+    const double from = finite_number(t0.at("from"), path + "/from"), to = finite_number(t0.at("to"), path + "/to");
+    const json &count = t0.at("count");
+    if (!count.is_number_integer() || count.get<long long>() < 2)
+        throw ConfigError(path + "/count",
+                          short_value(count) + " must be an integer >= 2 (frames, both ends included)");
+    if (count.get<unsigned long long>() > max_frames)
+        throw ConfigError(path + "/count", too_many(count.get<std::size_t>()));
+    if (!(to > from)) throw ConfigError(path + "/to", short_value(t0.at("to")) + " must be greater than \"from\"");
+    const std::size_t n = count.get<std::size_t>();
+    std::vector<double> times(n);
+    // Each time from the ends (not by repeated addition), so the last one is `to` exactly.
+    for (std::size_t k = 0; k < n; ++k)
+        times[k] = k + 1 == n ? to : from + (to - from) * static_cast<double>(k) / static_cast<double>(n - 1);
+    return times;
+}
+
+} // namespace
+
+std::vector<double> frame_initial_times(const json &t0, const std::string &path) {
+    if (t0.is_object()) return evenly_spaced_times(t0, path);
+    if (!t0.is_array())
+        throw ConfigError(path, short_value(t0) + " is neither a number, a list of initial times nor {\"from\", "
+                                                  "\"to\", \"count\"}");
+    if (t0.empty()) throw ConfigError(path, "[] is empty; expected at least one initial time");
+    if (t0.size() > max_frames) throw ConfigError(path, too_many(t0.size()));
+    std::vector<double> times;
+    for (std::size_t k = 0; k < t0.size(); ++k) {
+        const std::string at = path + "/" + std::to_string(k);
+        times.push_back(finite_number(t0[k], at));
+        // Increasing: the tracks follow the flow from each frame to the next.
+        if (k > 0 && !(times[k] > times[k - 1]))
+            throw ConfigError(at, short_value(t0[k]) + " is not greater than the time before it (" +
+                                      short_value(t0[k - 1]) +
+                                      "); list the initial times in increasing order, each once");
+    }
+    return times;
+}
+
+namespace {
+
+// The segments of a polyline binned into square cells of side `cell`: the distance from a point to the polyline,
+// capped at `cell`, looks at the 3 x 3 cells around the point only.
+class SegmentIndex {
+  public:
+    SegmentIndex(const std::vector<double> &xy, bool closed, double cell) : m_xy(xy), m_cell(cell) {
+        const std::size_t n = xy.size() / 2, segments = n < 2 ? 0 : (closed ? n : n - 1);
+        for (std::size_t s = 0; s < segments; ++s) {
+            const std::size_t a = s, b = (s + 1) % n;
+            // (std::minmax of temporaries would return references to them.)
+            const long long ia = key(xy[2 * a]), ib = key(xy[2 * b]), ja = key(xy[2 * a + 1]), jb = key(xy[2 * b + 1]);
+            const long long i0 = std::min(ia, ib), i1 = std::max(ia, ib), j0 = std::min(ja, jb), j1 = std::max(ja, jb);
+            for (long long i = i0; i <= i1; ++i)
+                for (long long j = j0; j <= j1; ++j) m_cells[pack(i, j)].push_back({a, b});
+        }
+    }
+    // The distance from (x, y) to the polyline, or `cell` when it is farther.
+    double distance(double x, double y) const {
+        double best = m_cell;
+        const long long i = key(x), j = key(y);
+        for (long long di = -1; di <= 1; ++di)
+            for (long long dj = -1; dj <= 1; ++dj) {
+                const auto it = m_cells.find(pack(i + di, j + dj));
+                if (it == m_cells.end()) continue;
+                for (const auto &[a, b] : it->second) best = std::min(best, to_segment(x, y, a, b));
+            }
+        return best;
+    }
+
+  private:
+    long long key(double v) const { return static_cast<long long>(std::floor(v / m_cell)); }
+    static long long pack(long long i, long long j) { return i * 2000003LL + j; }
+    double to_segment(double x, double y, std::size_t a, std::size_t b) const {
+        const double ax = m_xy[2 * a], ay = m_xy[2 * a + 1], bx = m_xy[2 * b], by = m_xy[2 * b + 1];
+        const double dx = bx - ax, dy = by - ay, len2 = dx * dx + dy * dy;
+        const double s = len2 > 0 ? std::clamp(((x - ax) * dx + (y - ay) * dy) / len2, 0.0, 1.0) : 0.0;
+        return std::hypot(x - ax - s * dx, y - ay - s * dy);
+    }
+
+    const std::vector<double> &m_xy;
+    double m_cell;
+    std::unordered_map<long long, std::vector<std::pair<std::size_t, std::size_t>>> m_cells;
+};
+
+} // namespace
+
+double mean_distance_to_polyline(const std::vector<double> &from, const std::vector<double> &to, bool to_closed,
+                                 double cutoff) {
+    if (from.size() < 2 || to.size() < 4 || !(cutoff > 0)) return std::numeric_limits<double>::quiet_NaN();
+    const SegmentIndex index(to, to_closed, cutoff);
+    double sum = 0.0;
+    for (std::size_t k = 0; k + 1 < from.size(); k += 2) sum += index.distance(from[k], from[k + 1]);
+    return sum / static_cast<double>(from.size() / 2);
+}
+
+namespace {
+
+std::vector<double> points_of(const json &barrier) {
+    std::vector<double> xy;
+    for (const json &p : barrier.at("points")) xy.insert(xy.end(), {p[0].get<double>(), p[1].get<double>()});
+    return xy;
+}
+
+// Barriers of the same extractor, kind and direction can be one material curve; a repelling and an attracting
+// barrier never are.
+bool same_family(const json &a, const json &b) {
+    return a.value("extractor", "") == b.value("extractor", "") && a.value("kind", "") == b.value("kind", "") &&
+           a.value("repelling", false) == b.value("repelling", false) &&
+           a.value("attracting", false) == b.value("attracting", false);
+}
+
+// The barrier's own stretching figure, by the first of these keys it has: the hyperbolic extractor's relative
+// stretching q, the elliptic one's lambda of a lambda-line, its advected stretching.
+constexpr const char *stretching_keys[] = {"relative_stretching", "lambda", "advected_stretching"};
+
+// A barrier's entry in its track's frame: which barrier, its figures and its match distance.
+json track_entry(const json &barrier, std::size_t index, double match_distance) {
+    const bool closed = barrier.value("closed", false);
+    const std::vector<double> xy = points_of(barrier);
+    json entry = {{"barrier", index}, {"length", barrier.value("length", polyline_length(xy, closed))}};
+    for (const char *key : stretching_keys)
+        if (barrier.contains(key) && barrier[key].is_number()) {
+            entry["stretching"] = barrier[key];
+            entry["stretching_figure"] = key;
+            break;
+        }
+    if (closed) entry["area"] = barrier.value("enclosed_area", std::abs(shoelace_area(xy)));
+    entry["match_distance"] = std::isfinite(match_distance) ? json(match_distance) : json(nullptr);
+    return entry;
+}
+
+// A curve's points inside the box [x_min, x_max] x [y_min, y_max], resampled to `spacing` (pieces outside dropped).
+std::vector<double> resampled_inside(const std::vector<double> &xy, bool closed, const Grid &g, double spacing) {
+    const std::vector<double> fine = resample_polyline(xy, spacing, closed);
+    std::vector<double> inside;
+    for (std::size_t k = 0; k + 1 < fine.size(); k += 2)
+        if (fine[k] >= g.x_min && fine[k] <= g.x_max && fine[k + 1] >= g.y_min && fine[k + 1] <= g.y_max)
+            inside.insert(inside.end(), {fine[k], fine[k + 1]});
+    return inside;
+}
+
+struct Match {
+    std::size_t from = 0, to = 0;
+    double distance = 0.0; // grid spacings
+};
+
+// Every pair of one of frame k's advected barriers (`images`; image_of[c]: the barrier of image c) and one of frame
+// k + 1's barriers (`next`) within the tolerance: a material curve the extractor reports as one piece in one frame and
+// as two in the next (or the reverse) matches each of them.
+std::vector<Match> match_images(const std::vector<AdvectedCurve> &images, const std::vector<std::size_t> &image_of,
+                                const json &previous, const json &next, const Grid &g, double tolerance) {
+    const double h = std::max(g.dx(), g.dy()), spacing = 0.5 * h, cutoff = 2.0 * tolerance * h;
+    std::vector<std::vector<double>> next_xy;
+    for (const json &b : next) next_xy.push_back(resampled_inside(points_of(b), b.value("closed", false), g, spacing));
+    std::vector<Match> matches;
+    for (std::size_t c = 0; c < images.size(); ++c) {
+        const std::vector<double> image = resampled_inside(images[c].xy1, images[c].closed, g, spacing);
+        if (image.size() < 4) continue; // nothing of it is left in the box
+        for (std::size_t b = 0; b < next.size(); ++b) {
+            if (!same_family(previous[image_of[c]], next[b]) || next_xy[b].size() < 4) continue;
+            const bool closed = next[b].value("closed", false);
+            const double d = std::min(mean_distance_to_polyline(image, next_xy[b], closed, cutoff),
+                                      mean_distance_to_polyline(next_xy[b], image, images[c].closed, cutoff));
+            if (d <= tolerance * h) matches.push_back({image_of[c], b, d / h});
+        }
+    }
+    return matches;
+}
+
+// Union-find over the barriers of all frames (numbered frame by frame): a track is a set of matched barriers.
+struct Components {
+    std::vector<std::size_t> parent;
+    explicit Components(std::size_t n) : parent(n) {
+        for (std::size_t k = 0; k < n; ++k) parent[k] = k;
+    }
+    std::size_t root(std::size_t k) {
+        while (parent[k] != k) k = parent[k] = parent[parent[k]];
+        return k;
+    }
+    void join(std::size_t a, std::size_t b) {
+        a = root(a), b = root(b);
+        if (a != b) parent[std::max(a, b)] = std::min(a, b); // the root is the earliest barrier
+    }
+};
+
+// Frame k's barriers advected from t_from to t_to (image gaps refined to a grid spacing inside the box).
+std::vector<AdvectedCurve> advect_frame(const ResolvedExperiment &r, const json &barriers, double t_from, double t_to,
+                                        std::vector<std::size_t> &image_of) {
+    const Experiment &e = r.experiment;
+    std::vector<std::vector<double>> curves;
+    std::vector<bool> closed;
+    for (std::size_t b = 0; b < barriers.size(); ++b) {
+        if (barriers[b].at("points").size() < 2) continue;
+        curves.push_back(points_of(barriers[b]));
+        closed.push_back(barriers[b].value("closed", false));
+        image_of.push_back(b);
+    }
+    if (curves.empty()) return {};
+    CurveAdvectionSettings settings;
+    settings.max_gap = std::min(e.grid.dx(), e.grid.dy());
+    settings.refine_box = std::array<double, 4>{e.grid.x_min, e.grid.x_max, e.grid.y_min, e.grid.y_max};
+    return advect_curves(curves, closed,
+                         make_advect_points_fn(r.dynamics(), t_from, t_to, e.integrator, masking(e.bounds)), settings);
+}
+
+} // namespace
+
+namespace {
+
+// Tracks from the components: each track's barriers per frame with their figures, birth and death, in the order of
+// their first barrier.
+json assemble_tracks(Components &components, const std::vector<std::size_t> &offset, const std::vector<double> &t0s,
+                     const std::vector<json> &barriers, const std::vector<double> &match_distance) {
+    std::map<std::size_t, std::size_t> track_of_root;
+    json tracks = json::array();
+    for (std::size_t k = 0; k < t0s.size(); ++k)
+        for (std::size_t b = 0; b < barriers[k].size(); ++b) {
+            const std::size_t root = components.root(offset[k] + b);
+            auto [it, fresh] = track_of_root.emplace(root, tracks.size());
+            const json &item = barriers[k][b];
+            if (fresh)
+                tracks.push_back({{"id", tracks.size()},
+                                  {"extractor", item.value("extractor", "")},
+                                  {"kind", item.value("kind", "")},
+                                  {"birth", k},
+                                  {"death", nullptr},
+                                  {"frames", json::array()}});
+            json &frames = tracks[it->second]["frames"];
+            if (frames.empty() || frames.back()["frame"] != k)
+                frames.push_back({{"frame", k}, {"t0", t0s[k]}, {"barriers", json::array()}, {"length", 0.0}});
+            frames.back()["barriers"].push_back(track_entry(item, b, match_distance[offset[k] + b]));
+            frames.back()["length"] =
+                frames.back()["length"].get<double>() + frames.back()["barriers"].back()["length"].get<double>();
+        }
+    for (json &t : tracks) {
+        const std::size_t last = t["frames"].back()["frame"];
+        if (last + 1 < t0s.size()) t["death"] = last + 1;
+    }
+    return tracks;
+}
+
+} // namespace
+
+json track_barriers(const ResolvedExperiment &r, const std::vector<double> &t0s, const std::vector<json> &barriers,
+                    const TrackSettings &settings) {
+    const Grid &g = r.experiment.grid;
+    std::vector<std::size_t> offset = {0};
+    for (const json &frame : barriers) offset.push_back(offset.back() + frame.size());
+    Components components(offset.back());
+    std::vector<double> match_distance(offset.back(), NAN); // of each barrier to its closest match in the frame before
+    json transitions = json::array();
+    for (std::size_t k = 0; k + 1 < t0s.size(); ++k) {
+        std::vector<std::size_t> image_of;
+        const std::vector<AdvectedCurve> images = advect_frame(r, barriers[k], t0s[k], t0s[k + 1], image_of);
+        const std::vector<Match> matches =
+            match_images(images, image_of, barriers[k], barriers[k + 1], g, settings.tolerance);
+        std::vector<bool> continued(barriers[k].size(), false), reached(barriers[k + 1].size(), false);
+        for (const Match &m : matches) {
+            components.join(offset[k] + m.from, offset[k + 1] + m.to);
+            continued[m.from] = reached[m.to] = true;
+            double &d = match_distance[offset[k + 1] + m.to];
+            d = std::isnan(d) ? m.distance : std::min(d, m.distance);
+        }
+        std::size_t converged = 0;
+        for (const AdvectedCurve &a : images) converged += a.converged ? 1 : 0;
+        transitions.push_back({{"from", k},
+                               {"to", k + 1},
+                               {"matched_pairs", matches.size()},
+                               {"ended", std::count(continued.begin(), continued.end(), false)},
+                               {"new", std::count(reached.begin(), reached.end(), false)},
+                               {"advected", images.size()},
+                               {"advection_converged", converged}});
+    }
+    const json tracks = assemble_tracks(components, offset, t0s, barriers, match_distance);
+    std::size_t whole = 0;
+    for (const json &t : tracks) whole += t["frames"].size() == t0s.size() ? 1 : 0;
+    return {{"tolerance_grid_spacings", settings.tolerance},
+            {"grid_spacing", std::max(g.dx(), g.dy())},
+            {"distance",
+             "the smaller directed mean distance between frame k's barrier advected to frame k + 1's t0 and frame "
+             "k + 1's barrier, in grid spacings"},
+            {"frame_count", t0s.size()},
+            {"track_count", tracks.size()},
+            {"tracks_through_all_frames", whole},
+            {"transitions", transitions},
+            {"tracks", tracks}};
+}
+
+namespace {
+
+// Frame k's run: the experiment as written with one initial time and t1 = t0 + T, into `folder`.
+RunSummary run_frame(const Experiment &e, double t0, const fs::path &folder, const RunOptions &options) {
+    json source = e.source;
+    json &time = source["time"];
+    time["t0"] = t0;
+    time["t1"] = t0 + (e.t1 - e.t0);
+    time.erase("T");
+    const ResolvedExperiment r = resolve_experiment(parse_experiment(source, e.file));
+    RunOptions o = options;
+    o.output_dir = folder;
+    o.keep_results = true; // the barriers for the tracks
+    return run_experiment(r, o);
+}
+
+std::string frame_folder(std::size_t k) { return fmt::format("frames/{:03d}", k); }
+
+// Frame folders an earlier run of more frames left under <out>/frames (the folder is claimed by this run).
+void remove_stale_frames(const fs::path &frames, std::size_t count) {
+    std::error_code ec;
+    if (!fs::is_directory(frames, ec)) return;
+    for (const auto &entry : fs::directory_iterator(frames, ec)) {
+        const std::string name = entry.path().filename().string();
+        if (name.size() == 3 && std::all_of(name.begin(), name.end(), ::isdigit) && std::stoul(name) >= count)
+            fs::remove_all(entry.path(), ec);
+    }
+}
+
+} // namespace
+
+RunSummary run_frames(const ResolvedExperiment &r, const RunOptions &options) {
+    const Experiment &e = r.experiment;
+    if (!options.write_files || options.keep_results)
+        throw ConfigError("/time/t0", "several initial times write a run per frame and their tracks into the output "
+                                      "folder; to keep results in memory (Python), run one initial time at a time");
+    const auto start = std::chrono::steady_clock::now();
+    const fs::path out = options.output_dir ? *options.output_dir : e.output_dir;
+    std::vector<json> barriers;
+    json frames = json::array();
+    RunSummary summary;
+    for (std::size_t k = 0; k < e.frames.size(); ++k) {
+        spdlog::info("frame {} of {}: t0 = {}, t1 = {}", k + 1, e.frames.size(), e.frames[k],
+                     e.frames[k] + e.t1 - e.t0);
+        RunSummary frame = run_frame(e, e.frames[k], out / frame_folder(k), options);
+        summary.files.insert(summary.files.end(), frame.files.begin(), frame.files.end());
+        frames.push_back({{"index", k},
+                          {"t0", e.frames[k]},
+                          {"t1", e.frames[k] + (e.t1 - e.t0)},
+                          {"folder", frame_folder(k)},
+                          {"manifest", frame_folder(k) + "/manifest.json"},
+                          {"barriers", frame.barriers.size()}});
+        barriers.push_back(std::move(frame.barriers));
+    }
+    if (mpi::rank() != 0) return summary; // the other ranks only shared the flow maps' tiles
+    remove_stale_frames(out / "frames", e.frames.size());
+    summary.output_dir = out;
+    json files = json::array({"frames"}), manifest_tracks = nullptr;
+    if (!e.extractors.empty()) {
+        const json tracks = track_barriers(r, e.frames, barriers);
+        manifest_tracks = {{"count", tracks["track_count"]},
+                           {"through_all_frames", tracks["tracks_through_all_frames"]},
+                           {"tolerance_grid_spacings", tracks["tolerance_grid_spacings"]}};
+        write_text_file(out / "tracks.json", tracks.dump(1) + "\n");
+        summary.files.push_back(out / "tracks.json");
+        files.push_back("tracks.json");
+        spdlog::info("tracks: {} over {} frames, {} through all of them", tracks["track_count"].get<std::size_t>(),
+                     e.frames.size(), tracks["tracks_through_all_frames"].get<std::size_t>());
+    }
+    files.push_back("manifest.json");
+    const json manifest = {
+        {"experiment", e.source},
+        {"frames", frames},
+        {"horizon", e.t1 - e.t0},
+        {"tracks", manifest_tracks},
+        {"wall_seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()},
+        {"files", files}};
+    write_text_file(out / "manifest.json", manifest.dump(2) + "\n");
+    summary.files.push_back(out / "manifest.json");
+    summary.manifest = manifest;
+    return summary;
+}
+
+} // namespace geobarrier

@@ -1,0 +1,210 @@
+// Frames and tracks (frames.hpp) against known answers: an autonomous system's frames are one frame and every track
+// lasts through all of them; under a forcing of period P the frame at t0 + P is the frame at t0; bad "time" input is
+// refused at its JSON path.
+#include <geobarrier/errors.hpp>
+#include <geobarrier/experiment.hpp>
+#include <geobarrier/frames.hpp>
+
+#include <test_support.hpp>
+
+#include <doctest/doctest.h>
+
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using namespace geobarrier;
+
+namespace {
+
+const double pi = std::acos(-1.0);
+
+// Duffing x'' = x - x^3 - delta x' + gamma cos t on a small grid, forward time, the hyperbolic extractor.
+json duffing(double delta, double gamma) {
+    json j = {{"system", {{"plugin", "duffing"}, {"params", {{"alpha", 1}, {"beta", 1}, {"delta", delta}}}}},
+              {"grid", {{"x", {-1.6, 1.6}}, {"y", {-1.0, 1.0}}, {"n", {129, 81}}}},
+              {"time", {{"t0", 0}, {"T", 6}}},
+              {"bounds", {{"x", {-20, 20}}, {"y", {-20, 20}}}},
+              {"products", {"ftle"}},
+              {"extractors", {{{"plugin", "hyperbolic"}, {"params", json::object()}}}},
+              {"output", {{"plots", false}}}};
+    if (gamma != 0.0)
+        j["forcing"] = {{"plugin", "cosine"}, {"params", {{"amplitude", gamma}, {"omega", 1}, {"phase", 0}}}};
+    return j;
+}
+
+std::string error_path(const json &j) {
+    try {
+        parse_experiment(j);
+    } catch (const ConfigError &e) {
+        MESSAGE(std::string(e.what()));
+        return e.json_path();
+    }
+    return "(accepted)";
+}
+
+json run_into(const json &j, const fs::path &out) {
+    RunOptions options;
+    options.output_dir = out;
+    options.quiet = true;
+    return run_experiment(resolve_experiment(parse_experiment(j)), options).manifest;
+}
+
+std::vector<double> points_of(const json &barrier) {
+    std::vector<double> xy;
+    for (const json &p : barrier["points"]) xy.insert(xy.end(), {p[0].get<double>(), p[1].get<double>()});
+    return xy;
+}
+
+// The larger of the two directed mean distances between two barriers, capped at `cap`.
+double curve_distance(const json &a, const json &b, double cap) {
+    return std::max(mean_distance_to_polyline(points_of(a), points_of(b), b.value("closed", false), cap),
+                    mean_distance_to_polyline(points_of(b), points_of(a), a.value("closed", false), cap));
+}
+
+json barriers_in(const fs::path &folder) { return json::parse(test::read_text(folder / "barriers.json"))["barriers"]; }
+
+} // namespace
+
+TEST_CASE("frames: initial times as a list or {from, to, count} with one horizon T; bad input at its JSON path") {
+    json j = duffing(0, 0);
+    j["time"] = {{"t0", {{"from", 0}, {"to", 1}, {"count", 5}}}, {"T", -2}};
+    Experiment e = parse_experiment(j);
+    REQUIRE(e.frames.size() == 5);
+    CHECK(e.frames[1] == 0.25);
+    CHECK(e.frames[4] == 1.0);
+    CHECK(e.t0 == 0.0);
+    CHECK(e.t1 == -2.0); // backward time
+    j["time"] = {{"t0", 3}, {"T", 2}};
+    e = parse_experiment(j);
+    CHECK(e.frames.empty());
+    CHECK(e.t1 == 5.0);
+
+    const auto with_time = [&](const json &time) {
+        json k = j;
+        k["time"] = time;
+        return error_path(k);
+    };
+    CHECK(with_time({{"t0", json::array()}, {"T", 1}}) == "/time/t0");
+    CHECK(with_time({{"t0", {0, 2, 1}}, {"T", 1}}) == "/time/t0/2");
+    CHECK(with_time({{"t0", {0, 0}}, {"T", 1}}) == "/time/t0/1");
+    CHECK(with_time({{"t0", {0, "1"}}, {"T", 1}}) == "/time/t0/1");
+    CHECK(with_time({{"t0", std::vector<double>(max_frames + 1, 0.0)}, {"T", 1}}) == "/time/t0");
+    CHECK(with_time({{"t0", {{"from", 0}, {"to", 1}, {"count", 1000000}}}, {"T", 1}}) == "/time/t0/count");
+    CHECK(with_time({{"t0", {{"from", 0}, {"to", 1}, {"count", 1}}}, {"T", 1}}) == "/time/t0/count");
+    CHECK(with_time({{"t0", {{"from", 1}, {"to", 0}, {"count", 3}}}, {"T", 1}}) == "/time/t0/to");
+    CHECK(with_time({{"t0", {{"from", 0}, {"count", 3}}}, {"T", 1}}) == "/time/t0");
+    CHECK(with_time({{"t0", {{"from", 0}, {"to", 1}, {"count", 3}, {"step", 1}}}, {"T", 1}}) == "/time/t0/step");
+    CHECK(with_time({{"t0", {0, 1}}, {"t1", 1}}) == "/time/t1");
+    CHECK(with_time({{"t0", {0, 1}}}) == "/time");
+    CHECK(with_time({{"t0", 0}, {"t1", 1}, {"T", 1}}) == "/time/T");
+    CHECK(with_time({{"t0", 0}, {"T", 0}}) == "/time/T");
+    CHECK(with_time({{"t0", {0, 1}}, {"T", 1}, {"directions", "both"}}) == "/time/directions");
+    json v = j;
+    v["time"] = {{"t0", {0, 1}}, {"T", 1}};
+    v["validation"] = {{"advect_barriers", true}};
+    CHECK(error_path(v) == "/validation");
+}
+
+TEST_CASE("frames of an autonomous system: every track lasts through all frames, its figures constant") {
+    // Unforced Duffing: the flow map over [t0, t0 + T] does not depend on t0, so every frame holds the same barriers,
+    // and each barrier (on the saddle's stable manifold, invariant) advected to the next frame's t0 lies on itself, up
+    // to the finite-time barrier's distance from the manifold (T = 10; at T = 6 a joined barrier strays 0.9 grid
+    // spacings from it).
+    const fs::path dir =
+        fs::temp_directory_path() / ("geobarrier-test-frames-autonomous-" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    json j = duffing(0, 0);
+    j["time"] = {{"t0", {0, 0.5, 1.0}}, {"T", 10}};
+    const json manifest = run_into(j, dir);
+    REQUIRE(manifest["frames"].size() == 3);
+    const json tracks = json::parse(test::read_text(dir / "tracks.json"));
+    const json first = barriers_in(dir / "frames" / "000");
+    REQUIRE(first.size() >= 2);
+    const double h = tracks["grid_spacing"].get<double>();
+    for (const char *frame : {"001", "002"}) {
+        const json other = barriers_in(dir / "frames" / frame);
+        REQUIRE(other.size() == first.size());
+        for (std::size_t b = 0; b < first.size(); ++b) CHECK(curve_distance(first[b], other[b], 10 * h) < h);
+    }
+    CHECK(tracks["track_count"] == first.size());
+    CHECK(tracks["tracks_through_all_frames"] == first.size());
+    for (const json &track : tracks["tracks"]) {
+        CHECK(track["birth"] == 0);
+        CHECK(track["death"].is_null());
+        REQUIRE(track["frames"].size() == 3);
+        REQUIRE(track["frames"][0]["barriers"].size() == 1);
+        const json &b0 = track["frames"][0]["barriers"][0];
+        for (std::size_t k = 1; k < 3; ++k) {
+            REQUIRE(track["frames"][k]["barriers"].size() == 1);
+            const json &bk = track["frames"][k]["barriers"][0];
+            CHECK(bk["barrier"] == b0["barrier"]); // itself, not a neighbour
+            CHECK(bk["length"].get<double>() == doctest::Approx(b0["length"].get<double>()).epsilon(1e-9));
+            CHECK(bk["stretching"].get<double>() == doctest::Approx(b0["stretching"].get<double>()).epsilon(1e-9));
+            MESSAGE("track " << track["id"] << " frame " << k << ": match distance " << bk["match_distance"]
+                             << " grid spacings, length " << bk["length"]);
+            CHECK(bk["match_distance"].get<double>() < 0.5);
+        }
+    }
+    fs::remove_all(dir);
+}
+
+namespace {
+
+// The barriers a track holds in frame k, as one list of barriers.json items.
+json track_barriers_in(const json &track, std::size_t k, const json &frame) {
+    json out = json::array();
+    for (const json &f : track["frames"])
+        if (f["frame"] == k)
+            for (const json &b : f["barriers"]) out.push_back(frame[b["barrier"].get<std::size_t>()]);
+    return out;
+}
+
+} // namespace
+
+TEST_CASE("frames of a periodic forcing: the frame at t0 + P is the frame at t0, and tracks return onto themselves") {
+    // Damped, forced Duffing with period P = 2 pi: the flow maps from t0 and t0 + P are one map, so frame 4 (t0 = P)
+    // holds frame 0's barriers; a track through all frames is one material curve carried over a whole period, which
+    // lands on the curve it started from (the stable manifold of the saddle orbit at phase 0).
+    const fs::path dir = fs::temp_directory_path() / ("geobarrier-test-frames-periodic-" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    json j = duffing(0.15, 0.3);
+    j["time"] = {{"t0", {{"from", 0}, {"to", 2 * pi}, {"count", 5}}}, {"T", 10}};
+    run_into(j, dir);
+    const json tracks = json::parse(test::read_text(dir / "tracks.json"));
+    const double h = tracks["grid_spacing"].get<double>();
+    const json first = barriers_in(dir / "frames" / "000"), last = barriers_in(dir / "frames" / "004");
+    REQUIRE(first.size() >= 1);
+    REQUIRE(last.size() == first.size());
+    for (const json &b : last) {
+        double nearest = HUGE_VAL;
+        for (const json &a : first) nearest = std::min(nearest, curve_distance(a, b, 10 * h));
+        CHECK(nearest < h);
+    }
+    std::size_t through = 0;
+    for (const json &track : tracks["tracks"]) {
+        if (track["frames"].size() != 5) continue;
+        ++through;
+        const json from = track_barriers_in(track, 0, first), to = track_barriers_in(track, 4, last);
+        REQUIRE(from.size() == to.size());
+        for (std::size_t b = 0; b < from.size(); ++b) {
+            const double d = curve_distance(from[b], to[b], 10 * h);
+            MESSAGE("track " << track["id"] << ": frame 4's barrier " << d / h << " grid spacings from frame 0's");
+            CHECK(d < h);
+        }
+    }
+    CHECK(through >= 1);
+    CHECK(tracks["tracks_through_all_frames"] == through);
+
+    // Each frame is the run of a single t0: the same barriers as that run's.
+    json single = duffing(0.15, 0.3);
+    single["time"] = {{"t0", pi}, {"T", 10}};
+    run_into(single, dir / "single");
+    CHECK(barriers_in(dir / "single") == barriers_in(dir / "frames" / "002"));
+    fs::remove_all(dir);
+}

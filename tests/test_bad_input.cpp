@@ -616,6 +616,47 @@ TEST_CASE("bad-input battery: a really full disk (a 64 KiB tmpfs in a user names
     CHECK(read_file(dir / "stdout.txt").empty());
 }
 
+TEST_CASE("a disk full before fields.nc is created reads as a full disk; a failed sweep member says why, where unshare "
+          "allows it") {
+    // NetCDF answers every failure of HDF5's file creation with EACCES: a disk full at creation read "Permission
+    // denied". A sweep member's message went only to its log, on the same full disk: its reason was empty.
+    if (std::system("unshare -r -m true >/dev/null 2>&1") != 0) {
+        MESSAGE("skipped: unshare -r -m (an unprivileged user and mount namespace) is not available here");
+        return;
+    }
+    const fs::path dir = scratch() / "full-at-creation";
+    fs::create_directories(dir / "out");
+    std::ofstream(dir / "exp.json") << base_experiment().dump(2);
+    const json sweep = {{"base", base_experiment()},
+                        {"parameters", {{{"path", "/forcing/params/amplitude"}, {"values", {0.08}}}}},
+                        {"processes", 1},
+                        {"threads", 1}};
+    std::ofstream(dir / "sweep.json") << sweep.dump(2);
+    const std::string program = geobarrier::test::geobarrier_program().string();
+    // A 64 KiB tmpfs filled up by a file of ours first; empty files and folders still fit (they take no blocks).
+    const std::string command =
+        "cd '" + dir.string() + "' && unshare -r -m sh -c 'mount -t tmpfs -o size=64k tmpfs out && " +
+        "(head -c 70000 /dev/zero >out/filler 2>/dev/null; true) && " + program +
+        " run exp.json --out out/run --quiet >run.stdout 2>run.stderr; echo $? >run.status; " + program +
+        " sweep sweep.json --out out/sweep --quiet >sweep.stdout 2>sweep.stderr; echo $? >sweep.status'";
+    REQUIRE(std::system(command.c_str()) == 0);
+    const std::string err = read_file(dir / "run.stderr");
+    CAPTURE(err);
+    CHECK(read_file(dir / "run.status") == "1\n");
+    CHECK(std::count(err.begin(), err.end(), '\n') == 1);
+    CHECK(err.rfind("geobarrier: error: 'out/run/fields.nc': cannot create the NetCDF-4 file: No space left on device "
+                    "(the file system is full)",
+                    0) == 0);
+    CHECK(err.find("Permission denied") == std::string::npos);
+
+    const std::string sweep_err = read_file(dir / "sweep.stderr");
+    CAPTURE(sweep_err);
+    CHECK(read_file(dir / "sweep.status") == "1\n");
+    // The member's own message, through its pipe to the sweep: its log is empty on the full disk.
+    CHECK(sweep_err.find("failed, exit 1: 'out/sweep/member-000/fields.nc': cannot create the NetCDF-4 file: No "
+                         "space left on device") != std::string::npos);
+}
+
 TEST_CASE("an interrupted earlier run and a failed later run leave a finished run untouched") {
     // A finished run, then a run into the same folder that fails while computing: the first run's files (and its
     // manifest) stay as they were, and nothing of the failed run appears.

@@ -373,6 +373,40 @@ TEST_CASE(
     CHECK(contains(message, "--params/rhs/1, column 9: expected ')' to close the '(' at column 7"));
 }
 
+TEST_CASE("equations: a cache folder removed while compiling is called that, not a fault of geobarrier") {
+    // A "compiler" that removes the cache folder it was asked to write into (as another program cleaning ~/.cache
+    // would, mid-compile), then fails as a real compiler does when its output folder is gone, or succeeds having
+    // written nothing. Before, the first read "a fault of geobarrier ... please report it with <folder>/<key>.log",
+    // a log that went with the folder.
+    ScopedCache cache("removed");
+    const fs::path scripts = fs::temp_directory_path() / ("geobarrier-removing-cxx-" + std::to_string(::getpid()));
+    fs::create_directories(scripts);
+    for (const int exit_code : {1, 0}) {
+        CAPTURE(exit_code);
+        const fs::path script = scripts / ("cxx-" + std::to_string(exit_code));
+        std::ofstream(script) << "#!/bin/sh\nrm -rf \"$GEOBARRIER_EQUATIONS_CACHE\"\nexit " << exit_code << "\n";
+        fs::permissions(script, fs::perms::owner_all);
+        ::setenv("GEOBARRIER_EQUATIONS_CXX", script.c_str(), 1);
+        std::string message;
+        try {
+            equations::compile(duffing_params(), "/system/params");
+        } catch (const IoError &e) {
+            message = e.what();
+        } catch (const Error &e) {
+            message = std::string("not an IoError: ") + e.what();
+        }
+        ::unsetenv("GEOBARRIER_EQUATIONS_CXX");
+        CAPTURE(message);
+        CHECK(message.rfind("cannot compile the equations system: the equations cache folder " + cache.folder.string() +
+                                " was removed while the compiler was writing into it",
+                            0) == 0);
+        CHECK_FALSE(contains(message, "fault of geobarrier"));
+        CHECK_FALSE(contains(message, ".log"));
+        CHECK_FALSE(fs::exists(cache.folder));
+    }
+    fs::remove_all(scripts);
+}
+
 TEST_CASE("equations: a killed compile's temporary files are removed once they are an hour old") {
     ScopedCache cache("stale");
     fs::create_directories(cache.folder);

@@ -440,6 +440,17 @@ void remove_stale_temporaries(const fs::path &folder) {
     }
 }
 
+// A cache folder removed while the compiler ran (another program cleaning ~/.cache, a user's rm -r) makes the
+// compiler fail to write its output, or leaves nothing to publish: that is neither the experiment's fault nor
+// geobarrier's, and the compiler's log went with the folder, so the message says what happened instead.
+void throw_if_cache_went_away(const fs::path &folder) {
+    std::error_code ec;
+    if (fs::is_directory(folder, ec)) return;
+    throw IoError("cannot compile the equations system: the equations cache folder " + folder.string() +
+                  " was removed while the compiler was writing into it (by another program or user?); nothing was "
+                  "kept, run again to compile afresh (set GEOBARRIER_EQUATIONS_CACHE to a folder nothing else cleans)");
+}
+
 // Compiles the definition into <folder>/<key>.so. The library and its source are built under temporary names and
 // renamed into place last: a rename is atomic, so a concurrent run sees either no library or a whole one, and two
 // runs compiling the same equations each publish an identical file.
@@ -464,6 +475,7 @@ double build(const Definition &d, const Toolchain &tc, const fs::path &folder, c
     args.insert(args.end(), {"-I", tc.include_dir.string(), "-o", library.string(), source.string()});
     const int status = run_compiler(tc, args, log);
     throw_if_cancelled("while compiling the equations"); // Ctrl-C stops the compiler too: not a compiler failure
+    throw_if_cache_went_away(folder);
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0) {
         // Keep the log where the message says; the diagnostics are detail for a bug report, not the message.
         const fs::path kept = folder / (key + ".log");

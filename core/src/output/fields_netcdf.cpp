@@ -8,9 +8,15 @@
 
 #include <array>
 #include <cctype>
+#include <cerrno>
+#include <cstring>
+#include <vector>
+
 #include <cmath>
+#include <fcntl.h>
 #include <set>
 #include <string>
+#include <unistd.h>
 
 namespace geobarrier {
 
@@ -28,11 +34,37 @@ class NcChecker {
     const std::filesystem::path &m_target;
 };
 
+// Why a file cannot be created at `path`, found by creating it and writing HDF5's first few KiB (superblock and
+// root group) ourselves: "No space left on device (the file system is full)", or "" when that works. NetCDF answers
+// every failure of HDF5's file creation with EACCES, so a full disk read "Permission denied".
+std::string creation_failure(const std::filesystem::path &path) {
+    const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+    int err = fd < 0 ? errno : 0;
+    if (fd >= 0) {
+        const std::vector<char> zeros(8192, 0);
+        if (::write(fd, zeros.data(), zeros.size()) != static_cast<ssize_t>(zeros.size()) || ::fsync(fd) != 0)
+            err = errno != 0 ? errno : ENOSPC; // a short write: the space ran out
+        ::close(fd);
+        ::unlink(path.c_str());
+    }
+    if (err == 0 || err == EINVAL) return ""; // EINVAL: a file system that cannot fsync, not the cause
+    std::string text = std::strerror(err);
+    if (err == ENOSPC) text += " (the file system is full)";
+    if (err == EDQUOT) text += " (the disk quota is used up)";
+    if (err == EFBIG) text += " (a file-size limit, ulimit -f)";
+    return text;
+}
+
 // Closes the dataset if a step throws, so the temporary file can be removed (its handle would otherwise leak).
 class NcFile {
   public:
-    NcFile(const std::filesystem::path &path, const NcChecker &check) {
-        check(nc_create(path.c_str(), NC_NETCDF4 | NC_CLOBBER, &m_id), "cannot create the NetCDF-4 file");
+    NcFile(const std::filesystem::path &path, const std::filesystem::path &target, const NcChecker &check) {
+        const int status = nc_create(path.c_str(), NC_NETCDF4 | NC_CLOBBER, &m_id);
+        if (status != NC_NOERR) {
+            const std::string cause = creation_failure(path);
+            if (!cause.empty()) throw IoError("'" + target.string() + "': cannot create the NetCDF-4 file: " + cause);
+            check(status, "cannot create the NetCDF-4 file");
+        }
         m_open = true;
     }
     ~NcFile() {
@@ -163,7 +195,7 @@ void write_fields_netcdf(const std::filesystem::path &file, const Grid &grid,
     check_arguments(grid, variables, mask);
     const NcChecker check(file);
     write_file_atomically(file, [&](const std::filesystem::path &temp) {
-        NcFile nc(temp, check);
+        NcFile nc(temp, file, check);
         const int ncid = nc.id();
 
         // Row index = y (grid.hpp), so the C-order shape is (y, x), as CF readers expect.

@@ -10,6 +10,7 @@
 #include <geobarrier/sweep.hpp>
 
 #include "experiment/json_reader.hpp"
+#include "experiment/resources.hpp"
 
 #include <netcdf.h>
 #include <omp.h>
@@ -510,8 +511,10 @@ extern "C" void member_stop_signal(int signal) {
 }
 
 // Runs one member in this process with stdout and stderr going to `log`; returns the exit code `geobarrier run`
-// would give. The member's output folder is written by the runner's staging: whole or not at all.
-int run_member_here(const Sweep &s, const SweepMember &m, const fs::path &folder, const fs::path &log, int threads) {
+// would give, and its error message in `error` (on one line). The member's output folder is written by the runner's
+// staging: whole or not at all.
+int run_member_here(const Sweep &s, const SweepMember &m, const fs::path &folder, const fs::path &log, int threads,
+                    std::string &error) {
     std::fflush(nullptr);
     const int saved_out = ::dup(1), saved_err = ::dup(2);
     const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
@@ -521,7 +524,7 @@ int run_member_here(const Sweep &s, const SweepMember &m, const fs::path &folder
         ::close(fd);
     }
     int code = member_ok;
-    std::string error;
+    error.clear();
     try {
         const ResolvedExperiment r = resolve_experiment(parse_experiment(m.experiment, s.relative_to));
         RunOptions options;
@@ -558,11 +561,20 @@ int run_member_here(const Sweep &s, const SweepMember &m, const fs::path &folder
 //
 // The member runs in a process group of its own (so that a signal reaches the compiler an `equations` member may run
 // too) and ends with the sweep process: see member_stop_signal.
-pid_t start_member(const Sweep &s, const SweepMember &m, const fs::path &folder, const fs::path &log, int threads) {
+//
+// The member's error message comes back through a pipe (`message_fd`, read end, non-blocking), not only through its
+// log: the log lies in the sweep's folder, and when that folder's disk is full the log stays empty, which left the
+// failed member's reason empty in the report.
+pid_t start_member(const Sweep &s, const SweepMember &m, const fs::path &folder, const fs::path &log, int threads,
+                   int &message_fd) {
     std::fflush(nullptr);
     const pid_t supervisor = ::getpid();
     const pid_t pid = ::fork();
-    if (pid < 0) throw IoError(std::string("cannot start a process for ") + m.name + ": " + std::strerror(errno));
+    if (pid < 0) {
+        const int err = errno;
+        ::close(message[0]), ::close(message[1]);
+        throw IoError(std::string("cannot start a process for ") + m.name + ": " + std::strerror(err));
+    }
     if (pid > 0) {
         ::setpgid(pid, pid); // here as well as in the child: whichever runs first, the group exists on return
         return pid;
@@ -578,7 +590,23 @@ pid_t start_member(const Sweep &s, const SweepMember &m, const fs::path &folder,
     ::prctl(PR_SET_PDEATHSIG, SIGTERM);
     if (::getppid() != supervisor) std::_Exit(128 + SIGKILL); // the sweep died before the line above
     omp_set_num_threads(threads);
-    std::_Exit(run_member_here(s, m, folder, log, threads));
+    std::string error;
+    const int code = run_member_here(s, m, folder, log, threads, error);
+    // At most what a pipe takes without blocking (PIPE_BUF): the supervisor reads only once the member has ended.
+    if (error.size() > 4000) error.resize(4000);
+    if (!error.empty() && ::write(message[1], error.data(), error.size()) < 0) {
+        // The log still has the message, where its disk allows.
+    }
+    std::_Exit(code);
+}
+
+// What a member that ended sent through its message pipe (start_member); closes it.
+std::string read_member_message(int fd) {
+    std::string text;
+    char buffer[4096];
+    for (ssize_t n; (n = ::read(fd, buffer, sizeof buffer)) > 0;) text.append(buffer, static_cast<std::size_t>(n));
+    ::close(fd);
+    return text;
 }
 
 // The last line the member wrote (its error message), for the report.
@@ -596,13 +624,19 @@ std::string exit_description(int status) {
     if (WIFEXITED(status)) {
         const int code = WEXITSTATUS(status);
         if (code == member_bad_input) return "bad input (exit 2)";
+    int message[2] = {-1, -1};
+    if (::pipe2(message, O_CLOEXEC | O_NONBLOCK) != 0)
+        throw IoError(std::string("cannot start a process for ") + m.name + ": " + std::strerror(errno));
         return "exit " + std::to_string(code);
     }
     if (WIFSIGNALED(status)) return "killed by signal " + std::to_string(WTERMSIG(status));
     return "status " + std::to_string(status);
 }
+        ::close(message[1]);
+        message_fd = message[0];
 
 // Mean and maximum of the FTLE over the unmasked points of a member's fields.nc.
+    ::close(message[0]);
 std::pair<double, double> ftle_mean_max(const fs::path &file) {
     int ncid = -1;
     if (nc_open(file.c_str(), NC_NOWRITE, &ncid) != NC_NOERR) return {not_available, not_available};
@@ -628,6 +662,14 @@ std::pair<double, double> ftle_mean_max(const fs::path &file) {
                 for (std::size_t k = 0; k < n; ++k) {
                     if (mask[k] & mask_trajectory_bits || !std::isfinite(ftle[k])) continue;
                     sum += ftle[k];
+// Why a member failed: its own message, else the last line of its log, else that there is none.
+std::string failure_reason(const std::string &message, const fs::path &log) {
+    if (!message.empty()) return message;
+    const std::string logged = last_line(log);
+    if (!logged.empty()) return logged;
+    return "it gave no message (its log " + log.string() + " is empty" + storage_hint(log.parent_path()) + ")";
+}
+
                     max = std::max(max, ftle[k]);
                     ++used;
                 }
@@ -812,11 +854,12 @@ void run_members_on_ranks(const Sweep &s, const fs::path &out, std::vector<std::
             if (!quiet) spdlog::info("{} ({}): started on rank {}", m.name, describe_member(s, m), mpi::rank());
             const auto start = std::chrono::steady_clock::now();
             omp_set_num_threads(threads);
-            const int code = run_member_here(s, m, out / m.name, log, threads);
+            std::string error;
+            const int code = run_member_here(s, m, out / m.name, log, threads, error);
             const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
             json outcome = {{"member", k}, {"code", code}, {"wall_seconds", seconds}};
             if (code != member_ok && !(code > 128 && cancel_requested())) {
-                outcome["message"] = "exit " + std::to_string(code) + ": " + last_line(log);
+                outcome["message"] = "exit " + std::to_string(code) + ": " + failure_reason(error, log);
                 spdlog::error("{} ({}) failed on rank {}, {} (log: {})", m.name, describe_member(s, m), mpi::rank(),
                               outcome["message"].get<std::string>(), log.string());
             } else if (code == member_ok && !quiet) {
@@ -939,8 +982,9 @@ SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
         while (!signal && next < pending.size() && running.size() < static_cast<std::size_t>(processes)) {
             const std::size_t k = pending[next++];
             const SweepMember &m = s.members[k];
-            const pid_t pid = start_member(s, m, out / m.name, out / "logs" / (m.name + ".log"), threads);
-            running[pid] = {k, std::chrono::steady_clock::now()};
+            int message_fd = -1;
+            const pid_t pid = start_member(s, m, out / m.name, out / "logs" / (m.name + ".log"), threads, message_fd);
+            running[pid] = {k, std::chrono::steady_clock::now(), message_fd};
             if (!options.quiet) spdlog::info("{} ({}): started", m.name, describe_member(s, m));
         }
         if (running.empty()) break;
@@ -966,10 +1010,11 @@ SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
             if (!options.quiet)
                 spdlog::info("{} ({}): done in {:.1f} s", m.name, describe_member(s, m), r.wall_seconds);
         } else if (interrupted) {
+        int message_fd;
             r.status = "interrupted";
         } else {
             r.status = "failed";
-            r.message = exit_description(status) + ": " + last_line(log);
+            r.message = exit_description(status) + ": " + failure_reason(message, log);
             spdlog::error("{} ({}) failed, {} (log: {})", m.name, describe_member(s, m), r.message, log.string());
         }
     }
@@ -996,6 +1041,7 @@ SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
             r.message = "no manifest.json of this member's experiment in " + folder.string();
             ++result.failed;
             continue;
+        const std::string message = read_member_message(it->second.message_fd);
         }
         r.wall_seconds = manifest->value("wall_seconds", r.wall_seconds);
         r.figures = member_figures(s, folder, *manifest);

@@ -318,6 +318,66 @@ TEST_CASE("two threads of one process: the second run into the folder is refused
     fs::remove_all(dir);
 }
 
+TEST_CASE("a file system that cannot lock: the run warns and goes on, leaves others' staging, threads kept apart") {
+    // No test machine has such a file system (NFS without its lock service): the hook GEOBARRIER_TEST_LOCK_FAILS makes
+    // flock fail as it does there. Before the hook, this fallback (docs/robustness.md) had never run.
+    const fs::path dir = scratch("no-flock"), hooks = dir / "hooks";
+    fs::create_directories(hooks);
+    const fs::path a = experiment(dir, "a", 0.08, false);
+    REQUIRE(wait_for(start(dir, "ref-a", run_args(a, dir / "ref-a"))) == 0);
+    for (const std::string failure : {"ENOLCK", "EOPNOTSUPP"}) {
+        CAPTURE(failure);
+        const fs::path out = dir / ("out-" + failure);
+        // What looks like a dead writer's staging folder may be a live writer's on another machine: it stays.
+        const fs::path staging = out / ".geobarrier-partial-999999-0-abcdef";
+        fs::create_directories(staging);
+        std::ofstream(staging / "fields.nc") << "another writer's";
+        ::setenv("GEOBARRIER_TEST_LOCK_FAILS", failure.c_str(), 1);
+        const Process p = start(dir, "run-" + failure, run_args(a, out));
+        const int code = wait_for(p);
+        const std::string err = read_text(p.err);
+        CAPTURE(err);
+        CHECK(code == 0);
+        CHECK(err.find(out.string() + ": the file system cannot lock files (" +
+                       (failure == "ENOLCK" ? "No locks available" : "Operation not supported") +
+                       "); two geobarrier processes writing this folder at once are not kept apart") !=
+              std::string::npos);
+        CHECK(read_text(staging / "fields.nc") == "another writer's");
+        fs::remove_all(staging);
+        check_one_run(out, dir / "ref-a"); // and no lock file left
+
+        // Within one process the folder is still held: a second thread's run into it is refused.
+        const geobarrier::ResolvedExperiment r = geobarrier::resolve_experiment(geobarrier::load_experiment(a));
+        geobarrier::RunOptions options;
+        options.output_dir = dir / ("threads-" + failure);
+        options.threads = 1;
+        options.quiet = true;
+        ::setenv("GEOBARRIER_TEST_PAUSE_AT", "locked", 1);
+        ::setenv("GEOBARRIER_TEST_PAUSE_DIR", hooks.c_str(), 1);
+        std::string first_error;
+        std::thread first([&] {
+            try {
+                geobarrier::run_experiment(r, options);
+            } catch (const std::exception &e) {
+                first_error = e.what();
+            }
+        });
+        for (int i = 0; i < 60000 && !fs::exists(hooks / "locked.reached"); ++i)
+            std::this_thread::sleep_for(std::chrono::milliseconds(5));
+        CHECK_THROWS_AS(geobarrier::run_experiment(r, options), geobarrier::OutputBusyError);
+        release(hooks, "locked");
+        first.join();
+        ::unsetenv("GEOBARRIER_TEST_PAUSE_AT");
+        ::unsetenv("GEOBARRIER_TEST_PAUSE_DIR");
+        ::unsetenv("GEOBARRIER_TEST_LOCK_FAILS");
+        fs::remove(hooks / "locked.reached");
+        fs::remove(hooks / "locked.go");
+        CHECK(first_error.empty());
+        check_one_run(*options.output_dir, dir / "ref-a");
+    }
+    fs::remove_all(dir);
+}
+
 TEST_CASE("both directions: the folder and each direction's subfolder are held; an earlier run's files go") {
     const fs::path dir = scratch("both"), hooks = dir / "hooks", out = dir / "out";
     fs::create_directories(hooks);

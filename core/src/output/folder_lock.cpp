@@ -12,6 +12,7 @@
 #include <map>
 #include <mutex>
 #include <regex>
+#include <set>
 #include <system_error>
 #include <thread>
 
@@ -26,13 +27,29 @@ namespace geobarrier::detail {
 
 namespace {
 
-// The folders this process holds, by device and inode, with the description of their holder.
+// The folders this process holds, by device and inode, with the description of their holder; and those of them
+// held without a lock of the file system (see flock_folder), which other processes may be writing too.
 std::mutex g_table_mutex;
 std::map<std::string, std::string> g_table;
+std::set<std::string> g_unlocked;
 
 void unreserve(const std::string &key) {
     const std::lock_guard<std::mutex> guard(g_table_mutex);
     g_table.erase(key);
+    g_unlocked.erase(key);
+}
+
+std::string folder_key(const struct stat &dir) { return std::to_string(dir.st_dev) + ":" + std::to_string(dir.st_ino); }
+
+// flock(LOCK_EX | LOCK_NB), or, where GEOBARRIER_TEST_LOCK_FAILS names ENOLCK or EOPNOTSUPP, that failure: a test
+// hook for the fallback on file systems that cannot lock (NFS without its lock service, some FUSE file systems),
+// which no test machine has.
+int flock_folder(int fd) {
+    if (const char *fails = std::getenv("GEOBARRIER_TEST_LOCK_FAILS")) {
+        if (std::strcmp(fails, "ENOLCK") == 0) return errno = ENOLCK, -1;
+        if (std::strcmp(fails, "EOPNOTSUPP") == 0) return errno = EOPNOTSUPP, -1;
+    }
+    return ::flock(fd, LOCK_EX | LOCK_NB);
 }
 
 // What the lock file says of its holder ("geobarrier run (pid 123)"), printable characters only, or "".
@@ -64,7 +81,7 @@ std::optional<FolderLock> FolderLock::acquire(const fs::path &folder, const std:
             if (err == ENOENT) return std::nullopt;
             throw IoError(folder.string() + ": cannot lock the output folder (" + std::strerror(err) + ")");
         }
-        const std::string key = std::to_string(dir.st_dev) + ":" + std::to_string(dir.st_ino);
+        const std::string key = folder_key(dir);
         {
             const std::lock_guard<std::mutex> guard(g_table_mutex);
             if (const auto it = g_table.find(key); it != g_table.end()) throw busy(folder, it->second);
@@ -78,14 +95,18 @@ std::optional<FolderLock> FolderLock::acquire(const fs::path &folder, const std:
             throw IoError(folder.string() + ": cannot create the lock file " + folder_lock_name +
                           " in the output folder (" + std::strerror(err) + ")");
         }
-        if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+        if (flock_folder(fd) != 0) {
             const int err = errno;
             if (err == ENOLCK || err == EOPNOTSUPP || err == ENOSYS || err == EINVAL) {
                 // A file system that cannot lock (NFS without its lock service, some FUSE file systems): runs there
-                // worked before the lock existed, so they still do, kept apart only within this process.
+                // worked before the lock existed, so they still do, kept apart only within this process; and what
+                // looks like a dead writer's staging folder may be a live one's, so it is left
+                // (remove_stale_leftovers).
                 spdlog::warn("{}: the file system cannot lock files ({}); two geobarrier processes writing this "
-                             "folder at once are not kept apart",
+                             "folder at once are not kept apart, and what earlier runs left there is not removed",
                              folder.string(), std::strerror(err));
+                const std::lock_guard<std::mutex> guard(g_table_mutex);
+                g_unlocked.insert(key);
                 return FolderLock(folder, fd, key);
             }
             const std::string other = holder_of(fd);
@@ -143,6 +164,12 @@ FolderLock::~FolderLock() {
 
 void remove_stale_leftovers(const fs::path &folder) {
     static const std::regex temporary(R"(\..+\.tmp-[0-9]+-[0-9]+)");
+    struct stat dir {};
+    if (::stat(folder.c_str(), &dir) != 0) return;
+    {
+        const std::lock_guard<std::mutex> guard(g_table_mutex);
+        if (g_unlocked.count(folder_key(dir)) != 0) return; // not locked: another process may be writing them
+    }
     std::error_code ec;
     std::vector<fs::path> stale;
     for (const auto &entry : fs::directory_iterator(folder, ec)) {

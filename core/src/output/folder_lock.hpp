@@ -18,8 +18,10 @@ inline constexpr const char *folder_lock_name = ".geobarrier-lock";
 // locked) when the lock is released, so a finished folder holds no trace of it; a writer that opened the file just
 // before it was removed notices that the name now leads elsewhere and tries again. Within one process the folders held
 // are also kept in a table, so that two threads are refused on file systems whose flock is per process (NFS).
-// Sweep members are forked with the sweep's lock descriptor: a sweep killed with SIGKILL keeps its folder locked until
-// its last member has ended.
+// Where the file system cannot lock (flock fails with ENOLCK, EOPNOTSUPP...), acquire warns and goes ahead, keeping
+// the folder apart only within this process; the test hook GEOBARRIER_TEST_LOCK_FAILS=ENOLCK (or EOPNOTSUPP) makes
+// flock fail so. Sweep members are forked with the sweep's lock descriptor: a sweep killed with SIGKILL keeps its
+// folder locked until its last member has ended.
 class FolderLock {
   public:
     // Locks `folder`, which must exist; `what` says what will write there ("run", "sweep"), for the refusal of others.
@@ -43,7 +45,8 @@ class FolderLock {
 };
 
 // Removes what dead writers left in a folder this process has locked: staging folders (".geobarrier-partial-*") and
-// atomic writes' temporary files (".NAME.tmp-PID-N"). Under the lock no one else can be writing them.
+// atomic writes' temporary files (".NAME.tmp-PID-N"). Under the lock no one else can be writing them; on a file system
+// that cannot lock (acquire's fallback) another process may be, so nothing is removed there.
 void remove_stale_leftovers(const std::filesystem::path &folder);
 
 // A test hook, for tests that must force an interleaving (tests/test_concurrency.cpp): where the environment names

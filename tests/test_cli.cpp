@@ -210,6 +210,12 @@ TEST_CASE("only the libraries an experiment needs are mapped; validate lists the
     CHECK(ran.status == 0);
     CHECK_MESSAGE(!fs::exists(marker), "run ran the planted library's constructor");
 
+    // check-plugin NAME maps what run and validate would (before, every library of the folders).
+    const Result checked = run("check-plugin rigid-rotation --plugin-path " + (tmp / "plugins").string(), env);
+    CHECK(checked.status == 0);
+    CHECK(contains(checked.output, "PASS  system  rigid-rotation"));
+    CHECK_MESSAGE(!fs::exists(marker), "check-plugin rigid-rotation ran the planted library's constructor");
+
     // The check is a real one: listing every plugin maps every library (that is its job).
     CHECK(run("plugins --plugin-path " + (tmp / "plugins").string(), env).status == 0);
     CHECK(fs::exists(marker));

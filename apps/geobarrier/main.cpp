@@ -212,6 +212,25 @@ struct CheckPluginOptions {
 
 // Runs the conformance checks of <geobarrier/conformance.hpp> (the same ones the plugins' own tests run) on every
 // plugin of each target and prints one table per plugin, then a summary. Exit 0 when every check passed, 1 if not.
+// Every plugin of any kind called `name` (one library may declare a system and a forcing of one name), found as run
+// and validate find them; a ConfigError listing what the folders hold when there is none.
+std::vector<PluginHandle> plugins_named(const PluginRegistry &registry, const std::string &name) {
+    std::vector<PluginHandle> found;
+    std::string missing;
+    const std::size_t warned = registry.warnings().size();
+    for (const PluginKind kind : {PluginKind::system, PluginKind::forcing, PluginKind::extractor}) {
+        try {
+            found.push_back(registry.find(kind, name, name));
+        } catch (const ConfigError &e) {
+            // The system lookup's message: it lists what the folders hold (or why the file named after it is refused).
+            if (missing.empty()) missing = std::string(e.what()).substr(e.json_path().size() + 2);
+        }
+    }
+    for (std::size_t k = warned; k < registry.warnings().size(); ++k) spdlog::warn("{}", registry.warnings()[k]);
+    if (found.empty()) throw ConfigError(name, missing + " (give a file path to check a plugin elsewhere)");
+    return found;
+}
+
 int command_check_plugin(const CheckPluginOptions &o) {
     ConformanceOptions options;
     if (!o.params.empty()) {
@@ -240,7 +259,10 @@ int command_check_plugin(const CheckPluginOptions &o) {
     };
     std::vector<Target> targets;
     std::vector<fs::path> folders(o.plugin_paths.begin(), o.plugin_paths.end());
-    const PluginRegistry registry(PluginRegistry::default_folders(folders));
+    // Only --all maps every library of the folders; a plugin named is looked up as run and validate do (its library
+    // found by its file name), so that checking one plugin runs no other library's code.
+    const PluginRegistry registry(PluginRegistry::default_folders(folders),
+                                  o.all ? PluginLoading::all : PluginLoading::on_demand);
     if (o.all) {
         if (registry.plugins().empty()) throw ConfigError("--all", "no plugins found in the plugin folders");
         for (const auto &h : registry.plugins()) targets.push_back({h.info.file.string(), {h}, "", std::nullopt});
@@ -265,16 +287,7 @@ int command_check_plugin(const CheckPluginOptions &o) {
             for (std::size_t i = 0; i < compiled.handle.info.params.size(); ++i)
                 (*t.params)["k" + std::to_string(i)] = compiled.values.value(i);
         } else {
-            for (const auto &h : registry.plugins())
-                if (h.info.name == name) t.handles.push_back(h);
-            if (t.handles.empty()) {
-                std::vector<std::string> names;
-                for (const auto &h : registry.plugins()) names.push_back(h.info.name);
-                std::string msg = "no plugin named '" + name + "' in the plugin folders";
-                const std::string hint = did_you_mean(name, names);
-                if (!hint.empty()) msg += "; did you mean '" + hint + "'?";
-                throw ConfigError(name, msg + " (give a file path to check a plugin elsewhere)");
-            }
+            t.handles = plugins_named(registry, name);
         }
         targets.push_back(std::move(t));
     }

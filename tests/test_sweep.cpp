@@ -346,3 +346,51 @@ TEST_CASE("experiments/sweep-kam-amplitude.json: the shipped sweep validates, it
     CHECK(s.members[7].experiment["extractors"] == s.base["extractors"]);
     CHECK(s.plot_figure == "outermost_elliptic_area");
 }
+
+TEST_CASE("members run in both directions: FTLE figures per direction, read from forward/ and backward/") {
+    // Their fields.nc lie in forward/ and backward/: ftle_mean and ftle_max were empty columns before.
+    const fs::path dir = fresh_dir("both-directions");
+    json base = small_base(21, 2.0);
+    base["time"]["directions"] = "both";
+    base["extractors"] = {{{"plugin", "hyperbolic"}}};
+    const json sweep = {{"base", base},
+                        {"parameters", {{{"path", "/forcing/params/amplitude"}, {"values", {0.0, 0.08}}}}},
+                        {"processes", 1},
+                        {"threads", 1},
+                        {"output", {{"dir", (dir / "out").string()}}}};
+    std::ofstream(dir / "sweep.json") << sweep.dump(1);
+    const Exit e = run_program(dir, {"sweep", (dir / "sweep.json").string(), "--quiet"});
+    CAPTURE(e.err);
+    REQUIRE(e.code == 0);
+    const auto rows = read_csv(dir / "out" / "summary.csv");
+    REQUIRE(rows.size() == 3);
+    const std::vector<std::string> &header = rows[0];
+    const auto column = [&](const std::string &name) {
+        const auto at = std::find(header.begin(), header.end(), name);
+        REQUIRE_MESSAGE(at != header.end(), name);
+        return static_cast<std::size_t>(at - header.begin());
+    };
+    CHECK(std::find(header.begin(), header.end(), "ftle_max") == header.end());
+    for (std::size_t k = 0; k < 2; ++k)
+        for (const std::string direction : {"forward", "backward"}) {
+            CAPTURE(direction);
+            const std::string cell = rows[k + 1].at(column("ftle_max_" + direction));
+            REQUIRE_FALSE(cell.empty());
+            const double expected = max_ftle(dir / "out" / ("member-00" + std::to_string(k)) / direction / "fields.nc");
+            CHECK(std::stod(cell) == doctest::Approx(expected).epsilon(1e-5));
+            CHECK_FALSE(rows[k + 1].at(column("ftle_mean_" + direction)).empty());
+        }
+
+    // The FTLE figure of the other kind of member is refused with the one to name.
+    json named = sweep;
+    named["figures"] = {"masked_fraction", "ftle_max"};
+    CHECK(
+        config_error(named).rfind("/figures/1: \"ftle_max\": the members run both directions (/base/time/directions)"
+                                  ", each with its own FTLE field; name \"ftle_max_forward\" or \"ftle_max_backward\"",
+                                  0) == 0);
+    named["base"] = small_base(21, 2.0);
+    named["figures"] = {"ftle_mean_backward"};
+    CHECK(config_error(named).rfind("/figures/0: \"ftle_mean_backward\" is a figure of members run in both directions",
+                                    0) == 0);
+    fs::remove_all(dir);
+}

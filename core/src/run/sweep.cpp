@@ -116,6 +116,12 @@ std::string describe_member(const Sweep &s, const SweepMember &m) {
 
 bool is_figure_pointer(const std::string &figure) { return !figure.empty() && figure[0] == '/'; }
 
+// A base experiment run in both directions: its members' fields.nc lie in forward/ and backward/, so their FTLE
+// figures are per direction (ftle_mean_forward, ...).
+bool runs_both_directions(const json &base) {
+    return base.contains("time") && base["time"].is_object() && base["time"].value("directions", json()) == "both";
+}
+
 // The figures the base experiment can give when the sweep names none.
 std::vector<std::string> default_figures(const json &base) {
     std::vector<std::string> figures;
@@ -129,8 +135,13 @@ std::vector<std::string> default_figures(const json &base) {
     if (base.contains("products") && base["products"].is_array())
         for (const json &p : base["products"])
             if (p == "ftle") {
-                figures.push_back("ftle_mean");
-                figures.push_back("ftle_max");
+                if (runs_both_directions(base)) {
+                    figures.insert(figures.end(), {"ftle_mean_forward", "ftle_max_forward", "ftle_mean_backward",
+                                                   "ftle_max_backward"});
+                } else {
+                    figures.push_back("ftle_mean");
+                    figures.push_back("ftle_max");
+                }
             }
     // An open system's safe basin: its share of the grid, member by member (an erosion curve over the forcing).
     if (base.contains("bounds") && base["bounds"].is_object() && base["bounds"].value("exits", "stop") == "stop")
@@ -143,8 +154,9 @@ std::vector<std::string> default_figures(const json &base) {
 
 const std::vector<std::string> &sweep_figure_names() {
     static const std::vector<std::string> names = {
-        "outermost_elliptic_area", "elliptic_barriers", "barriers",    "ftle_mean", "ftle_max",
-        "captured_fraction",       "masked_fraction",   "wall_seconds"};
+        "outermost_elliptic_area", "elliptic_barriers", "barriers",           "ftle_mean",         "ftle_max",
+        "ftle_mean_forward",       "ftle_max_forward",  "ftle_mean_backward", "ftle_max_backward", "captured_fraction",
+        "masked_fraction",         "wall_seconds"};
     return names;
 }
 
@@ -289,6 +301,29 @@ std::vector<SweepMember> make_members(const Sweep &s) {
     return members;
 }
 
+// FTLE figures and the base's directions: a member run in both directions has no fields.nc of its own (an empty
+// column before), one run in one direction no forward/ or backward/.
+void check_direction_figures(const std::vector<std::string> &figures, const json &base) {
+    const bool both = runs_both_directions(base);
+    for (std::size_t i = 0; i < figures.size(); ++i) {
+        const std::string &f = figures[i];
+        const bool per_direction = f.rfind("ftle_", 0) == 0 && (f.find("_forward") != std::string::npos ||
+                                                                f.find("_backward") != std::string::npos);
+        if (both && (f == "ftle_mean" || f == "ftle_max"))
+            throw ConfigError("/figures/" + std::to_string(i),
+                              "\"" + f +
+                                  "\": the members run both directions (/base/time/directions), each with its "
+                                  "own FTLE field; name \"" +
+                                  f + "_forward\" or \"" + f + "_backward\"");
+        if (!both && per_direction)
+            throw ConfigError("/figures/" + std::to_string(i),
+                              "\"" + f +
+                                  "\" is a figure of members run in both directions, and /base/time/directions "
+                                  "is not \"both\"; name \"" +
+                                  f.substr(0, f.rfind('_')) + "\"");
+    }
+}
+
 std::vector<std::string> read_figures(const json &figures) {
     if (!figures.is_array()) throw ConfigError("/figures", short_dump(figures) + " must be an array of figure names");
     const auto &names = sweep_figure_names();
@@ -384,6 +419,7 @@ Sweep parse_sweep(const json &j, const fs::path &file) {
         o.finish();
     }
     s.figures = root.has("figures") ? read_figures(root.get("figures")) : default_figures(s.base);
+    check_direction_figures(s.figures, s.base);
     read_plot(root, s);
     s.processes = static_cast<int>(root.count("processes", 0, 1, 4096));
     s.threads = static_cast<int>(root.count("threads", 0, 1, max_threads));
@@ -568,6 +604,9 @@ int run_member_here(const Sweep &s, const SweepMember &m, const fs::path &folder
 pid_t start_member(const Sweep &s, const SweepMember &m, const fs::path &folder, const fs::path &log, int threads,
                    int &message_fd) {
     std::fflush(nullptr);
+    int message[2] = {-1, -1};
+    if (::pipe2(message, O_CLOEXEC | O_NONBLOCK) != 0)
+        throw IoError(std::string("cannot start a process for ") + m.name + ": " + std::strerror(errno));
     const pid_t supervisor = ::getpid();
     const pid_t pid = ::fork();
     if (pid < 0) {
@@ -577,8 +616,11 @@ pid_t start_member(const Sweep &s, const SweepMember &m, const fs::path &folder,
     }
     if (pid > 0) {
         ::setpgid(pid, pid); // here as well as in the child: whichever runs first, the group exists on return
+        ::close(message[1]);
+        message_fd = message[0];
         return pid;
     }
+    ::close(message[0]);
     ::setpgid(0, 0);
     member_supervisor = supervisor;
     struct sigaction action {};
@@ -620,23 +662,25 @@ std::string last_line(const fs::path &log) {
     return last;
 }
 
+// Why a member failed: its own message, else the last line of its log, else that there is none.
+std::string failure_reason(const std::string &message, const fs::path &log) {
+    if (!message.empty()) return message;
+    const std::string logged = last_line(log);
+    if (!logged.empty()) return logged;
+    return "it gave no message (its log " + log.string() + " is empty" + storage_hint(log.parent_path()) + ")";
+}
+
 std::string exit_description(int status) {
     if (WIFEXITED(status)) {
         const int code = WEXITSTATUS(status);
         if (code == member_bad_input) return "bad input (exit 2)";
-    int message[2] = {-1, -1};
-    if (::pipe2(message, O_CLOEXEC | O_NONBLOCK) != 0)
-        throw IoError(std::string("cannot start a process for ") + m.name + ": " + std::strerror(errno));
         return "exit " + std::to_string(code);
     }
     if (WIFSIGNALED(status)) return "killed by signal " + std::to_string(WTERMSIG(status));
     return "status " + std::to_string(status);
 }
-        ::close(message[1]);
-        message_fd = message[0];
 
 // Mean and maximum of the FTLE over the unmasked points of a member's fields.nc.
-    ::close(message[0]);
 std::pair<double, double> ftle_mean_max(const fs::path &file) {
     int ncid = -1;
     if (nc_open(file.c_str(), NC_NOWRITE, &ncid) != NC_NOERR) return {not_available, not_available};
@@ -662,14 +706,6 @@ std::pair<double, double> ftle_mean_max(const fs::path &file) {
                 for (std::size_t k = 0; k < n; ++k) {
                     if (mask[k] & mask_trajectory_bits || !std::isfinite(ftle[k])) continue;
                     sum += ftle[k];
-// Why a member failed: its own message, else the last line of its log, else that there is none.
-std::string failure_reason(const std::string &message, const fs::path &log) {
-    if (!message.empty()) return message;
-    const std::string logged = last_line(log);
-    if (!logged.empty()) return logged;
-    return "it gave no message (its log " + log.string() + " is empty" + storage_hint(log.parent_path()) + ")";
-}
-
                     max = std::max(max, ftle[k]);
                     ++used;
                 }
@@ -703,6 +739,10 @@ std::vector<double> member_figures(const Sweep &s, const fs::path &folder, const
         } else if (figure == "ftle_mean" || figure == "ftle_max") {
             if (!ftle) ftle = ftle_mean_max(folder / "fields.nc");
             v = figure == "ftle_mean" ? ftle->first : ftle->second;
+        } else if (figure.rfind("ftle_", 0) == 0) { // ftle_{mean,max}_{forward,backward}: that direction's run
+            const std::string direction = figure.substr(figure.rfind('_') + 1);
+            const auto value = ftle_mean_max(folder / direction / "fields.nc");
+            v = figure.rfind("ftle_mean", 0) == 0 ? value.first : value.second;
         } else {
             if (!barriers) {
                 try {
@@ -969,6 +1009,7 @@ SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
     struct Running {
         std::size_t member;
         std::chrono::steady_clock::time_point start;
+        int message_fd;
     };
     std::map<pid_t, Running> running;
     std::size_t next = 0;
@@ -1000,6 +1041,7 @@ SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
         const std::size_t k = it->second.member;
         SweepMemberResult &r = result.members[k];
         r.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - it->second.start).count();
+        const std::string message = read_member_message(it->second.message_fd);
         running.erase(it);
         const SweepMember &m = s.members[k];
         const fs::path log = out / "logs" / (m.name + ".log");
@@ -1010,7 +1052,6 @@ SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
             if (!options.quiet)
                 spdlog::info("{} ({}): done in {:.1f} s", m.name, describe_member(s, m), r.wall_seconds);
         } else if (interrupted) {
-        int message_fd;
             r.status = "interrupted";
         } else {
             r.status = "failed";
@@ -1041,7 +1082,6 @@ SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
             r.message = "no manifest.json of this member's experiment in " + folder.string();
             ++result.failed;
             continue;
-        const std::string message = read_member_message(it->second.message_fd);
         }
         r.wall_seconds = manifest->value("wall_seconds", r.wall_seconds);
         r.figures = member_figures(s, folder, *manifest);

@@ -1,6 +1,7 @@
 // Loading plugin libraries (Boost.DLL), checking what they declare, validating
 // parameters against their schemas, and the wrappers that call across the ABI.
 #include "plugins/library_check.hpp"
+#include "plugins/plugin_entry.hpp"
 
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
@@ -326,12 +327,7 @@ std::vector<PluginHandle> load_plugin_library(const fs::path &file) {
         throw PluginError(where + "the entry function threw an exception of unknown type");
     }
     if (!entry) throw PluginError(where + "the entry function returned no entry");
-    if (entry->abi_major != GB_ABI_VERSION_MAJOR)
-        throw PluginError(where + "built for plugin ABI " + std::to_string(entry->abi_major) + "." +
-                          std::to_string(entry->abi_minor) + ", this geobarrier speaks ABI " +
-                          std::to_string(GB_ABI_VERSION_MAJOR) + "." + std::to_string(GB_ABI_VERSION_MINOR) +
-                          " (rebuild the plugin against this version)");
-    if (entry->count == 0 || !entry->descriptors) throw PluginError(where + "the entry declares no plugins");
+    std::vector<PluginInfo> infos = detail::read_plugin_entry(*entry, file);
     // ABI 1.3 appended the library's extensions by id; an older entry ends before them.
     gb_build_info build{};
     if (entry->abi_minor >= 3 && entry->get_extension)
@@ -342,15 +338,29 @@ std::vector<PluginHandle> load_plugin_library(const fs::path &file) {
     auto shared = std::make_shared<const PluginLibrary>(std::move(lib), file);
     std::vector<PluginHandle> out;
     for (std::uint32_t i = 0; i < entry->count; ++i) {
+        out.push_back(PluginHandle{shared, &entry->descriptors[i], std::move(infos[i])});
+        out.back().info.build = build;
+    }
+    return out;
+}
+
+std::vector<PluginInfo> detail::read_plugin_entry(const gb_plugin_entry &entry, const fs::path &file) {
+    const std::string where = file.string() + ": ";
+    if (entry.abi_major != GB_ABI_VERSION_MAJOR)
+        throw PluginError(where + "built for plugin ABI " + std::to_string(entry.abi_major) + "." +
+                          std::to_string(entry.abi_minor) + ", this geobarrier speaks ABI " +
+                          std::to_string(GB_ABI_VERSION_MAJOR) + "." + std::to_string(GB_ABI_VERSION_MINOR) +
+                          " (rebuild the plugin against this version)");
+    if (entry.count == 0 || !entry.descriptors) throw PluginError(where + "the entry declares no plugins");
+    std::vector<PluginInfo> infos;
+    for (std::uint32_t i = 0; i < entry.count; ++i) {
         try {
-            out.push_back(
-                PluginHandle{shared, &entry->descriptors[i], read_descriptor(entry->descriptors[i], file, *entry)});
-            out.back().info.build = build;
+            infos.push_back(read_descriptor(entry.descriptors[i], file, entry));
         } catch (const std::string &reason) {
             throw PluginError(where + reason);
         }
     }
-    return out;
+    return infos;
 }
 
 // ------------------------------------------------------------ param values

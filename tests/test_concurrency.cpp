@@ -402,3 +402,40 @@ TEST_CASE("both directions: the folder and each direction's subfolder are held; 
     CHECK(names == listed); // the earlier run's fields.nc and ftle.png are gone, no lock file, no staging folder
     fs::remove_all(dir);
 }
+
+TEST_CASE("both directions over an earlier one: its manifest and tangle.json go before a new direction is published") {
+    // The directions are replaced one after the other, so the earlier run's top level cannot stay whole: before, its
+    // manifest.json and tangle.json stayed beside the new forward/ (and the old tangle.json until the new one was
+    // written), vouching for a mix. Forced: the new run pauses while publishing its forward direction.
+    const fs::path dir = scratch("both-over-both"), hooks = dir / "hooks", out = dir / "out";
+    fs::create_directories(hooks);
+    for (const auto &[name, amplitude] : {std::pair<std::string, double>{"earlier", 0.08}, {"later", 0.1}}) {
+        json both = json::parse(read_text(experiment(dir, name, amplitude, true)));
+        both["time"]["directions"] = "both";
+        std::ofstream(dir / (name + ".json")) << both.dump(1);
+    }
+    REQUIRE(wait_for(start(dir, "earlier", run_args(dir / "earlier.json", out))) == 0);
+    REQUIRE(fs::exists(out / "tangle.json"));
+    const Process later = start(dir, "later", run_args(dir / "later.json", out), "publishing", hooks);
+    wait_until_paused(later, hooks, "publishing"); // forward/'s new files moved in, its manifest not yet
+    CHECK_FALSE(fs::exists(out / "manifest.json"));
+    CHECK_FALSE(fs::exists(out / "tangle.json"));
+    CHECK_FALSE(fs::exists(out / "tangle.png"));
+    CHECK(fs::exists(out / "backward" / "manifest.json")); // the earlier backward run, whole, until it is replaced
+    release(hooks, "publishing");
+    CHECK_MESSAGE(wait_for(later) == 0, read_text(later.err));
+    std::set<std::string> names;
+    for (const auto &e : fs::directory_iterator(out)) names.insert(e.path().filename().string());
+    const json manifest = json::parse(read_text(out / "manifest.json"));
+    std::set<std::string> listed;
+    for (const json &f : manifest.at("files")) listed.insert(f.get<std::string>());
+    CHECK(names == listed); // no journal, no lock file, no staging folder
+    CHECK(manifest.at("experiment").at("forcing").at("params").at("amplitude") == 0.1);
+    for (const std::string direction : {"forward", "backward"})
+        CHECK(json::parse(read_text(out / direction / "manifest.json"))
+                  .at("experiment")
+                  .at("forcing")
+                  .at("params")
+                  .at("amplitude") == 0.1);
+    fs::remove_all(dir);
+}

@@ -695,6 +695,29 @@ RunSummary run_stages(const ResolvedExperiment &r, const RunOptions &options) {
     return finish_run(record, options, staging, run_start, std::move(summary));
 }
 
+// Before several runs replace the subfolders of an earlier run of several runs (its "forward" and "backward"), one
+// after the other: that run's manifest and its top-level files (tangle.json, its pictures) go first, so that the
+// folder never holds an old manifest or an old tangle.json beside a new subfolder or a new manifest. Their names stay
+// in the publishing journal until the new manifest is written, for the next run to remove if this one is killed. An
+// earlier single run (no subfolder) is left whole until the new runs have succeeded, as a failed run leaves it.
+void retire_earlier_runs(const fs::path &folder, const std::set<std::string> &earlier) {
+    std::error_code ec;
+    std::set<std::string> files;
+    bool several = false;
+    for (const std::string &name : earlier) {
+        if (fs::is_directory(folder / name, ec))
+            several = true;
+        else
+            files.insert(name);
+    }
+    if (!several) return;
+    json journal = json::array();
+    for (const std::string &name : earlier) journal.push_back(name);
+    write_text_file(folder / publishing_journal, journal.dump() + "\n");
+    fs::remove(folder / "manifest.json", ec);
+    remove_entries(folder, files);
+}
+
 // Several runs into one folder, both directions (tangle.cpp) or frames (frames.cpp): claimed for the whole of the runs
 // (each run claims its own subfolder as well); what an earlier run left there and the new manifest does not list is
 // removed afterwards.
@@ -703,12 +726,15 @@ RunSummary run_claimed(const ResolvedExperiment &r, const RunOptions &options,
     if (!options.write_files || (mpi::sharing_tiles() && mpi::rank() != 0)) return runs(r, options);
     OutputClaim claim(options.output_dir ? *options.output_dir : r.experiment.output_dir);
     const std::set<std::string> earlier = earlier_run_entries(claim.dir());
+    retire_earlier_runs(claim.dir(), earlier);
     RunSummary summary = runs(r, options);
     claim.keep();
     std::set<std::string> stale = earlier;
     for (const json &name : summary.manifest.value("files", json::array()))
         if (name.is_string()) stale.erase(name.get<std::string>());
     remove_entries(claim.dir(), stale);
+    std::error_code ec;
+    fs::remove(claim.dir() / publishing_journal, ec);
     return summary;
 }
 

@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -156,6 +157,39 @@ TEST_CASE("frames of an autonomous system: every track lasts through all frames,
 
 namespace {
 
+std::uint32_t be32(const std::string &s, std::size_t at) {
+    std::uint32_t v = 0;
+    for (std::size_t k = 0; k < 4; ++k) v = v << 8 | static_cast<unsigned char>(s[at + k]);
+    return v;
+}
+
+// An animated PNG of `frames` frames, by the APNG specification: acTL's frame count, one fcTL per frame, sequence
+// numbers 0, 1, 2, ... over fcTL and fdAT, and every chunk's CRC-32 (computed here bit by bit).
+void check_animation(const fs::path &file, std::uint32_t frames) {
+    const std::string png = test::read_text(file);
+    REQUIRE(png.size() > 8);
+    CHECK(png.substr(1, 3) == "PNG");
+    std::uint32_t actl = 0, fctl = 0, sequence = 0;
+    bool crcs = true;
+    for (std::size_t at = 8; at + 12 <= png.size();) {
+        const std::uint32_t length = be32(png, at);
+        const std::string type = png.substr(at + 4, 4);
+        std::uint32_t crc = 0xffffffffu;
+        for (std::size_t k = at + 4; k < at + 8 + length; ++k) {
+            crc ^= static_cast<unsigned char>(png[k]);
+            for (int bit = 0; bit < 8; ++bit) crc = crc & 1 ? 0xedb88320u ^ (crc >> 1) : crc >> 1;
+        }
+        crcs = crcs && (crc ^ 0xffffffffu) == be32(png, at + 8 + length);
+        if (type == "acTL") actl = be32(png, at + 8);
+        if (type == "fcTL") ++fctl;
+        if (type == "fcTL" || type == "fdAT") CHECK(be32(png, at + 8) == sequence++);
+        at += 12 + length;
+    }
+    CHECK(crcs);
+    CHECK(actl == frames);
+    CHECK(fctl == frames);
+}
+
 // The barriers a track holds in frame k, as one list of barriers.json items.
 json track_barriers_in(const json &track, std::size_t k, const json &frame) {
     json out = json::array();
@@ -175,7 +209,10 @@ TEST_CASE("frames of a periodic forcing: the frame at t0 + P is the frame at t0,
     fs::remove_all(dir);
     json j = duffing(0.15, 0.3);
     j["time"] = {{"t0", {{"from", 0}, {"to", 2 * pi}, {"count", 5}}}, {"T", 10}};
+    j["output"]["plots"] = true;
     run_into(j, dir);
+    CHECK(fs::exists(dir / "tracks.png"));
+    check_animation(dir / "animation.png", 5);
     const json tracks = json::parse(test::read_text(dir / "tracks.json"));
     const double h = tracks["grid_spacing"].get<double>();
     const json first = barriers_in(dir / "frames" / "000"), last = barriers_in(dir / "frames" / "004");

@@ -10,6 +10,8 @@
 #include <nlohmann/json.hpp>
 
 #include <cstddef>
+#include <cstdint>
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -47,9 +49,31 @@ struct TrackSettings {
 nlohmann::json track_barriers(const ResolvedExperiment &experiment, const std::vector<double> &t0s,
                               const std::vector<nlohmann::json> &barriers, const TrackSettings &settings = {});
 
+// A frame's FTLE field for the animation (row-major ny x nx, with the run's mask).
+struct FrameField {
+    double t0 = 0.0;
+    std::vector<double> ftle;
+    std::vector<std::uint8_t> mask;
+};
+
+// An animated PNG (APNG: the PNG format with acTL, fcTL and fdAT chunks, which browsers, ffmpeg and image viewers
+// play; a reader without APNG shows the first frame) from PNG pictures of one size and kind, each shown for
+// `delay_ms`, played over and over.
+void write_animated_png(const std::filesystem::path &file, const std::vector<std::filesystem::path> &frames,
+                        unsigned delay_ms);
+// The frames' FTLE fields with their barriers, each coloured by its track (`tracks`: track_barriers' result), as an
+// animated PNG; the frame pictures are drawn into `scratch` and removed.
+void plot_frames_animation(const std::filesystem::path &file, const std::filesystem::path &scratch, const Grid &grid,
+                           const std::vector<FrameField> &fields, const std::vector<nlohmann::json> &barriers,
+                           const nlohmann::json &tracks, const std::string &title);
+// Each track's length against its frames' initial times, coloured as in the animation.
+void plot_track_figures(const std::filesystem::path &file, const nlohmann::json &tracks);
+
 // "time": {"t0": [...] or {"from", "to", "count"}, "T": ...}: one complete run per initial time into
 // <out>/frames/000, <out>/frames/001, ... (each with its own manifest), then <out>/tracks.json (track_barriers, when
-// the experiment has extractors) and <out>/manifest.json, written last, listing the frames. Writes files only
+// the experiment has extractors), with plots <out>/animation.png (plot_frames_animation, when the frames' FTLE fields
+// fit in 1 GiB) and <out>/tracks.png (plot_track_figures), and <out>/manifest.json, written last, listing the frames.
+// Writes files only
 // (RunOptions::write_files; keep_results is refused, as Python's run does not write folders).
 RunSummary run_frames(const ResolvedExperiment &experiment, const RunOptions &options);
 

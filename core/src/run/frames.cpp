@@ -369,6 +369,53 @@ void remove_stale_frames(const fs::path &frames, std::size_t count) {
 
 } // namespace
 
+namespace {
+
+// The frame's FTLE field, kept for the animation while the fields of all frames fit in `budget` bytes.
+void keep_ftle(const RunSummary &frame, double t0, std::size_t frames, std::vector<FrameField> &fields) {
+    constexpr double budget = 1024.0 * 1024 * 1024;
+    for (const FieldResult &f : frame.fields)
+        if (f.name == "ftle" && static_cast<double>(f.values.size()) * 9.0 * static_cast<double>(frames) <= budget) {
+            fields.push_back({t0, f.values, frame.mask});
+            return;
+        }
+}
+
+// tracks.json and, with plots, the animation and the tracks' picture; the names written, for the manifest.
+json write_tracks(const ResolvedExperiment &r, const fs::path &out, const std::vector<json> &barriers,
+                  const std::vector<FrameField> &fields, RunSummary &summary, json &files) {
+    const Experiment &e = r.experiment;
+    const json tracks = track_barriers(r, e.frames, barriers);
+    write_text_file(out / "tracks.json", tracks.dump(1) + "\n");
+    summary.files.push_back(out / "tracks.json");
+    files.push_back("tracks.json");
+    spdlog::info("tracks: {} over {} frames, {} through all of them", tracks["track_count"].get<std::size_t>(),
+                 e.frames.size(), tracks["tracks_through_all_frames"].get<std::size_t>());
+    if (e.plots) {
+        plot_track_figures(out / "tracks.png", tracks);
+        summary.files.push_back(out / "tracks.png");
+        files.push_back("tracks.png");
+        if (fields.size() == e.frames.size()) {
+            const fs::path scratch = out / ".frames-animation";
+            fs::create_directories(scratch);
+            plot_frames_animation(out / "animation.png", scratch, e.grid, fields, barriers, tracks,
+                                  "barriers by track");
+            std::error_code ec;
+            fs::remove_all(scratch, ec);
+            summary.files.push_back(out / "animation.png");
+            files.push_back("animation.png");
+        } else {
+            spdlog::warn("frames: no animation.png (it needs the \"ftle\" product, and every frame's FTLE field "
+                         "within 1 GiB)");
+        }
+    }
+    return {{"count", tracks["track_count"]},
+            {"through_all_frames", tracks["tracks_through_all_frames"]},
+            {"tolerance_grid_spacings", tracks["tolerance_grid_spacings"]}};
+}
+
+} // namespace
+
 RunSummary run_frames(const ResolvedExperiment &r, const RunOptions &options) {
     const Experiment &e = r.experiment;
     if (!options.write_files || options.keep_results)
@@ -377,6 +424,7 @@ RunSummary run_frames(const ResolvedExperiment &r, const RunOptions &options) {
     const auto start = std::chrono::steady_clock::now();
     const fs::path out = options.output_dir ? *options.output_dir : e.output_dir;
     std::vector<json> barriers;
+    std::vector<FrameField> fields;
     json frames = json::array();
     RunSummary summary;
     for (std::size_t k = 0; k < e.frames.size(); ++k) {
@@ -390,23 +438,14 @@ RunSummary run_frames(const ResolvedExperiment &r, const RunOptions &options) {
                           {"folder", frame_folder(k)},
                           {"manifest", frame_folder(k) + "/manifest.json"},
                           {"barriers", frame.barriers.size()}});
+        if (e.plots && !e.extractors.empty()) keep_ftle(frame, e.frames[k], e.frames.size(), fields);
         barriers.push_back(std::move(frame.barriers));
     }
     if (mpi::rank() != 0) return summary; // the other ranks only shared the flow maps' tiles
     remove_stale_frames(out / "frames", e.frames.size());
     summary.output_dir = out;
     json files = json::array({"frames"}), manifest_tracks = nullptr;
-    if (!e.extractors.empty()) {
-        const json tracks = track_barriers(r, e.frames, barriers);
-        manifest_tracks = {{"count", tracks["track_count"]},
-                           {"through_all_frames", tracks["tracks_through_all_frames"]},
-                           {"tolerance_grid_spacings", tracks["tolerance_grid_spacings"]}};
-        write_text_file(out / "tracks.json", tracks.dump(1) + "\n");
-        summary.files.push_back(out / "tracks.json");
-        files.push_back("tracks.json");
-        spdlog::info("tracks: {} over {} frames, {} through all of them", tracks["track_count"].get<std::size_t>(),
-                     e.frames.size(), tracks["tracks_through_all_frames"].get<std::size_t>());
-    }
+    if (!e.extractors.empty()) manifest_tracks = write_tracks(r, out, barriers, fields, summary, files);
     files.push_back("manifest.json");
     const json manifest = {
         {"experiment", e.source},

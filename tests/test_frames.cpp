@@ -110,6 +110,19 @@ TEST_CASE("frames: initial times as a list or {from, to, count} with one horizon
     v["time"] = {{"t0", {0, 1}}, {"T", 1}};
     v["validation"] = {{"advect_barriers", true}};
     CHECK(error_path(v) == "/validation");
+
+    // A run that keeps its results in memory (Python's run) is refused before anything is computed.
+    json m = j;
+    m["time"] = {{"t0", {0, 1}}, {"T", 1}};
+    RunOptions in_memory;
+    in_memory.write_files = false;
+    in_memory.keep_results = true;
+    try {
+        run_experiment(resolve_experiment(parse_experiment(m)), in_memory);
+        FAIL("a frames run kept in memory was accepted");
+    } catch (const ConfigError &e) {
+        CHECK(e.json_path() == "/time/t0");
+    }
 }
 
 TEST_CASE("frames of an autonomous system: every track lasts through all frames, its figures constant") {

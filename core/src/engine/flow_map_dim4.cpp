@@ -1,4 +1,8 @@
-// The flow-map engine for systems of dimension 4 in a translation unit of its own (flow_map.cpp,
-// flow_map_engine::run_batches_for).
-#define GEOBARRIER_FLOW_MAP_DIMENSION 4
-#include "flow_map.cpp"
+// The flow-map engine for systems of dimension 4 in a translation unit of its own (batch_integrator.hpp).
+#include "batch_integrator.hpp"
+
+namespace geobarrier::flow_map_engine {
+
+template <> IntegratorStats run_batches_for<4>(const BatchRequest &request) { return run_batches_of<4>(request); }
+
+} // namespace geobarrier::flow_map_engine

@@ -165,6 +165,11 @@ TEST_CASE("frames of an autonomous system: every track lasts through all frames,
             CHECK(bk["match_distance"].get<double>() < 0.5);
         }
     }
+    // A run of fewer frames into the same folder leaves none of the earlier run's extra frames.
+    j["time"]["t0"] = {0, 0.5};
+    CHECK(run_into(j, dir)["frames"].size() == 2);
+    CHECK(fs::exists(dir / "frames" / "001" / "manifest.json"));
+    CHECK_FALSE(fs::exists(dir / "frames" / "002"));
     fs::remove_all(dir);
 }
 

@@ -362,7 +362,8 @@ void remove_stale_frames(const fs::path &frames, std::size_t count) {
     if (!fs::is_directory(frames, ec)) return;
     for (const auto &entry : fs::directory_iterator(frames, ec)) {
         const std::string name = entry.path().filename().string();
-        if (name.size() == 3 && std::all_of(name.begin(), name.end(), ::isdigit) && std::stoul(name) >= count)
+        if (name.size() == 3 && std::all_of(name.begin(), name.end(), [](char c) { return c >= '0' && c <= '9'; }) &&
+            std::stoul(name) >= count)
             fs::remove_all(entry.path(), ec);
     }
 }

@@ -215,6 +215,13 @@ TEST_CASE("only the libraries an experiment needs are mapped; validate lists the
     CHECK(checked.status == 0);
     CHECK(contains(checked.output, "PASS  system  rigid-rotation"));
     CHECK_MESSAGE(!fs::exists(marker), "check-plugin rigid-rotation ran the planted library's constructor");
+    // A misspelt name of any kind is matched against the plugins of its kind (no file is named after it, so the
+    // fallback maps the folders' libraries first, a warning for each).
+    const Result misspelt = run("check-plugin cosien", "", "2>&1 >/dev/null");
+    CHECK(misspelt.status == 2);
+    CHECK_MESSAGE(contains(misspelt.output, "geobarrier: error: cosien: no forcing plugin named \"cosien\"; did you "
+                                            "mean \"cosine\"?"),
+                  misspelt.output);
 
     // The check is a real one: listing every plugin maps every library (that is its job).
     CHECK(run("plugins --plugin-path " + (tmp / "plugins").string(), env).status == 0);

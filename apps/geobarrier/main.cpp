@@ -222,8 +222,12 @@ std::vector<PluginHandle> plugins_named(const PluginRegistry &registry, const st
         try {
             found.push_back(registry.find(kind, name, name));
         } catch (const ConfigError &e) {
-            // The system lookup's message: it lists what the folders hold (or why the file named after it is refused).
-            if (missing.empty()) missing = std::string(e.what()).substr(e.json_path().size() + 2);
+            // Each lookup lists what the folders hold of its kind (or why the file named after NAME is refused): the
+            // first that has a "did you mean" for a misspelt name, else the system lookup's.
+            std::string text = e.what();
+            if (text.rfind(name + ": ", 0) == 0) text = text.substr(name.size() + 2);
+            const bool hint = text.find("did you mean") != std::string::npos;
+            if (missing.empty() || (hint && missing.find("did you mean") == std::string::npos)) missing = text;
         }
     }
     for (std::size_t k = warned; k < registry.warnings().size(); ++k) spdlog::warn("{}", registry.warnings()[k]);

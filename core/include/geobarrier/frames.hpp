@@ -31,11 +31,13 @@ std::vector<double> frame_initial_times(const nlohmann::json &t0, const std::str
 double mean_distance_to_polyline(const std::vector<double> &from, const std::vector<double> &to, bool to_closed,
                                  double cutoff);
 
-// How barriers are matched between frames: the distance of two curves is the smaller of the two directed mean
-// distances (mean_distance_to_polyline, both curves resampled to half a grid spacing; the advected curve only where it
-// lies inside the grid's box), so that a barrier extracted as a longer or shorter piece of the same material curve
-// still matches; two curves match when it is at most `tolerance` grid spacings (the larger of dx, dy), one to one,
-// closest pairs first, and only between barriers of the same extractor, kind and direction (repelling, attracting).
+// How barriers are matched between frames: the distance of two curves is a directed mean distance
+// (mean_distance_to_polyline, both curves resampled to half a grid spacing; the advected curve only where it lies
+// inside the grid's box), of two open curves the smaller of the two directions (a barrier extracted as a longer or
+// shorter piece of the same material curve still matches), of two closed ones the larger (nested tori stay apart).
+// Two curves match when it is at most `tolerance` grid spacings (the larger of dx, dy), one to one, closest pairs
+// first, then each open barrier left without a match takes its closest (a curve extracted in two pieces keeps one
+// track); only barriers of the same extractor, kind and direction (repelling, attracting) match.
 struct TrackSettings {
     double tolerance = 2.0; // grid spacings
 };

@@ -197,10 +197,11 @@ struct Match {
 };
 
 // Every pair of one of frame k's advected barriers (`images`; image_of[c]: the barrier of image c) and one of frame
-// k + 1's barriers (`next`) within the tolerance: a material curve the extractor reports as one piece in one frame and
-// as two in the next (or the reverse) matches each of them.
-std::vector<Match> match_images(const std::vector<AdvectedCurve> &images, const std::vector<std::size_t> &image_of,
-                                const json &previous, const json &next, const Grid &g, double tolerance) {
+// k + 1's barriers (`next`) within the tolerance. Two closed barriers (whole tori) are as far apart as the larger of
+// the directed distances, so that nested tori a grid spacing apart stay apart; an open barrier may be extracted as a
+// longer or shorter piece of the curve, so the smaller counts.
+std::vector<Match> candidate_matches(const std::vector<AdvectedCurve> &images, const std::vector<std::size_t> &image_of,
+                                     const json &previous, const json &next, const Grid &g, double tolerance) {
     const double h = std::max(g.dx(), g.dy()), spacing = 0.5 * h, cutoff = 2.0 * tolerance * h;
     std::vector<std::vector<double>> next_xy;
     for (const json &b : next) next_xy.push_back(resampled_inside(points_of(b), b.value("closed", false), g, spacing));
@@ -211,10 +212,38 @@ std::vector<Match> match_images(const std::vector<AdvectedCurve> &images, const 
         for (std::size_t b = 0; b < next.size(); ++b) {
             if (!same_family(previous[image_of[c]], next[b]) || next_xy[b].size() < 4) continue;
             const bool closed = next[b].value("closed", false);
-            const double d = std::min(mean_distance_to_polyline(image, next_xy[b], closed, cutoff),
-                                      mean_distance_to_polyline(next_xy[b], image, images[c].closed, cutoff));
+            const double to = mean_distance_to_polyline(image, next_xy[b], closed, cutoff),
+                         from = mean_distance_to_polyline(next_xy[b], image, images[c].closed, cutoff);
+            const double d = closed && images[c].closed ? std::max(to, from) : std::min(to, from);
             if (d <= tolerance * h) matches.push_back({image_of[c], b, d / h});
         }
+    }
+    return matches;
+}
+
+// The matches kept from the candidates: one to one, closest pairs first; then each open barrier left without a match
+// (on either side) takes its closest candidate, so that a curve the extractor reports as one piece in one frame and
+// as two in the next keeps one track with both pieces. A closed barrier is a whole curve and never splits.
+std::vector<Match> match_images(const std::vector<AdvectedCurve> &images, const std::vector<std::size_t> &image_of,
+                                const json &previous, const json &next, const Grid &g, double tolerance) {
+    std::vector<Match> candidates = candidate_matches(images, image_of, previous, next, g, tolerance);
+    std::sort(candidates.begin(), candidates.end(), [](const Match &a, const Match &b) {
+        return a.distance != b.distance ? a.distance < b.distance : a.from != b.from ? a.from < b.from : a.to < b.to;
+    });
+    std::vector<Match> matches;
+    std::vector<bool> from_used(previous.size(), false), to_used(next.size(), false), taken(candidates.size(), false);
+    for (std::size_t m = 0; m < candidates.size(); ++m) {
+        const Match &c = candidates[m];
+        if (from_used[c.from] || to_used[c.to]) continue;
+        from_used[c.from] = to_used[c.to] = taken[m] = true;
+        matches.push_back(c);
+    }
+    for (std::size_t m = 0; m < candidates.size(); ++m) {
+        const Match &c = candidates[m];
+        if (taken[m] || previous[c.from].value("closed", false) || next[c.to].value("closed", false)) continue;
+        if (from_used[c.from] && to_used[c.to]) continue;
+        from_used[c.from] = to_used[c.to] = true;
+        matches.push_back(c);
     }
     return matches;
 }

@@ -50,8 +50,11 @@ struct BatchRequest {
 
 enum class Method { dopri5, rkf78, rk4, rosenbrock4, dop853 };
 
-// IntegratorSettings::method as a Method; EngineSettingError for an unknown name.
+enum class Engine { lockstep, odeint };
+
+// IntegratorSettings::method and ::engine parsed; EngineSettingError for an unknown name.
 Method parse_method(const std::string &name);
+Engine parse_engine(const std::string &name);
 
 // Integrates the request's lanes with the engine for systems of dimension N, batches in parallel (OpenMP). The first
 // exception thrown in any batch stops the remaining batches and is rethrown here. Specialised for N = 2 ..

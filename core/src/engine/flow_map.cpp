@@ -32,15 +32,23 @@ Method parse_method(const std::string &name) {
                              "unknown method \"" + name + "\"; expected dop853, dopri5, rkf78, rk4 or rosenbrock4");
 }
 
+Engine parse_engine(const std::string &name) {
+    if (name == "lockstep") return Engine::lockstep;
+    if (name == "odeint") return Engine::odeint;
+    throw EngineSettingError(EngineSetting::engine, "unknown engine \"" + name + "\"; expected lockstep or odeint");
+}
+
 } // namespace flow_map_engine
 
 namespace {
 
 using flow_map_engine::BatchRequest;
 using flow_map_engine::DifferenceControl;
+using flow_map_engine::Engine;
 using flow_map_engine::FinishFn;
 using flow_map_engine::InitFn;
 using flow_map_engine::Method;
+using flow_map_engine::parse_engine;
 using flow_map_engine::parse_method;
 
 constexpr double nan_value = std::numeric_limits<double>::quiet_NaN();
@@ -72,10 +80,7 @@ void validate(const Dynamics &dynamics, double t0, double t1, const IntegratorSe
     if (!(settings.step > 0.0) || !std::isfinite(settings.step))
         throw EngineSettingError(EngineSetting::step, std::to_string(settings.step) + " is not a positive step");
     if (settings.batch == 0) throw EngineSettingError(EngineSetting::batch, "0 is below the minimum 1");
-    if (settings.engine != "lockstep" && settings.engine != "odeint")
-        throw EngineSettingError(EngineSetting::engine,
-                                 "unknown engine \"" + settings.engine + "\"; expected lockstep or odeint");
-    if (settings.engine == "odeint" && parse_method(settings.method) == Method::dop853)
+    if (parse_engine(settings.engine) == Engine::odeint && parse_method(settings.method) == Method::dop853)
         throw EngineSettingError(EngineSetting::method,
                                  "dop853 runs in the lockstep engine only; use \"engine\": \"lockstep\" "
                                  "or the odeint methods dopri5, rkf78, rk4, rosenbrock4");

@@ -173,6 +173,38 @@ TEST_CASE("frames of an autonomous system: every track lasts through all frames,
     fs::remove_all(dir);
 }
 
+TEST_CASE("frames of an autonomous system: nested closed barriers are tracked one to one, areas constant") {
+    // Unforced Duffing's elliptic barriers, nested tori around each centre about a grid spacing apart: each torus
+    // advected to the next frame must be matched to itself, not to a neighbour, and keep its enclosed area.
+    const fs::path dir = fs::temp_directory_path() / ("geobarrier-test-frames-tori-" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    json j = duffing(0, 0);
+    j["grid"]["n"] = {161, 101};
+    j["time"] = {{"t0", {0, 0.5, 1.0}}, {"T", 8 * pi}};
+    j["integrator"] = {{"method", "dopri5"}, {"rtol", 1e-8}, {"atol", 1e-10}};
+    j["products"] = {"ftle", "shear_deviation_plus", "shear_deviation_minus"};
+    j["extractors"] = {{{"plugin", "elliptic"}, {"params", {{"max_mean_deviation", 0.7}}}}};
+    run_into(j, dir);
+    const json tracks = json::parse(test::read_text(dir / "tracks.json"));
+    const json first = barriers_in(dir / "frames" / "000");
+    REQUIRE(first.size() >= 4);
+    CHECK(tracks["track_count"] == first.size());
+    CHECK(tracks["tracks_through_all_frames"] == first.size());
+    for (const json &track : tracks["tracks"]) {
+        REQUIRE(track["frames"].size() == 3);
+        const json &b0 = track["frames"][0]["barriers"][0];
+        CHECK(b0["area"].get<double>() > 0.0);
+        for (std::size_t k = 1; k < 3; ++k) {
+            REQUIRE(track["frames"][k]["barriers"].size() == 1);
+            const json &bk = track["frames"][k]["barriers"][0];
+            CHECK(bk["barrier"] == b0["barrier"]);
+            CHECK(bk["area"].get<double>() == doctest::Approx(b0["area"].get<double>()).epsilon(1e-9));
+            CHECK(bk["match_distance"].get<double>() < 1.0);
+        }
+    }
+    fs::remove_all(dir);
+}
+
 namespace {
 
 std::uint32_t be32(const std::string &s, std::size_t at) {

@@ -215,13 +215,24 @@ TEST_CASE("only the libraries an experiment needs are mapped; validate lists the
     CHECK(checked.status == 0);
     CHECK(contains(checked.output, "PASS  system  rigid-rotation"));
     CHECK_MESSAGE(!fs::exists(marker), "check-plugin rigid-rotation ran the planted library's constructor");
-    // A misspelt name of any kind is matched against the plugins of its kind (no file is named after it, so the
-    // fallback maps the folders' libraries first, a warning for each).
-    const Result misspelt = run("check-plugin cosien", "", "2>&1 >/dev/null");
+    // A name no library is named after is refused, no library mapped (before: every one, with a warning each).
+    const Result misspelt = run("check-plugin cosien", env, "2>&1 >/dev/null");
     CHECK(misspelt.status == 2);
-    CHECK_MESSAGE(contains(misspelt.output, "geobarrier: error: cosien: no forcing plugin named \"cosien\"; did you "
-                                            "mean \"cosine\"?"),
+    CHECK_MESSAGE(misspelt.output.rfind("geobarrier: error: cosien: no library in the plugin folders is named after "
+                                        "'cosien' (looked for geobarrier-cosien.so, libcosien.so, cosien.so in ",
+                                        0) == 0,
                   misspelt.output);
+    CHECK(contains(misspelt.output, "; did you mean 'cosine'?; a library that declares several plugins is checked by "
+                                    "its path: geobarrier check-plugin PATH\n"));
+    CHECK(std::count(misspelt.output.begin(), misspelt.output.end(), '\n') == 1);
+    const std::string test_plugins = geobarrier::test::test_plugin_dir().string();
+    const Result several = run("check-plugin linear-3d --plugin-path " + test_plugins, env, "2>&1 >/dev/null");
+    CHECK(several.status == 2);
+    CHECK(contains(several.output, "named after 'linear-3d'"));
+    CHECK(contains(several.output, " " + test_plugins));
+    const Result by_path = run("check-plugin " + test_plugins + "/geobarrier-linear-nd.so", env);
+    CHECK(contains(by_path.output, "  linear-3d  "));
+    CHECK_MESSAGE(!fs::exists(marker), "check-plugin ran the planted library's constructor");
 
     // The check is a real one: listing every plugin maps every library (that is its job).
     CHECK(run("plugins --plugin-path " + (tmp / "plugins").string(), env).status == 0);

@@ -210,11 +210,43 @@ struct CheckPluginOptions {
     std::vector<std::string> plugin_paths;
 };
 
-// Runs the conformance checks of <geobarrier/conformance.hpp> (the same ones the plugins' own tests run) on every
-// plugin of each target and prints one table per plugin, then a summary. Exit 0 when every check passed, 1 if not.
+// check-plugin NAME needs a library named after NAME in the folders (geobarrier-NAME.so, libNAME.so, NAME.so: what
+// run and validate look for first). Without one it refuses, naming what it looked for and where, instead of mapping
+// every library of the folders to look inside them (run's and validate's fallback, PluginRegistry), which for a
+// misspelt name ran the code of them all; a library that declares several plugins is checked by its path.
+void require_library_named_after(const PluginRegistry &registry, const std::string &name) {
+    const std::vector<std::string> files = {"geobarrier-" + name + ".so", "lib" + name + ".so", name + ".so"};
+    std::vector<std::string> stems; // what the folders' libraries are named after, for "did you mean"
+    std::string folders;
+    for (const fs::path &folder : registry.folders()) {
+        std::error_code ec;
+        for (const std::string &file : files)
+            if (fs::is_regular_file(folder / file, ec)) return;
+        folders += " " + folder.string();
+        for (const auto &entry : fs::directory_iterator(folder, ec)) {
+            std::string stem = entry.path().filename().string();
+            if (stem.size() <= 3 || stem.compare(stem.size() - 3, 3, ".so") != 0) continue;
+            stem.resize(stem.size() - 3);
+            for (const std::string prefix : {"geobarrier-", "lib"})
+                if (stem.rfind(prefix, 0) == 0) {
+                    stem = stem.substr(prefix.size());
+                    break;
+                }
+            stems.push_back(stem);
+        }
+    }
+    std::string message = "no library in the plugin folders is named after '" + name + "' (looked for " + files[0] +
+                          ", " + files[1] + ", " + files[2] + " in" + folders + ")";
+    const std::string hint = did_you_mean(name, stems);
+    if (!hint.empty()) message += "; did you mean '" + hint + "'?";
+    throw ConfigError(name, message + "; a library that declares several plugins is checked by its path: "
+                                      "geobarrier check-plugin PATH");
+}
+
 // Every plugin of any kind called `name` (one library may declare a system and a forcing of one name), found as run
 // and validate find them; a ConfigError listing what the folders hold when there is none.
 std::vector<PluginHandle> plugins_named(const PluginRegistry &registry, const std::string &name) {
+    require_library_named_after(registry, name);
     std::vector<PluginHandle> found;
     std::string missing;
     const std::size_t warned = registry.warnings().size();
@@ -235,6 +267,8 @@ std::vector<PluginHandle> plugins_named(const PluginRegistry &registry, const st
     return found;
 }
 
+// Runs the conformance checks of <geobarrier/conformance.hpp> (the same ones the plugins' own tests run) on every
+// plugin of each target and prints one table per plugin, then a summary. Exit 0 when every check passed, 1 if not.
 int command_check_plugin(const CheckPluginOptions &o) {
     ConformanceOptions options;
     if (!o.params.empty()) {

@@ -4,6 +4,7 @@
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/frames.hpp>
+#include <geobarrier/sweep.hpp>
 
 #include <test_support.hpp>
 
@@ -110,6 +111,16 @@ TEST_CASE("frames: initial times as a list or {from, to, count} with one horizon
     v["time"] = {{"t0", {0, 1}}, {"T", 1}};
     v["validation"] = {{"advect_barriers", true}};
     CHECK(error_path(v) == "/validation");
+
+    // A sweep over a frames experiment: its figures would find nothing in the members' folders.
+    json base = v;
+    base.erase("validation");
+    try {
+        parse_sweep({{"base", base}, {"parameters", {{{"path", "/system/params/delta"}, {"values", {0.1, 0.2}}}}}});
+        FAIL("a sweep over frames was accepted");
+    } catch (const ConfigError &e) {
+        CHECK(e.json_path() == "/base/time/t0");
+    }
 
     // A run that keeps its results in memory (Python's run) is refused before anything is computed.
     json m = j;

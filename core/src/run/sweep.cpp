@@ -198,6 +198,13 @@ void read_base(const json &base, const fs::path &file, const fs::path &folder, S
     if (!s.base.is_object())
         throw ConfigError("/base", short_dump(s.base) + " is " + type_name(s.base) + "; expected an experiment object");
     if (is_sweep_json(s.base)) throw ConfigError("/base", "is a sweep itself; sweeps do not nest");
+    // Frames (frames.hpp) write their fields and barriers into frames/NNN, where no figure looks: refused, not empty.
+    const json *t0 = s.base.contains("time") && s.base["time"].is_object() && s.base["time"].contains("t0")
+                         ? &s.base["time"]["t0"]
+                         : nullptr;
+    if (t0 && (t0->is_array() || t0->is_object()))
+        throw ConfigError("/base/time/t0", "several initial times (frames) are not supported in a sweep; sweep a "
+                                           "single t0, or run the frames of each member as its own experiment");
 }
 
 // One entry of "parameters" (at JSON path `at`): its path into the base experiment, name and values. `earlier` are

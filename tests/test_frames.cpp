@@ -216,6 +216,78 @@ TEST_CASE("frames of an autonomous system: nested closed barriers are tracked on
     fs::remove_all(dir);
 }
 
+TEST_CASE("frames of a rotating linear saddle: barriers along the known stable direction, a track along the manifold") {
+    // x' = A(t) x, A(t) = R(w t) diag(a, -a) R(-w t). In the frame rotating with R(w t) the flow is autonomous,
+    // y' = B y with B = [[a, w], [-w, -a]], eigenvalues +-mu, mu = sqrt(a^2 - w^2), stable direction v_s = (w, -(a +
+    // mu)); at time t0 the stable manifold is the line through the origin along R(w t0) v_s. The FTLE field is
+    // uniform, so every line parallel to it is a repelling barrier of the same stretching: each frame's barriers are
+    // lines along R(w t0) v_s (finite-time error e^{-2 mu T} here), and a line at distance c from the manifold is
+    // carried to distance c e^{mu dt} after dt, so the track of frame 0's barrier closest to the manifold stays within
+    // d_k = d_{k-1} e^{mu dt} + 2 grid spacings (the match tolerance) of it.
+    const double a = 1.0, w = 0.3, mu = std::sqrt(a * a - w * w), dt = 0.1;
+    const fs::path dir = fs::temp_directory_path() / ("geobarrier-test-frames-rotating-" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    ::setenv("GEOBARRIER_EQUATIONS_CACHE", (dir / "cache").c_str(), 1);
+    json j = {{"system",
+               {{"plugin", "equations"},
+                {"params",
+                 {{"state", {"x", "y"}},
+                  {"rhs", {"a*(cos(2*w*t)*x + sin(2*w*t)*y)", "a*(sin(2*w*t)*x - cos(2*w*t)*y)"}},
+                  {"constants", {{"a", a}, {"w", w}}}}}}},
+              {"grid", {{"x", {-1, 1}}, {"y", {-1, 1}}, {"n", {101, 101}}}},
+              {"time", {{"t0", {0, dt, 2 * dt, 3 * dt}}, {"T", 5}}},
+              {"integrator", {{"rtol", 1e-10}, {"atol", 1e-12}}},
+              {"products", {"ftle"}},
+              {"extractors", {{{"plugin", "hyperbolic"}, {"params", json::object()}}}},
+              {"output", {{"plots", false}}}};
+    run_into(j, dir / "out");
+    const json tracks = json::parse(test::read_text(dir / "out" / "tracks.json"));
+    const double h = tracks["grid_spacing"].get<double>();
+    // The distance of a barrier (its mean point) from the manifold at t0, and the angle between them (degrees).
+    const auto from_manifold = [&](const json &barrier, double t0, double &angle) {
+        const double vx = w, vy = -(a + mu), c = std::cos(w * t0), s = std::sin(w * t0);
+        const double dx = (c * vx - s * vy) / std::hypot(vx, vy), dy = (s * vx + c * vy) / std::hypot(vx, vy);
+        const json &p = barrier["points"];
+        const double bx = p.back()[0].get<double>() - p[0][0].get<double>(),
+                     by = p.back()[1].get<double>() - p[0][1].get<double>();
+        angle = std::asin(std::min(1.0, std::abs(bx * dy - by * dx) / std::hypot(bx, by))) * 180 / pi;
+        double mx = 0, my = 0;
+        for (const json &q : p) mx += q[0].get<double>() / p.size(), my += q[1].get<double>() / p.size();
+        return std::abs(mx * dy - my * dx);
+    };
+    std::vector<json> frames;
+    for (const char *k : {"000", "001", "002", "003"}) frames.push_back(barriers_in(dir / "out" / "frames" / k));
+    std::size_t closest = 0;
+    for (std::size_t k = 0; k < frames.size(); ++k) {
+        REQUIRE(frames[k].size() >= 2);
+        double best = HUGE_VAL;
+        for (std::size_t b = 0; b < frames[k].size(); ++b) {
+            double angle = 0.0;
+            const double d = from_manifold(frames[k][b], k * dt, angle);
+            CHECK(angle < 0.01);
+            if (k == 0 && d < best) best = d, closest = b;
+        }
+    }
+    const json *track = nullptr;
+    for (const json &t : tracks["tracks"])
+        for (const json &b : t["frames"][0]["barriers"])
+            if (t["birth"] == 0 && b["barrier"] == closest) track = &t;
+    REQUIRE(track != nullptr);
+    REQUIRE((*track)["frames"].size() == 4);
+    double angle = 0.0, bound = from_manifold(frames[0][closest], 0.0, angle);
+    for (std::size_t k = 1; k < 4; ++k) {
+        bound = bound * std::exp(mu * dt) + 2 * h;
+        for (const json &b : (*track)["frames"][k]["barriers"]) {
+            const double d = from_manifold(frames[k][b["barrier"].get<std::size_t>()], k * dt, angle);
+            MESSAGE("frame " << k << ": the track's barrier " << d / h << " grid spacings from the manifold (bound "
+                             << bound / h << ")");
+            CHECK(d <= bound);
+        }
+    }
+    ::unsetenv("GEOBARRIER_EQUATIONS_CACHE");
+    fs::remove_all(dir);
+}
+
 namespace {
 
 std::uint32_t be32(const std::string &s, std::size_t at) {

@@ -663,18 +663,28 @@ std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, co
     // 99% busy; batches of 1024, 96%), and equal so that no small one is left at the end.
     const std::size_t batches = std::max<std::size_t>((n + 4095) / 4096, 1);
     const std::size_t block = (n + batches - 1) / batches;
+    // What the lines hold, for the log: the stage's cost grows with the points (docs/extractor-measurements.md).
+    std::size_t points = 0, closed = 0, at_max_length = 0;
     for (std::size_t start = 0; start < n; start += block) {
         const std::size_t end = std::min(n, start + block);
         // No arc lengths: the segments measure their own lengths, only where d_g < epsilon.
         std::vector<TwoWayLine> batch = integrate_tensor_lines_both_ways(
             xi1, std::vector<double>(seed.begin() + 2 * start, seed.begin() + 2 * end), settings, ArcLengths::drop);
-        for (std::size_t k = 0; k < batch.size(); ++k) lines[start + k].xy = std::move(batch[k].xy);
+        for (std::size_t k = 0; k < batch.size(); ++k) {
+            points += batch[k].size();
+            closed += batch[k].closed ? 1 : 0;
+            at_max_length += (batch[k].stop_forward == StopReason::max_length ? 1 : 0) +
+                             (batch[k].stop_backward == StopReason::max_length ? 1 : 0);
+            lines[start + k].xy = std::move(batch[k].xy);
+        }
         // Truncated now, batch by batch, rather than after all of them: the fields sampled along a line live only in
         // its thread's buffers, and a batch's points are read again soon after they were written.
         truncate(lines, start, end, meter, walls, scale, truncation);
         if (host.progress(0.6 * static_cast<double>(end) / static_cast<double>(std::max<std::size_t>(n, 1))))
             throw std::runtime_error("stopped by the user");
     }
+    host.info("" + std::to_string(points) + " strainline points; " + std::to_string(closed) + " lines closed, " +
+              std::to_string(at_max_length) + " of " + std::to_string(2 * n) + " branches ran to max_length");
     return lines;
 }
 
@@ -1343,15 +1353,6 @@ void Hyperbolic::draw_strainlines(const gb_extract_input &in, const SegmentMeter
 // disjoint local minima of q (step 3), joined into whole curves and tested for significance (whole_curves),
 // ranked by q, the advection check, the report and the pictures.
 void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) const {
-    const CauchyGreenField cg = cauchy_green_from_input(in);
-    const Grid &g = cg.grid;
-    const double *dev_data = find_field(in, "strain_deviation");
-    if (!dev_data) throw std::invalid_argument("the core did not hand over the field \"strain_deviation\"");
-    const std::vector<double> deviation(dev_data, dev_data + g.size());
-    const Scales scale = scales(g);
-    const bool backward = in.t1 < in.t0;
-    const bool opposite = m_route == "opposite-time";
-
     using clock = std::chrono::steady_clock;
     clock::time_point mark = clock::now();
     std::string timings; // the sub-stages' wall seconds, for the log: where a slow extraction spends its time
@@ -1361,10 +1362,20 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
                    format(std::chrono::duration<double>(now - mark).count()) + " s";
         mark = now;
     };
+    const CauchyGreenField cg = cauchy_green_from_input(in);
+    const Grid &g = cg.grid;
+    const double *dev_data = find_field(in, "strain_deviation");
+    if (!dev_data) throw std::invalid_argument("the core did not hand over the field \"strain_deviation\"");
+    const std::vector<double> deviation(dev_data, dev_data + g.size());
+    const Scales scale = scales(g);
+    const bool backward = in.t1 < in.t0;
+    const bool opposite = m_route == "opposite-time";
+
     const std::vector<double> fields = opposite ? deviation : deviation_and_log_lambda1(cg, deviation);
     const SegmentMeter meter{opposite, g, fields};
     const WallFilter walls(cg, m_walls, scale.radius);
     Truncation truncation;
+    lap("fields"); // the tensor fields' copies and the wall filter, before any strainline
     // The direct route truncates its strainlines batch by batch as it integrates them; the opposite-time route after
     // advecting them.
     const std::vector<Strainline> lines =
@@ -1384,9 +1395,10 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     lap("whole curves");
     const AdvectionCheck check = advect_barriers(host, in, cg, curves);
     lap("advection");
-    host.info("stages: " + timings);
     if (host.progress(0.9)) throw std::runtime_error("stopped by the user");
     report_barriers(host, candidates, selected, curves, check, backward);
+    lap("report");
+    host.info("stages: " + timings);
     if (!in.plots) return;
     draw_barriers(in, cg, curves, backward);
     draw_strainlines(in, meter, lines, selected, curves);

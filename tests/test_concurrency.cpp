@@ -153,6 +153,36 @@ std::vector<std::string> run_args(const fs::path &exp, const fs::path &out) {
     return {"run", exp.string(), "--out", out.string(), "--quiet", "--threads", "1"};
 }
 
+// Runs `r` into `folder` in a thread paused once it holds the folder, then checks that a second run of this process
+// into the same folder is refused (OutputBusyError) and that the first one completes; returns the first run's error.
+std::string second_thread_refused(const geobarrier::ResolvedExperiment &r, const fs::path &folder,
+                                  const fs::path &hooks) {
+    geobarrier::RunOptions options;
+    options.output_dir = folder;
+    options.threads = 1;
+    options.quiet = true;
+    ::setenv("GEOBARRIER_TEST_PAUSE_AT", "locked", 1);
+    ::setenv("GEOBARRIER_TEST_PAUSE_DIR", hooks.c_str(), 1);
+    std::string first_error;
+    std::thread first([&] {
+        try {
+            geobarrier::run_experiment(r, options);
+        } catch (const std::exception &e) {
+            first_error = e.what();
+        }
+    });
+    for (int i = 0; i < 60000 && !fs::exists(hooks / "locked.reached"); ++i)
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    CHECK_THROWS_AS(geobarrier::run_experiment(r, options), geobarrier::OutputBusyError);
+    release(hooks, "locked");
+    first.join();
+    ::unsetenv("GEOBARRIER_TEST_PAUSE_AT");
+    ::unsetenv("GEOBARRIER_TEST_PAUSE_DIR");
+    fs::remove(hooks / "locked.reached");
+    fs::remove(hooks / "locked.go");
+    return first_error;
+}
+
 } // namespace
 
 TEST_CASE("a second run into a folder another run holds is refused, at every stage; the folder ends with one run") {
@@ -292,28 +322,7 @@ TEST_CASE("two threads of one process: the second run into the folder is refused
     const fs::path a = experiment(dir, "a", 0.08, false);
     REQUIRE(wait_for(start(dir, "ref-a", run_args(a, dir / "ref-a"))) == 0);
     const geobarrier::ResolvedExperiment r = geobarrier::resolve_experiment(geobarrier::load_experiment(a));
-    geobarrier::RunOptions options;
-    options.output_dir = out;
-    options.threads = 1;
-    options.quiet = true;
-    ::setenv("GEOBARRIER_TEST_PAUSE_AT", "locked", 1);
-    ::setenv("GEOBARRIER_TEST_PAUSE_DIR", hooks.c_str(), 1);
-    std::string first_error;
-    std::thread first([&] {
-        try {
-            geobarrier::run_experiment(r, options);
-        } catch (const std::exception &e) {
-            first_error = e.what();
-        }
-    });
-    for (int i = 0; i < 60000 && !fs::exists(hooks / "locked.reached"); ++i)
-        std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    CHECK_THROWS_AS(geobarrier::run_experiment(r, options), geobarrier::OutputBusyError);
-    release(hooks, "locked");
-    first.join();
-    ::unsetenv("GEOBARRIER_TEST_PAUSE_AT");
-    ::unsetenv("GEOBARRIER_TEST_PAUSE_DIR");
-    CHECK(first_error.empty());
+    CHECK(second_thread_refused(r, out, hooks).empty());
     check_one_run(out, dir / "ref-a");
     fs::remove_all(dir);
 }
@@ -348,32 +357,9 @@ TEST_CASE("a file system that cannot lock: the run warns and goes on, leaves oth
 
         // Within one process the folder is still held: a second thread's run into it is refused.
         const geobarrier::ResolvedExperiment r = geobarrier::resolve_experiment(geobarrier::load_experiment(a));
-        geobarrier::RunOptions options;
-        options.output_dir = dir / ("threads-" + failure);
-        options.threads = 1;
-        options.quiet = true;
-        ::setenv("GEOBARRIER_TEST_PAUSE_AT", "locked", 1);
-        ::setenv("GEOBARRIER_TEST_PAUSE_DIR", hooks.c_str(), 1);
-        std::string first_error;
-        std::thread first([&] {
-            try {
-                geobarrier::run_experiment(r, options);
-            } catch (const std::exception &e) {
-                first_error = e.what();
-            }
-        });
-        for (int i = 0; i < 60000 && !fs::exists(hooks / "locked.reached"); ++i)
-            std::this_thread::sleep_for(std::chrono::milliseconds(5));
-        CHECK_THROWS_AS(geobarrier::run_experiment(r, options), geobarrier::OutputBusyError);
-        release(hooks, "locked");
-        first.join();
-        ::unsetenv("GEOBARRIER_TEST_PAUSE_AT");
-        ::unsetenv("GEOBARRIER_TEST_PAUSE_DIR");
+        CHECK(second_thread_refused(r, dir / ("threads-" + failure), hooks).empty());
         ::unsetenv("GEOBARRIER_TEST_LOCK_FAILS");
-        fs::remove(hooks / "locked.reached");
-        fs::remove(hooks / "locked.go");
-        CHECK(first_error.empty());
-        check_one_run(*options.output_dir, dir / "ref-a");
+        check_one_run(dir / ("threads-" + failure), dir / "ref-a");
     }
     fs::remove_all(dir);
 }

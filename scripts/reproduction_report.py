@@ -1,17 +1,18 @@
-#!/usr/bin/env python3
+#!/usr/bin/python3
 """Writes docs/reproduction.md from the outputs of scripts/reproduce: every figure of the paper's results section
 (Hadjighasem, Farazmand & Haller, section 3) with our pictures, the paper's claims and numbers next to ours, and
-each figure's run time. Standard library only; run by scripts/reproduce (python3 scripts/reproduction_report.py
-OUT_DIR)."""
+each figure's run time. Needs NumPy and Pillow for Debian's /usr/bin/python3 (python3-numpy, python3-pil: see
+scripts/install-deps); run by scripts/reproduce (/usr/bin/python3 scripts/reproduction_report.py OUT_DIR)."""
 
 import csv
 import json
 import math
 import os
 import shutil
-import struct
 import sys
-import zlib
+
+import numpy as np
+from PIL import Image
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 IMAGES = os.path.join(ROOT, "docs", "images", "reproduction")
@@ -149,64 +150,17 @@ def diameter(pts):
 
 # ---------------------------------------------------------------------------------------------------- pictures
 # The gallery keeps its pictures small: one wider than GALLERY_WIDTH and heavier than SHRINK_ABOVE bytes is
-# resampled (area average) to GALLERY_WIDTH pixels and written again, with the standard library only.
+# resampled (area average) to GALLERY_WIDTH pixels and written again. Pillow reads and writes the PNG files; the
+# average itself is NumPy's, not Pillow's BOX filter, because Pillow rounds to 8 bits between its horizontal and
+# vertical passes and the gallery's pictures would change by one step of colour here and there.
 
 GALLERY_WIDTH = 900
 SHRINK_ABOVE = 250_000
 
 
-def read_png(path):
-    """(width, height, bytes per pixel, rows) of an 8-bit RGB or RGBA, non-interlaced PNG; None otherwise."""
-    with open(path, "rb") as f:
-        data = f.read()
-    if data[:8] != b"\x89PNG\r\n\x1a\n":
-        return None
-    pos, idat, ihdr = 8, [], None
-    while pos + 8 <= len(data):
-        n, kind = struct.unpack(">I4s", data[pos:pos + 8])
-        body = data[pos + 8:pos + 8 + n]
-        pos += 12 + n
-        if kind == b"IHDR":
-            ihdr = struct.unpack(">IIBBBBB", body)
-        elif kind == b"IDAT":
-            idat.append(body)
-        elif kind == b"IEND":
-            break
-    if not ihdr:
-        return None
-    w, h, depth, ctype, _, _, interlace = ihdr
-    if depth != 8 or ctype not in (2, 6) or interlace:
-        return None
-    bpp = 3 if ctype == 2 else 4
-    raw = zlib.decompress(b"".join(idat))
-    stride = w * bpp
-    rows, prev, p = [], bytearray(stride), 0
-    for _ in range(h):
-        kind = raw[p]
-        line = bytearray(raw[p + 1:p + 1 + stride])
-        p += 1 + stride
-        if kind == 1:
-            for i in range(bpp, stride):
-                line[i] = (line[i] + line[i - bpp]) & 255
-        elif kind == 2:
-            line = bytearray((a + b) & 255 for a, b in zip(line, prev))
-        elif kind == 3:
-            for i in range(stride):
-                left = line[i - bpp] if i >= bpp else 0
-                line[i] = (line[i] + ((left + prev[i]) >> 1)) & 255
-        elif kind == 4:
-            for i in range(stride):
-                a = line[i - bpp] if i >= bpp else 0
-                b = prev[i]
-                c = prev[i - bpp] if i >= bpp else 0
-                pa, pb, pc = abs(b - c), abs(a - c), abs(a + b - 2 * c)
-                line[i] = (line[i] + (a if pa <= pb and pa <= pc else b if pb <= pc else c)) & 255
-        rows.append(line)
-        prev = line
-    return w, h, bpp, rows
-
-
 def area_weights(n_in, n_out):
+    """(indices, weights), both n_out x taps: output pixel o is the sum of the input pixels indices[o] it covers,
+    each weighted by its overlap over the output pixel's width; rows with fewer taps are padded with weight 0."""
     scale = n_in / n_out
     table = []
     for o in range(n_out):
@@ -218,54 +172,37 @@ def area_weights(n_in, n_out):
                 taps.append((i, overlap / scale))
             i += 1
         table.append(taps)
-    return table
+    width = max(len(taps) for taps in table)
+    indices, weights = np.zeros((n_out, width), dtype=np.intp), np.zeros((n_out, width))
+    for o, taps in enumerate(table):
+        for k, (i, wt) in enumerate(taps):
+            indices[o, k], weights[o, k] = i, wt
+    return indices, weights
 
 
-def write_png(path, w, h, bpp, rows):
-    def cost(r):
-        return sum(v if v < 128 else 256 - v for v in r)
-
-    raw, prev = bytearray(), bytearray(w * bpp)
-    for line in rows:
-        sub = bytearray(line[:bpp]) + bytearray((line[i] - line[i - bpp]) & 255 for i in range(bpp, len(line)))
-        up = bytearray((a - b) & 255 for a, b in zip(line, prev))
-        kind, body = min(((0, line), (1, sub), (2, up)), key=lambda kb: cost(kb[1]))
-        raw.append(kind)
-        raw += body
-        prev = line
-
-    def chunk(kind, body):
-        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body) & 0xFFFFFFFF)
-
-    ihdr = struct.pack(">IIBBBBB", w, h, 8, 2 if bpp == 3 else 6, 0, 0, 0)
-    with open(path, "wb") as f:
-        f.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", ihdr) + chunk(b"IDAT", zlib.compress(bytes(raw), 9)) +
-                chunk(b"IEND", b""))
+def area_average(pixels, axis, n_out):
+    """pixels (rows x columns x channels) averaged along axis (0: rows, 1: columns) onto n_out pixels. The taps are
+    summed one after the other, from the first, so that the sums (and the rounding after) do not depend on how a
+    matrix product would order them."""
+    indices, weights = area_weights(pixels.shape[axis], n_out)
+    shape = (-1, 1, 1) if axis == 0 else (1, -1, 1)
+    total = np.zeros(pixels.shape[:axis] + (n_out,) + pixels.shape[axis + 1:])
+    for k in range(indices.shape[1]):
+        total = total + np.take(pixels, indices[:, k], axis=axis) * weights[:, k].reshape(shape)
+    return total
 
 
 def copy_picture(source, target):
     """Copies a picture into the gallery, resampled to GALLERY_WIDTH when it is wide and heavy."""
     if os.path.getsize(source) > SHRINK_ABOVE:
-        png = read_png(source)
-        if png and png[0] > GALLERY_WIDTH:
-            w, h, bpp, rows = png
-            new_h = max(1, round(h * GALLERY_WIDTH / w))
-            wx, wy = area_weights(w, GALLERY_WIDTH), area_weights(h, new_h)
-            across = []
-            for line in rows:
-                out = [0.0] * (GALLERY_WIDTH * bpp)
-                for o, taps in enumerate(wx):
-                    for c in range(bpp):
-                        out[o * bpp + c] = sum(line[i * bpp + c] * wt for i, wt in taps)
-                across.append(out)
-            result = []
-            for taps in wy:
-                acc = [0.0] * (GALLERY_WIDTH * bpp)
-                for i, wt in taps:
-                    acc = [a + v * wt for a, v in zip(acc, across[i])]
-                result.append(bytearray(min(255, int(v + 0.5)) for v in acc))
-            write_png(target, GALLERY_WIDTH, new_h, bpp, result)
-            return
+        with Image.open(source) as picture:
+            if picture.format == "PNG" and picture.mode in ("RGB", "RGBA") and picture.width > GALLERY_WIDTH:
+                new_h = max(1, round(picture.height * GALLERY_WIDTH / picture.width))
+                pixels = np.asarray(picture, dtype=np.float64)
+                shrunk = area_average(area_average(pixels, 1, GALLERY_WIDTH), 0, new_h)
+                shrunk = np.minimum(255, np.floor(shrunk + 0.5)).astype(np.uint8)
+                Image.fromarray(shrunk, picture.mode).save(target, optimize=True)
+                return
     shutil.copyfile(source, target)
 
 

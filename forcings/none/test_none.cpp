@@ -1,7 +1,7 @@
-// Tests of the zero forcing: no parameters, f = 0 at every time, and the shared conformance checks.
+// Tests of the zero forcing: no parameters, f = 0 at every time. Its conformance checks run in
+// tests/sdk/test_check_plugin.cpp, with every built plugin's.
 #include <doctest/doctest.h>
 
-#include <geobarrier/conformance.hpp>
 #include <geobarrier/errors.hpp>
 #include <test_support.hpp>
 
@@ -24,10 +24,4 @@ TEST_CASE("none: f(t) = 0 everywhere") {
     std::vector<double> out(t.size(), 7.0);
     f.evaluate(t.size(), t.data(), out.data());
     for (double v : out) CHECK(v == 0.0);
-}
-
-TEST_CASE("none: passes the conformance checks") {
-    const auto checks = check_plugin(test::registry().find(PluginKind::forcing, "none", "/forcing/plugin"));
-    INFO(format_checks(checks));
-    CHECK(all_passed(checks));
 }

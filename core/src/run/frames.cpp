@@ -5,6 +5,7 @@
 #include <geobarrier/frames.hpp>
 #include <geobarrier/output.hpp>
 
+#include "run/barrier_matching.hpp"
 #include "run/mpi.hpp"
 
 #include <fmt/format.h>
@@ -165,22 +166,6 @@ bool same_family(const json &a, const json &b) {
 // stretching q, the elliptic one's lambda of a lambda-line, its advected stretching.
 constexpr const char *stretching_keys[] = {"relative_stretching", "lambda", "advected_stretching"};
 
-// A barrier's entry in its track's frame: which barrier, its figures and its match distance.
-json track_entry(const json &barrier, std::size_t index, double match_distance) {
-    const bool closed = barrier.value("closed", false);
-    const std::vector<double> xy = points_of(barrier);
-    json entry = {{"barrier", index}, {"length", barrier.value("length", polyline_length(xy, closed))}};
-    for (const char *key : stretching_keys)
-        if (barrier.contains(key) && barrier[key].is_number()) {
-            entry["stretching"] = barrier[key];
-            entry["stretching_figure"] = key;
-            break;
-        }
-    if (closed) entry["area"] = barrier.value("enclosed_area", std::abs(shoelace_area(xy)));
-    entry["match_distance"] = std::isfinite(match_distance) ? json(match_distance) : json(nullptr);
-    return entry;
-}
-
 // A curve's points inside the box [x_min, x_max] x [y_min, y_max], resampled to `spacing` (pieces outside dropped).
 std::vector<double> resampled_inside(const std::vector<double> &xy, bool closed, const Grid &g, double spacing) {
     const std::vector<double> fine = resample_polyline(xy, spacing, closed);
@@ -191,55 +176,56 @@ std::vector<double> resampled_inside(const std::vector<double> &xy, bool closed,
     return inside;
 }
 
-struct Match {
-    std::size_t from = 0, to = 0;
-    double distance = 0.0; // grid spacings
-};
-
 // Every pair of one of frame k's advected barriers (`images`; image_of[c]: the barrier of image c) and one of frame
 // k + 1's barriers (`next`) within the tolerance. Two closed barriers (whole tori) are as far apart as the larger of
 // the directed distances, so that nested tori a grid spacing apart stay apart; an open barrier may be extracted as a
 // longer or shorter piece of the curve, so the smaller counts.
-std::vector<Match> candidate_matches(const std::vector<AdvectedCurve> &images, const std::vector<std::size_t> &image_of,
-                                     const json &previous, const json &next, const Grid &g, double tolerance) {
+std::vector<detail::BarrierMatch> candidate_matches(const std::vector<std::vector<double>> &curves,
+                                                    const std::vector<bool> &curve_closed,
+                                                    const std::vector<std::size_t> &image_of, const json &previous,
+                                                    const json &next, const Grid &g, double tolerance) {
     const double h = std::max(g.dx(), g.dy()), spacing = 0.5 * h, cutoff = 2.0 * tolerance * h;
     std::vector<std::vector<double>> next_xy;
     for (const json &b : next) next_xy.push_back(resampled_inside(points_of(b), b.value("closed", false), g, spacing));
-    std::vector<Match> matches;
-    for (std::size_t c = 0; c < images.size(); ++c) {
-        const std::vector<double> image = resampled_inside(images[c].xy1, images[c].closed, g, spacing);
+    std::vector<detail::BarrierMatch> matches;
+    for (std::size_t c = 0; c < curves.size(); ++c) {
+        const std::vector<double> image = resampled_inside(curves[c], curve_closed[c], g, spacing);
         if (image.size() < 4) continue; // nothing of it is left in the box
         for (std::size_t b = 0; b < next.size(); ++b) {
             if (!same_family(previous[image_of[c]], next[b]) || next_xy[b].size() < 4) continue;
             const bool closed = next[b].value("closed", false);
             const double to = mean_distance_to_polyline(image, next_xy[b], closed, cutoff),
-                         from = mean_distance_to_polyline(next_xy[b], image, images[c].closed, cutoff);
-            const double d = closed && images[c].closed ? std::max(to, from) : std::min(to, from);
+                         from = mean_distance_to_polyline(next_xy[b], image, curve_closed[c], cutoff);
+            const double d = closed && curve_closed[c] ? std::max(to, from) : std::min(to, from);
             if (d <= tolerance * h) matches.push_back({image_of[c], b, d / h});
         }
     }
     return matches;
 }
 
+} // namespace
+
 // The matches kept from the candidates: one to one, closest pairs first; then each open barrier left without a match
 // (on either side) takes its closest candidate, so that a curve the extractor reports as one piece in one frame and
 // as two in the next keeps one track with both pieces. A closed barrier is a whole curve and never splits.
-std::vector<Match> match_images(const std::vector<AdvectedCurve> &images, const std::vector<std::size_t> &image_of,
-                                const json &previous, const json &next, const Grid &g, double tolerance) {
-    std::vector<Match> candidates = candidate_matches(images, image_of, previous, next, g, tolerance);
-    std::sort(candidates.begin(), candidates.end(), [](const Match &a, const Match &b) {
+std::vector<detail::BarrierMatch> detail::match_barriers(const std::vector<std::vector<double>> &curves,
+                                                         const std::vector<bool> &closed,
+                                                         const std::vector<std::size_t> &curve_of, const json &previous,
+                                                         const json &next, const Grid &g, double tolerance) {
+    std::vector<BarrierMatch> candidates = candidate_matches(curves, closed, curve_of, previous, next, g, tolerance);
+    std::sort(candidates.begin(), candidates.end(), [](const BarrierMatch &a, const BarrierMatch &b) {
         return a.distance != b.distance ? a.distance < b.distance : a.from != b.from ? a.from < b.from : a.to < b.to;
     });
-    std::vector<Match> matches;
+    std::vector<BarrierMatch> matches;
     std::vector<bool> from_used(previous.size(), false), to_used(next.size(), false), taken(candidates.size(), false);
     for (std::size_t m = 0; m < candidates.size(); ++m) {
-        const Match &c = candidates[m];
+        const BarrierMatch &c = candidates[m];
         if (from_used[c.from] || to_used[c.to]) continue;
         from_used[c.from] = to_used[c.to] = taken[m] = true;
         matches.push_back(c);
     }
     for (std::size_t m = 0; m < candidates.size(); ++m) {
-        const Match &c = candidates[m];
+        const BarrierMatch &c = candidates[m];
         if (taken[m] || previous[c.from].value("closed", false) || next[c.to].value("closed", false)) continue;
         if (from_used[c.from] && to_used[c.to]) continue;
         from_used[c.from] = to_used[c.to] = true;
@@ -248,21 +234,7 @@ std::vector<Match> match_images(const std::vector<AdvectedCurve> &images, const 
     return matches;
 }
 
-// Union-find over the barriers of all frames (numbered frame by frame): a track is a set of matched barriers.
-struct Components {
-    std::vector<std::size_t> parent;
-    explicit Components(std::size_t n) : parent(n) {
-        for (std::size_t k = 0; k < n; ++k) parent[k] = k;
-    }
-    std::size_t root(std::size_t k) {
-        while (parent[k] != k) k = parent[k] = parent[parent[k]];
-        return k;
-    }
-    void join(std::size_t a, std::size_t b) {
-        a = root(a), b = root(b);
-        if (a != b) parent[std::max(a, b)] = std::min(a, b); // the root is the earliest barrier
-    }
-};
+namespace {
 
 // Frame k's barriers advected from t_from to t_to (image gaps refined to a grid spacing inside the box).
 std::vector<AdvectedCurve> advect_frame(const ResolvedExperiment &r, const json &barriers, double t_from, double t_to,
@@ -286,12 +258,31 @@ std::vector<AdvectedCurve> advect_frame(const ResolvedExperiment &r, const json 
 
 } // namespace
 
+// (barrier_matching.hpp)
+std::vector<double> detail::barrier_points(const json &barrier) { return points_of(barrier); }
+
+json detail::barrier_track_entry(const json &barrier, std::size_t index, double match_distance) {
+    const bool closed = barrier.value("closed", false);
+    const std::vector<double> xy = points_of(barrier);
+    json entry = {{"barrier", index}, {"length", barrier.value("length", polyline_length(xy, closed))}};
+    for (const char *key : stretching_keys)
+        if (barrier.contains(key) && barrier[key].is_number()) {
+            entry["stretching"] = barrier[key];
+            entry["stretching_figure"] = key;
+            break;
+        }
+    if (closed) entry["area"] = barrier.value("enclosed_area", std::abs(shoelace_area(xy)));
+    entry["match_distance"] = std::isfinite(match_distance) ? json(match_distance) : json(nullptr);
+    return entry;
+}
+
 namespace {
 
 // Tracks from the components: each track's barriers per frame with their figures, birth and death, in the order of
 // their first barrier.
-json assemble_tracks(Components &components, const std::vector<std::size_t> &offset, const std::vector<double> &t0s,
-                     const std::vector<json> &barriers, const std::vector<double> &match_distance) {
+json assemble_tracks(detail::TrackComponents &components, const std::vector<std::size_t> &offset,
+                     const std::vector<double> &t0s, const std::vector<json> &barriers,
+                     const std::vector<double> &match_distance) {
     std::map<std::size_t, std::size_t> track_of_root;
     json tracks = json::array();
     for (std::size_t k = 0; k < t0s.size(); ++k)
@@ -309,7 +300,7 @@ json assemble_tracks(Components &components, const std::vector<std::size_t> &off
             json &frames = tracks[it->second]["frames"];
             if (frames.empty() || frames.back()["frame"] != k)
                 frames.push_back({{"frame", k}, {"t0", t0s[k]}, {"barriers", json::array()}, {"length", 0.0}});
-            frames.back()["barriers"].push_back(track_entry(item, b, match_distance[offset[k] + b]));
+            frames.back()["barriers"].push_back(detail::barrier_track_entry(item, b, match_distance[offset[k] + b]));
             frames.back()["length"] =
                 frames.back()["length"].get<double>() + frames.back()["barriers"].back()["length"].get<double>();
         }
@@ -327,16 +318,22 @@ json track_barriers(const ResolvedExperiment &r, const std::vector<double> &t0s,
     const Grid &g = r.experiment.grid;
     std::vector<std::size_t> offset = {0};
     for (const json &frame : barriers) offset.push_back(offset.back() + frame.size());
-    Components components(offset.back());
+    detail::TrackComponents components(offset.back());
     std::vector<double> match_distance(offset.back(), NAN); // of each barrier to its closest match in the frame before
     json transitions = json::array();
     for (std::size_t k = 0; k + 1 < t0s.size(); ++k) {
         std::vector<std::size_t> image_of;
         const std::vector<AdvectedCurve> images = advect_frame(r, barriers[k], t0s[k], t0s[k + 1], image_of);
-        const std::vector<Match> matches =
-            match_images(images, image_of, barriers[k], barriers[k + 1], g, settings.tolerance);
+        std::vector<std::vector<double>> curves;
+        std::vector<bool> closed;
+        for (const AdvectedCurve &a : images) {
+            curves.push_back(a.xy1);
+            closed.push_back(a.closed);
+        }
+        const std::vector<detail::BarrierMatch> matches =
+            detail::match_barriers(curves, closed, image_of, barriers[k], barriers[k + 1], g, settings.tolerance);
         std::vector<bool> continued(barriers[k].size(), false), reached(barriers[k + 1].size(), false);
-        for (const Match &m : matches) {
+        for (const detail::BarrierMatch &m : matches) {
             components.join(offset[k] + m.from, offset[k + 1] + m.to);
             continued[m.from] = reached[m.to] = true;
             double &d = match_distance[offset[k + 1] + m.to];

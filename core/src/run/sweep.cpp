@@ -2,6 +2,7 @@
 // (or in-process on MPI ranks), resuming, and the summary table and picture.
 #include "output/folder_lock.hpp"
 #include "output/provenance.hpp"
+#include "run/continuation.hpp"
 #include "run/mpi.hpp"
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
@@ -1095,6 +1096,7 @@ SweepResult run_sweep(const Sweep &s, const SweepOptions &options) {
     }
     throw_if_cancelled("before writing the sweep's summary");
     result.files = write_summary(s, out, result.members);
+    for (const fs::path &file : write_continuation(s, out, result.members)) result.files.push_back(file);
     return result;
 }
 

@@ -191,7 +191,6 @@ TEST_CASE("the shortcut int sqrt(lambda1) ds matches the advected length on a sm
         MESSAGE("length " << b["length"].get<double>() << ": int sqrt(lambda1) ds = " << predicted << ", advected "
                           << advected << ", ratio " << advected / predicted);
         CHECK(b["advection_converged"] == true);
-        CHECK(b["stretching_condition"].get<double>() < 100.0); // well-conditioned: the figure is reported
         // Observed within 5e-4 (interpolation of log lambda1 over h = 0.02 cells and the strainlines' tangent
         // errors); 2e-3 leaves room for other compilers and thread counts.
         CHECK(advected == doctest::Approx(predicted).epsilon(2e-3));
@@ -305,14 +304,14 @@ TEST_CASE("unforced double wells, forward 8 pi: repelling barriers cover both ho
             CHECK((b["selection"] == "joined") == (b["pieces"].get<double>() > 1));
             CHECK(2 * b["probes_with_smaller_q"].get<double>() <= b["neighbour_probes"].get<double>());
             CHECK_FALSE(b.contains("extraction_seconds"));
-            // sqrt(lambda2 / lambda1) ~ 1/q^2 here (> 1e5 on the loops): an advected length would measure the
-            // polyline's tangent error amplified that much, so it is left out, and the condition says why.
+            // sqrt(lambda2 / lambda1) ~ 1/q^2 here (> 1e5 on the loops, with q ~ 3e-3): an advected length would
+            // measure the polyline's tangent error amplified that much, so none is given, and the condition says why.
             REQUIRE(b.contains("stretching_condition"));
-            CHECK(b.contains("advected_length") == (b["stretching_condition"].get<double>() <= 100.0));
+            CHECK(b["stretching_condition"].get<double>() > 1e5);
+            CHECK_FALSE(b.contains("advected_length"));
         }
         CHECK(global == 1);
         CHECK(r.barriers[0]["global_minimum"] == true);
-        CHECK(r.barriers[0]["stretching_condition"].get<double>() > 1e3);
         fs::remove_all(r.dir);
     }
 }

@@ -1,4 +1,4 @@
-// Tests of the cosine forcing: schema (defaults = the paper's eps cos t with eps = 0.08), values against
+// Tests of the cosine forcing: values against
 // amplitude cos(omega t + phase), periodicity, and the shared conformance checks.
 #include <doctest/doctest.h>
 
@@ -15,24 +15,6 @@ namespace {
 constexpr double pi = 3.141592653589793;
 const PluginHandle &cosine() { return test::registry().find(PluginKind::forcing, "cosine", "/forcing/plugin"); }
 } // namespace
-
-TEST_CASE("cosine: schema") {
-    const PluginInfo &info = cosine().info;
-    CHECK(info.kind == PluginKind::forcing);
-    REQUIRE(info.params.size() == 3);
-    CHECK(info.params[0].name == "amplitude");
-    CHECK(info.params[0].default_value == 0.08);
-    CHECK(info.params[1].name == "omega");
-    CHECK(info.params[1].default_value == 1.0);
-    CHECK(info.params[1].unit == "rad/time");
-    CHECK(info.params[2].name == "phase");
-    CHECK(info.params[2].default_value == 0.0);
-    CHECK(info.params[2].unit == "rad");
-    for (const auto &p : info.params) {
-        CHECK(p.type == ParamType::real);
-        CHECK(!p.doc.empty());
-    }
-}
 
 TEST_CASE("cosine: values") {
     SUBCASE("defaults: 0.08 cos t") {

@@ -52,18 +52,6 @@ std::string creation_error(const std::string &name, const std::string &text,
 }
 } // namespace
 
-TEST_CASE("data: schema") {
-    const PluginInfo &info = data().info;
-    CHECK(info.kind == PluginKind::forcing);
-    CHECK_FALSE(info.composite());
-    REQUIRE(info.params.size() == 5);
-    CHECK(info.params[0].name == "file");
-    CHECK(info.params[0].type == ParamType::string);
-    CHECK(info.params[0].unit == "path"); // resolved against the experiment's folder by the core
-    CHECK(info.params[4].name == "gap_factor");
-    CHECK(info.params[4].default_value == 1.5);
-}
-
 TEST_CASE("data: the natural cubic spline") {
     SUBCASE("three points (0, 0), (1, 1), (2, 0): M1 = -3, S = 1.5 t - 0.5 t^3 on [0, 1]") {
         const Forcing f = make_data(write_csv("tent.csv", "t,f\n0,0\n1,1\n2,0\n"));

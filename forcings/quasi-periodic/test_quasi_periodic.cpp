@@ -1,4 +1,4 @@
-// Tests of the quasi-periodic forcing: schema (default frequency ratio sqrt 2), values, no period, and the shared
+// Tests of the quasi-periodic forcing: values, no period, and the shared
 // conformance checks.
 #include <doctest/doctest.h>
 
@@ -15,17 +15,6 @@ namespace {
 constexpr double pi = 3.141592653589793;
 const PluginHandle &qp() { return test::registry().find(PluginKind::forcing, "quasi-periodic", "/forcing/plugin"); }
 } // namespace
-
-TEST_CASE("quasi-periodic: schema") {
-    const PluginInfo &info = qp().info;
-    CHECK(info.kind == PluginKind::forcing);
-    CHECK_FALSE(info.composite());
-    REQUIRE(info.params.size() == 6);
-    const char *names[] = {"amplitude1", "omega1", "phase1", "amplitude2", "omega2", "phase2"};
-    for (std::size_t i = 0; i < 6; ++i) CHECK(info.params[i].name == names[i]);
-    CHECK(info.params[1].default_value == 1.0);
-    CHECK(info.params[4].default_value == std::sqrt(2.0)); // incommensurate with omega1 = 1
-}
 
 TEST_CASE("quasi-periodic: a1 cos(w1 t + p1) + a2 cos(w2 t + p2)") {
     const double a1 = 0.3, w1 = 1.1, p1 = 0.2, a2 = -0.15, w2 = 2.9, p2 = -1.0;

@@ -20,21 +20,6 @@ Forcing make_ramp(const nlohmann::json &params, const Forcing &base) {
 }
 } // namespace
 
-TEST_CASE("ramp: schema: a composite of exactly one term") {
-    const PluginInfo &info = ramp_handle().info;
-    CHECK(info.composite());
-    CHECK(info.min_terms == 1);
-    CHECK(info.max_terms == 1);
-    REQUIRE(info.params.size() == 3);
-    CHECK(info.params[0].name == "start");
-    CHECK(info.params[1].name == "duration");
-    CHECK(info.params[1].default_value == 10.0);
-    CHECK(info.params[1].min_value > 0.0);
-    CHECK(info.params[2].name == "shape");
-    CHECK(info.params[2].default_string == "smooth");
-    CHECK(info.params[2].choices == std::vector<std::string>{"smooth", "quintic", "cubic"});
-}
-
 TEST_CASE("ramp: f = r((t - start) / duration) base(t)") {
     const Forcing base = test::make_forcing("cosine", {{"amplitude", 0.5}, {"omega", 1.3}});
     const double start = 2.0, duration = 4.0;

@@ -18,15 +18,6 @@ Forcing make_sum(std::vector<Forcing> terms) {
 }
 } // namespace
 
-TEST_CASE("sum: schema: a composite of 1 to 16 terms, no parameters") {
-    const PluginInfo &info = sum().info;
-    CHECK(info.kind == PluginKind::forcing);
-    CHECK(info.composite());
-    CHECK(info.min_terms == 1);
-    CHECK(info.max_terms == 16);
-    CHECK(info.params.empty());
-}
-
 TEST_CASE("sum: f = f_1 + f_2 + f_3 exactly (added in order)") {
     const Forcing a = test::make_forcing("cosine", {{"amplitude", 0.3}, {"omega", 2.0}});
     const Forcing b = test::make_forcing("quasi-periodic");

@@ -1,4 +1,4 @@
-// Tests of the double gyre: schema (Shadden et al. 2005 defaults, the domain [0, 2] x [0, 1]), the steady stream
+// Tests of the double gyre: the steady stream
 // function at epsilon = 0, the invariant boundary, period 2 pi / omega, area preservation, and the conformance
 // checks on the declared domain.
 #include <doctest/doctest.h>
@@ -26,24 +26,6 @@ std::pair<double, double> velocity(const System &s, double x, double y, double t
     return {out[0], out[1]};
 }
 } // namespace
-
-TEST_CASE("double-gyre: schema, Shadden et al. 2005 defaults and the domain [0, 2] x [0, 1]") {
-    const PluginInfo &info = gyre().info;
-    CHECK(info.kind == PluginKind::system);
-    CHECK(info.dimension == 2);
-    CHECK(info.has_jacobian);
-    CHECK(info.has_divergence);
-    CHECK_FALSE(info.uses_forcing);
-    REQUIRE(info.params.size() == 3);
-    CHECK(info.params[0].name == "amplitude");
-    CHECK(info.params[0].default_value == 0.1);
-    CHECK(info.params[1].name == "epsilon");
-    CHECK(info.params[1].default_value == 0.25);
-    CHECK(info.params[2].name == "omega");
-    CHECK(info.params[2].default_value == 2 * pi / 10);
-    CHECK(info.domain_min == std::vector<double>{0.0, 0.0});
-    CHECK(info.domain_max == std::vector<double>{2.0, 1.0});
-}
 
 TEST_CASE("double-gyre: at epsilon = 0 the stream function A sin(pi x) sin(pi y): u = -psi_y, v = psi_x") {
     const double A = 0.3;

@@ -1,4 +1,4 @@
-// Tests of the duffing system plugin: its schema, values at hand-computed points (chosen so every operation is
+// Tests of the duffing system plugin: values at hand-computed points (chosen so every operation is
 // exact in binary floating point, hence exact equality), the analytic Jacobian and divergence, and the shared
 // conformance checks.
 #include <doctest/doctest.h>
@@ -34,29 +34,6 @@ Lanes three_lanes(std::size_t out_rows) {
 }
 
 } // namespace
-
-TEST_CASE("duffing: schema") {
-    const PluginInfo &info = duffing().info;
-    CHECK(info.kind == PluginKind::system);
-    CHECK(info.version == "1.0.0");
-    CHECK(info.dimension == 2);
-    CHECK(info.has_jacobian);
-    CHECK(info.has_divergence);
-    CHECK(info.uses_forcing);
-    REQUIRE(info.params.size() == 3);
-    const char *names[] = {"alpha", "beta", "delta"};
-    const double defaults[] = {1.0, 1.0, 0.0};
-    for (std::size_t i = 0; i < 3; ++i) {
-        CAPTURE(i);
-        CHECK(info.params[i].name == names[i]);
-        CHECK(info.params[i].type == ParamType::real);
-        CHECK(info.params[i].default_value == defaults[i]);
-        CHECK(info.params[i].min_value == -HUGE_VAL);
-        CHECK(info.params[i].max_value == HUGE_VAL);
-        CHECK(!info.params[i].doc.empty());
-        CHECK(!info.params[i].unit.empty());
-    }
-}
 
 TEST_CASE("duffing: right-hand side at hand-computed points") {
     const System s = test::make_system("duffing", {{"alpha", 1.5}, {"beta", 0.5}, {"delta", 0.25}});

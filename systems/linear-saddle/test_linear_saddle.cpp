@@ -1,4 +1,4 @@
-// Tests of the linear-saddle test system: schema, values, the constant Jacobian diag(a, -a), zero divergence,
+// Tests of the linear-saddle test system: values, the constant Jacobian diag(a, -a), zero divergence,
 // independence of the forcing, and the shared conformance checks.
 #include <doctest/doctest.h>
 
@@ -13,20 +13,6 @@ using namespace geobarrier;
 namespace {
 const PluginHandle &saddle() { return test::registry().find(PluginKind::system, "linear-saddle", "/system/plugin"); }
 } // namespace
-
-TEST_CASE("linear-saddle: schema") {
-    const PluginInfo &info = saddle().info;
-    CHECK(info.kind == PluginKind::system);
-    CHECK(info.dimension == 2);
-    CHECK(info.has_jacobian);
-    CHECK(info.has_divergence);
-    CHECK_FALSE(info.uses_forcing);
-    REQUIRE(info.params.size() == 1);
-    CHECK(info.params[0].name == "a");
-    CHECK(info.params[0].type == ParamType::real);
-    CHECK(info.params[0].default_value == 1.0);
-    CHECK(!info.params[0].doc.empty());
-}
 
 TEST_CASE("linear-saddle: x' = a x, y' = -a y, whatever the forcing") {
     const System s = test::make_system("linear-saddle", {{"a", 0.75}});

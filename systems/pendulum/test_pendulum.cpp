@@ -1,4 +1,4 @@
-// Tests of the pendulum: schema, values, the small-amplitude damped solution, energy conservation without damping,
+// Tests of the pendulum: values, the small-amplitude damped solution, energy conservation without damping,
 // Liouville's det DF = exp(-damping T), and the shared conformance checks.
 #include <doctest/doctest.h>
 
@@ -22,21 +22,6 @@ IntegratorSettings tight() {
     return s;
 }
 } // namespace
-
-TEST_CASE("pendulum: schema") {
-    const PluginInfo &info = pendulum().info;
-    CHECK(info.kind == PluginKind::system);
-    CHECK(info.dimension == 2);
-    CHECK(info.has_jacobian);
-    CHECK(info.has_divergence);
-    CHECK(info.uses_forcing);
-    REQUIRE(info.params.size() == 2);
-    CHECK(info.params[0].name == "omega0");
-    CHECK(info.params[0].default_value == 1.0);
-    CHECK(info.params[0].min_value == 0.0);
-    CHECK(info.params[1].name == "damping");
-    CHECK(info.params[1].default_value == 0.0);
-}
 
 TEST_CASE("pendulum: x' = y, y' = -omega0^2 sin x - damping y + f; Jacobian and divergence") {
     const double w0 = 1.5, c = 0.2;

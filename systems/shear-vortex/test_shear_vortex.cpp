@@ -16,20 +16,6 @@ namespace {
 const PluginHandle &vortex() { return test::registry().find(PluginKind::system, "shear-vortex", "/system/plugin"); }
 } // namespace
 
-TEST_CASE("shear-vortex: schema") {
-    const PluginInfo &info = vortex().info;
-    CHECK(info.kind == PluginKind::system);
-    CHECK(info.dimension == 2);
-    CHECK(info.has_jacobian);
-    CHECK(info.has_divergence);
-    CHECK_FALSE(info.uses_forcing);
-    REQUIRE(info.params.size() == 2);
-    CHECK(info.params[0].name == "omega");
-    CHECK(info.params[0].default_value == 1.0);
-    CHECK(info.params[1].name == "shear");
-    CHECK(info.params[1].default_value == 1.0);
-}
-
 TEST_CASE("shear-vortex: flow map, FTLE, det DF and the closed shearlines, as derived") {
     const double omega = 0.7, shear = -0.4;
     const System s = test::make_system("shear-vortex", {{"omega", omega}, {"shear", shear}});

@@ -1,4 +1,4 @@
-// Tests of the Van der Pol oscillator: schema, values, the attracting limit cycle of amplitude 2 + O(mu^2), and the
+// Tests of the Van der Pol oscillator: values, the attracting limit cycle of amplitude 2 + O(mu^2), and the
 // shared conformance checks.
 #include <doctest/doctest.h>
 
@@ -16,18 +16,6 @@ using namespace geobarrier;
 namespace {
 const PluginHandle &van_der_pol() { return test::registry().find(PluginKind::system, "van-der-pol", "/system/plugin"); }
 } // namespace
-
-TEST_CASE("van-der-pol: schema") {
-    const PluginInfo &info = van_der_pol().info;
-    CHECK(info.kind == PluginKind::system);
-    CHECK(info.dimension == 2);
-    CHECK(info.has_jacobian);
-    CHECK(info.has_divergence);
-    CHECK(info.uses_forcing);
-    REQUIRE(info.params.size() == 1);
-    CHECK(info.params[0].name == "mu");
-    CHECK(info.params[0].default_value == 1.0);
-}
 
 TEST_CASE("van-der-pol: x' = y, y' = mu (1 - x^2) y - x + f; Jacobian and divergence") {
     const double mu = 0.7;

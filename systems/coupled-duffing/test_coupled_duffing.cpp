@@ -73,8 +73,8 @@ TEST_CASE("coupled-duffing: fixed points and the normal modes of the origin") {
         CHECK(J[e] == expected[e]);
     }
     // The modes: J^2 (1, 0, 1, 0) = alpha (1, 0, 1, 0) and J^2 (1, 0, -1, 0) = (alpha - 2k) (1, 0, -1, 0), so the
-    // eigenvalues are +-1 (a saddle in phase) and +-sqrt(0.5) (a saddle in antiphase); alpha < 2k would make it a
-    // centre.
+    // eigenvalues are +-1 (a saddle in phase) and +-sqrt(0.5) (a saddle in antiphase; alpha < 2k would make the
+    // antiphase mode a centre).
     const State in_phase = times(J, times(J, {1, 0, 1, 0}));
     const State antiphase = times(J, times(J, {1, 0, -1, 0}));
     CHECK(in_phase == State{alpha, 0, alpha, 0});

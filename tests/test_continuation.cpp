@@ -25,10 +25,11 @@ namespace {
 
 const double pi = std::acos(-1.0);
 
-json circle(double r, int n) {
+json circle(double r, int n, bool outermost = false, double cx = 0.0, double cy = 0.0) {
     json p = json::array();
-    for (int k = 0; k < n; ++k) p.push_back({r * std::cos(2 * pi * k / n), r * std::sin(2 * pi * k / n)});
-    return {{"extractor", "elliptic"}, {"kind", "elliptic"}, {"closed", true}, {"lambda", 1.0}, {"points", p}};
+    for (int k = 0; k < n; ++k) p.push_back({cx + r * std::cos(2 * pi * k / n), cy + r * std::sin(2 * pi * k / n)});
+    return {{"extractor", "elliptic"}, {"kind", "elliptic"},     {"closed", true},
+            {"lambda", 1.0},           {"outermost", outermost}, {"points", p}};
 }
 
 json segment(double x0, double x1, double y) {
@@ -49,9 +50,11 @@ std::vector<json> events_of(const json &series, const std::string &kind) {
 
 TEST_CASE("continuation of constructed barriers: tracks, areas and every kind of event where they were built") {
     // Box [-1, 1]^2 on 101 x 101 points (h = 0.02). Members p = 0..5 (value 0.1 p), member 1 failed (skipped):
-    // torus A, radius 0.5 + 0.01 p (half a grid spacing per member), in all; torus B, radius 0.2, while p <= 2;
-    // line C (y = 0.8) whole while p <= 3, then in two pieces; line D (y = -0.8) only at p = 0; the tangle's crossings
-    // 0, -, 0, 4, 6, 6. A polygon of n points on a circle of radius r encloses (n / 2) r^2 sin(2 pi / n).
+    // torus A, radius 0.5 + 0.01 p (half a grid spacing per member), in all, the outermost of its island; torus B,
+    // radius 0.2 inside it, while p <= 2; island E around (-0.7, -0.45), its outermost torus of radius 0.2 - 0.05 p
+    // (2.5 grid spacings per member: each torus its own track, the island one track) while p <= 3; line C (y = 0.8)
+    // whole while p <= 3, then in two pieces; line D (y = -0.8) only at p = 0; the tangle's crossings 0, -, 0, 4, 6, 6.
+    // A polygon of n points on a circle of radius r encloses (n / 2) r^2 sin(2 pi / n).
     const int n = 400;
     std::vector<ContinuationMember> members(6);
     for (int p = 0; p < 6; ++p) {
@@ -63,8 +66,9 @@ TEST_CASE("continuation of constructed barriers: tracks, areas and every kind of
         m.grid.nx = m.grid.ny = 101;
         m.available = p != 1;
         if (!m.available) continue;
-        m.barriers.push_back(circle(0.5 + 0.01 * p, n));
+        m.barriers.push_back(circle(0.5 + 0.01 * p, n, true));
         if (p <= 2) m.barriers.push_back(circle(0.2, n));
+        if (p <= 3) m.barriers.push_back(circle(0.2 - 0.05 * p, n, true, -0.7, -0.45));
         if (p <= 3) {
             m.barriers.push_back(segment(-0.9, 0.9, 0.8));
         } else {
@@ -77,14 +81,15 @@ TEST_CASE("continuation of constructed barriers: tracks, areas and every kind of
     }
     const json series = continue_series(members);
     const json &tracks = series["tracks"];
-    REQUIRE(tracks.size() == 4); // A, B, C, D
-    const json &a = tracks[0], &b = tracks[1], &c = tracks[2], &d = tracks[3];
+    REQUIRE(tracks.size() == 7); // A, B, E at p = 0, C, D, E at p = 2, E at p = 3
+    const json &a = tracks[0], &b = tracks[1], &c = tracks[3], &d = tracks[4];
+    const auto area = [&](double r) { return n / 2.0 * r * r * std::sin(2 * pi / n); };
     CHECK(a["closed"] == true);
     CHECK(a["death"].is_null());
     REQUIRE(a["members"].size() == 5);
     for (const json &m : a["members"]) {
         const double r = 0.5 + 0.01 * m["member"].get<int>();
-        CHECK(m["area"].get<double>() == doctest::Approx(n / 2.0 * r * r * std::sin(2 * pi / n)).epsilon(1e-12));
+        CHECK(m["area"].get<double>() == doctest::Approx(area(r)).epsilon(1e-12));
         CHECK(m["stretching"].get<double>() == 1.0);
     }
     // Consecutive available members 0 and 2: radii 0.02 apart = one grid spacing, within the tolerance.
@@ -95,11 +100,30 @@ TEST_CASE("continuation of constructed barriers: tracks, areas and every kind of
     CHECK(c["members"].back()["barriers"].size() == 2);
     CHECK(c["members"].back()["length"].get<double>() == doctest::Approx(1.6));
     CHECK(d["death"] == 2); // the first available member without it
-    REQUIRE(events_of(series, "torus-breakup").size() == 1);
-    const json breakup = events_of(series, "torus-breakup")[0];
-    CHECK(breakup["member"] == "member-003");
-    CHECK(breakup["last_value"].get<double>() == doctest::Approx(0.2));
-    CHECK(breakup["last_area"].get<double>() == doctest::Approx(n / 2.0 * 0.04 * std::sin(2 * pi / n)));
+    // Torus B ends at member 3; E's tori at members 2, 3 and 4.
+    const std::vector<json> breakups = events_of(series, "torus-breakup");
+    REQUIRE(breakups.size() == 4);
+    CHECK(breakups[0]["member"] == "member-002");
+    CHECK(breakups[1]["member"] == "member-003");
+    CHECK(breakups[2]["member"] == "member-003");
+    CHECK(breakups[3]["member"] == "member-004");
+    for (const json &e : {breakups[1], breakups[2]})
+        if (e["track"] == b["id"]) {
+            CHECK(e["last_value"].get<double>() == doctest::Approx(0.2));
+            CHECK(e["last_area"].get<double>() == doctest::Approx(area(0.2)));
+        }
+    // Two islands: A's through every member; E's over members 0, 2, 3, gone at 4, its last torus of radius 0.1.
+    const json &islands = series["islands"];
+    REQUIRE(islands.size() == 2);
+    CHECK(islands[0]["death"].is_null());
+    CHECK(islands[0]["members"].size() == 5);
+    REQUIRE(islands[1]["members"].size() == 3);
+    CHECK(islands[1]["death"] == 4);
+    CHECK(islands[1]["members"][1]["area"].get<double>() == doctest::Approx(area(0.1)));
+    CHECK(islands[1]["members"][2]["centre"][0].get<double>() == doctest::Approx(-0.7));
+    REQUIRE(events_of(series, "island-breakup").size() == 1);
+    CHECK(events_of(series, "island-breakup")[0]["member"] == "member-004");
+    CHECK(events_of(series, "island-breakup")[0]["last_value"].get<double>() == doctest::Approx(0.3));
     REQUIRE(events_of(series, "track-end").size() == 1);
     CHECK(events_of(series, "track-end")[0]["member"] == "member-002");
     REQUIRE(events_of(series, "track-split").size() == 1);
@@ -108,7 +132,7 @@ TEST_CASE("continuation of constructed barriers: tracks, areas and every kind of
     REQUIRE(events_of(series, "tangle-onset").size() == 1);
     CHECK(events_of(series, "tangle-onset")[0]["member"] == "member-003");
     CHECK(events_of(series, "tangle-onset")[0]["last_member"] == "member-002");
-    CHECK(series["events"].size() == 4);
+    CHECK(series["events"].size() == 8);
 }
 
 TEST_CASE("continuation of unforced Duffing over a parameter that cannot move its barriers: one track per torus") {
@@ -153,6 +177,12 @@ TEST_CASE("continuation of unforced Duffing over a parameter that cannot move it
             CHECK(bk["area"].get<double>() == doctest::Approx(b0["area"].get<double>()).epsilon(1e-12));
             CHECK(bk["match_distance"].get<double>() < 1e-9);
         }
+    }
+    REQUIRE(series["islands"].size() == 2); // the islands around the centres (-1, 0) and (1, 0)
+    for (const json &island : series["islands"]) {
+        CHECK(island["death"].is_null());
+        CHECK(island["members"].size() == 3);
+        CHECK(std::abs(std::abs(island["members"][0]["centre"][0].get<double>()) - 1.0) < 0.1);
     }
     CHECK(series["events"].empty());
     CHECK(test::read_text(dir / "summary.md").find("No events.") != std::string::npos);

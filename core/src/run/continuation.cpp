@@ -3,16 +3,19 @@
 
 #include "run/barrier_matching.hpp"
 
+#include <geobarrier/curves.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/output.hpp>
 
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <tuple>
 
 namespace geobarrier {
 
@@ -87,12 +90,84 @@ json assemble(const std::vector<ContinuationMember> &members, const std::vector<
     return tracks;
 }
 
+// Whether the closed polygon `xy` encloses (x, y) (even-odd rule).
+bool encloses(const std::vector<double> &xy, double x, double y) {
+    bool inside = false;
+    for (std::size_t i = 0, n = xy.size() / 2, j = n - 1; i < n; j = i++) {
+        const double xi = xy[2 * i], yi = xy[2 * i + 1], xj = xy[2 * j], yj = xy[2 * j + 1];
+        if ((yi > y) != (yj > y) && x < (xj - xi) * (y - yi) / (yj - yi) + xi) inside = !inside;
+    }
+    return inside;
+}
+
+struct Outermost {
+    std::size_t barrier = 0, track = 0;
+    std::vector<double> xy;
+    double cx = 0.0, cy = 0.0; // the mean of its points
+};
+
+// Islands: the regions inside the elliptic extractor's outermost tori ("outermost": true). A generalized KAM torus
+// moves with the parameter by more than the matching tolerance, and each member's nested tori are a different
+// family of curves, so an island is continued by position instead: two neighbouring members' outermost tori bound the
+// same island when each encloses the other's mean point; one to one, the closest mean points first.
+json continue_islands(const std::vector<ContinuationMember> &members, const std::vector<std::size_t> &order) {
+    json islands = json::array();
+    std::vector<Outermost> before;
+    for (const std::size_t k : order) {
+        const ContinuationMember &m = members[k];
+        std::vector<Outermost> now;
+        for (std::size_t b = 0; b < m.barriers.size(); ++b)
+            if (m.barriers[b].value("closed", false) && m.barriers[b].value("outermost", false)) {
+                Outermost o{b, 0, detail::barrier_points(m.barriers[b])};
+                for (std::size_t q = 0; q + 1 < o.xy.size(); q += 2) o.cx += o.xy[q], o.cy += o.xy[q + 1];
+                o.cx /= static_cast<double>(o.xy.size() / 2), o.cy /= static_cast<double>(o.xy.size() / 2);
+                now.push_back(std::move(o));
+            }
+        std::vector<std::tuple<double, std::size_t, std::size_t>> pairs;
+        for (std::size_t p = 0; p < before.size(); ++p)
+            for (std::size_t c = 0; c < now.size(); ++c)
+                if (encloses(before[p].xy, now[c].cx, now[c].cy) && encloses(now[c].xy, before[p].cx, before[p].cy))
+                    pairs.emplace_back(std::hypot(now[c].cx - before[p].cx, now[c].cy - before[p].cy), p, c);
+        std::sort(pairs.begin(), pairs.end());
+        std::vector<bool> continued(before.size(), false), reached(now.size(), false);
+        for (const auto &[d, p, c] : pairs)
+            if (!continued[p] && !reached[c]) continued[p] = reached[c] = true, now[c].track = before[p].track;
+        for (std::size_t p = 0; p < before.size(); ++p)
+            if (!continued[p]) islands[before[p].track]["death"] = k;
+        for (std::size_t c = 0; c < now.size(); ++c) {
+            if (!reached[c]) {
+                now[c].track = islands.size();
+                islands.push_back(
+                    {{"id", islands.size()}, {"birth", k}, {"death", nullptr}, {"members", json::array()}});
+            }
+            const json &b = m.barriers[now[c].barrier];
+            islands[now[c].track]["members"].push_back(
+                {{"member", k},
+                 {"name", m.name},
+                 {"value", m.value},
+                 {"barrier", m.indices.at(now[c].barrier)},
+                 {"area", b.value("enclosed_area", std::abs(shoelace_area(now[c].xy)))},
+                 {"centre", {now[c].cx, now[c].cy}}});
+        }
+        before = std::move(now);
+    }
+    return islands;
+}
+
 // The events of a series, in member order: torus-breakup (a closed barrier's track ends), track-end (an open one's),
-// track-split (a track has more barriers than in the member before), tangle-onset (the tangle's crossings count turns
-// from 0 to more).
+// track-split (a track has more barriers than in the member before), island-breakup (an island's last torus is gone),
+// tangle-onset (the tangle's crossings count turns from 0 to more).
 json series_events(const std::vector<ContinuationMember> &members, const std::vector<std::size_t> &order,
-                   const json &tracks) {
+                   const json &tracks, const json &islands) {
     std::vector<std::pair<std::size_t, json>> events;
+    for (const json &island : islands)
+        if (!island["death"].is_null())
+            events.push_back({island["death"],
+                              {{"event", "island-breakup"},
+                               {"island", island["id"]},
+                               {"last_member", island["members"].back()["name"]},
+                               {"last_value", island["members"].back()["value"]},
+                               {"last_area", island["members"].back()["area"]}}});
     for (const json &t : tracks) {
         const json &per_member = t["members"];
         for (std::size_t i = 1; i < per_member.size(); ++i)
@@ -159,7 +234,11 @@ json continue_series(const std::vector<ContinuationMember> &members, const Track
                           {"tangle_crossings", m.tangle_crossings ? json(*m.tangle_crossings) : json(nullptr)}});
     }
     const json tracks = assemble(members, order, components, offset, match_distance);
-    return {{"members", listed}, {"tracks", tracks}, {"events", series_events(members, order, tracks)}};
+    const json islands = continue_islands(members, order);
+    return {{"members", listed},
+            {"tracks", tracks},
+            {"islands", islands},
+            {"events", series_events(members, order, tracks, islands)}};
 }
 
 namespace {
@@ -198,21 +277,26 @@ void read_member(const Sweep &s, const SweepMember &m, const fs::path &folder, C
     c.available = true;
 }
 
-// Each track's area (closed tracks, when any) or length against the parameter.
+// Each island's area (the elliptic extractor's outermost tori, when any), else each closed track's area, else each
+// track's length, against the parameter.
 bool plot_continuation(const fs::path &file, const json &continuation) {
-    bool any_closed = false;
-    for (const json &series : continuation["series"])
+    bool any_island = false, any_closed = false;
+    for (const json &series : continuation["series"]) {
+        any_island = any_island || !series["islands"].empty();
         for (const json &t : series["tracks"]) any_closed = any_closed || t["closed"].get<bool>();
-    const char *figure = any_closed ? "area" : "length";
+    }
+    const std::string name = continuation["parameter"]["name"].get<std::string>();
+    const char *figure = any_island || any_closed ? "area" : "length";
     XYPlot plot;
-    plot.title = fmt::format("continuation: each {}track's {} against {}", any_closed ? "closed " : "", figure,
-                             continuation["parameter"]["name"].get<std::string>());
-    plot.x_label = continuation["parameter"]["name"].get<std::string>();
+    plot.title = any_island   ? "continuation: the area of each island's outermost torus against " + name
+                 : any_closed ? "continuation: each closed track's area against " + name
+                              : "continuation: each track's length against " + name;
+    plot.x_label = name;
     plot.y_label = figure;
     static const char *colors[] = {"blue", "red", "green", "black", "magenta", "cyan", "orange", "brown"};
     for (const json &series : continuation["series"])
-        for (const json &t : series["tracks"]) {
-            if (any_closed && !t["closed"].get<bool>()) continue;
+        for (const json &t : series[any_island ? "islands" : "tracks"]) {
+            if (!any_island && any_closed && !t["closed"].get<bool>()) continue;
             PlotSeries line;
             line.style = PlotSeries::Style::line_points;
             line.color = colors[plot.series.size() % (sizeof colors / sizeof *colors)];
@@ -227,19 +311,33 @@ bool plot_continuation(const fs::path &file, const json &continuation) {
 
 // The events as lines for summary.md.
 std::string events_markdown(const json &continuation) {
-    std::string md =
-        "\n## Continuation over " + continuation["parameter"]["name"].get<std::string>() + " (continuation.json)\n\n";
+    const std::string name = continuation["parameter"]["name"].get<std::string>();
+    std::string md = "\n## Continuation over " + name + " (continuation.json)\n\n";
     std::size_t count = 0;
-    for (const json &series : continuation["series"])
-        for (const json &e : series["events"]) {
+    for (const json &series : continuation["series"]) {
+        const json &events = series["events"];
+        for (std::size_t i = 0; i < events.size(); ++i) {
+            const json &e = events[i];
+            // A member's torus-breakups in one line: a generalized KAM torus family is replaced as a whole (the
+            // islands say what persists).
+            std::size_t tori = 1;
+            while (e["event"] == "torus-breakup" && i + tori < events.size() &&
+                   events[i + tori]["event"] == "torus-breakup" && events[i + tori]["member"] == e["member"])
+                ++tori;
             md += fmt::format("- {} at {} ({} = {})", e["event"].get<std::string>(), e["member"].get<std::string>(),
-                              continuation["parameter"]["name"].get<std::string>(), e["value"].dump());
-            if (e.contains("track")) md += fmt::format(", track {}", e["track"].dump());
+                              name, e["value"].dump());
+            if (tori > 1)
+                md += fmt::format(", {} tracks", tori);
+            else if (e.contains("track"))
+                md += fmt::format(", track {}", e["track"].dump());
+            if (e.contains("island")) md += fmt::format(", island {}", e["island"].dump());
             if (e.contains("last_value")) md += fmt::format(", last seen at {}", e["last_value"].dump());
             if (e.contains("crossings")) md += fmt::format(", {} crossings", e["crossings"].dump());
             md += "\n";
-            ++count;
+            count += tori;
+            i += tori - 1;
         }
+    }
     return count ? md : md + "No events.\n";
 }
 

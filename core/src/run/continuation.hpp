@@ -1,6 +1,7 @@
 // Continuation across a sweep's parameter: barriers of neighbouring members (same t0, the parameter one step apart)
 // matched by distance with the frames' matcher (barrier_matching.hpp), tracks of their figures against the parameter,
-// and events (a torus breaking up, a tangle forming, a track splitting or ending). docs/sweeps.md, "Continuation".
+// and events (a torus or an island breaking up, a tangle forming, a track splitting or ending). docs/sweeps.md,
+// "Continuation across the parameter".
 #ifndef GEOBARRIER_RUN_CONTINUATION_HPP
 #define GEOBARRIER_RUN_CONTINUATION_HPP
 
@@ -31,7 +32,8 @@ struct ContinuationMember {
 
 // The tracks and events of one series of members in the parameter's order: members[k]'s barriers matched to those of
 // the next available member (a member that failed is skipped) by the frames' rule (TrackSettings), without advection.
-// Returns {"members", "tracks", "events"} (docs/sweeps.md, "Continuation").
+// Islands (the regions inside outermost tori) are continued by position. Returns {"members", "tracks", "islands",
+// "events"} (docs/sweeps.md, "Continuation across the parameter").
 nlohmann::json continue_series(const std::vector<ContinuationMember> &members, const TrackSettings &settings = {});
 
 // After a sweep whose base has extractors: continuation.json (and, when the sweep draws a picture, continuation.png)

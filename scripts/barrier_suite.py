@@ -54,7 +54,7 @@ from scipy.spatial import cKDTree
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 DEFAULT_BIN = os.path.join(ROOT, "build", "bin", "geobarrier")
-TRUTH_VERSION = 1  # bump when a truth computation changes: the cache key holds it
+TRUTH_VERSION = 2  # bump when a truth computation changes: the cache key holds it
 RTOL, ATOL = 1e-10, 1e-12
 GROWTH_FRACTIONS = (0.25, 0.5, 0.75, 1.0)
 THRESHOLDS = {"precision": 0.95, "recall": 0.9, "pieces": 2, "top_share": 0.95}
@@ -270,20 +270,37 @@ class Saddle:
     residual: float  # |P(x) - x| (periodic) or |v(x)| (equilibrium)
 
 
-def find_saddle(system, guess, t0, tolerance=1e-12, iterations=40):
-    """Newton's method on P(x) - x (the period map from t0) or on v(x) = 0 (autonomous), then the eigenvectors."""
+def find_saddle(system, guess, t0, tolerance=1e-12, iterations=60, max_residual=1e-9):
+    """Newton's method on P(x) - x (the period map from t0) or on v(x) = 0 (autonomous), then the eigenvectors.
+
+    The steps are damped (halved until the residual falls by a quarter of the step's share): a saddle orbit's
+    period map stretches by its unstable multiplier (e^7 on the escape oscillator), so a full step from a guess a
+    few hundredths off overshoots, and undamped Newton went on to a point whose trajectory leaves the box (the
+    escape oscillator above Melnikov's threshold; the truth grown from there had almost no length in the box). A
+    point that is not a fixed point to max_residual is refused, never returned."""
     x = np.asarray(guess, dtype=float)
     period = system.period
-    for _ in range(iterations):
+
+    def residual_at(x):
         if period is None:
-            r, M = system.rhs(t0, x[None, :])[0], system.jac(t0, x)
-        else:
-            Px, DP = flow_gradient(system, x, t0, t0 + period)
-            r, M = Px - x, DP - np.eye(2)
+            return system.rhs(t0, x[None, :])[0], system.jac(t0, x)
+        Px, DP = flow_gradient(system, x, t0, t0 + period)
+        return Px - x, DP - np.eye(2)
+    r, M = residual_at(x)
+    for _ in range(iterations):
         step = np.linalg.solve(M, -r)
-        x = x + step
-        if np.linalg.norm(step) < tolerance:
+        damping = 1.0
+        while True:
+            r_new, M_new = residual_at(x + damping * step)
+            if np.linalg.norm(r_new) < (1.0 - damping / 4) * np.linalg.norm(r) or damping < 1e-4:
+                break
+            damping /= 2
+        x, r, M = x + damping * step, r_new, M_new
+        if np.linalg.norm(damping * step) < tolerance:
             break
+    if not np.linalg.norm(r) <= max_residual:
+        raise ValueError(f"Newton's method from {list(guess)} did not find a fixed point: residual "
+                         f"{np.linalg.norm(r):.3g} at {list(x)}")
     if period is None:
         residual = float(np.linalg.norm(system.rhs(t0, x[None, :])[0]))
         M = system.jac(t0, x)

@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include <geobarrier/flow_map.hpp>
+#include <system_tests.hpp>
 #include <test_support.hpp>
 
 #include <cmath>
@@ -21,13 +22,6 @@ double profile_slope(const std::string &name, double z) {
     return name == "jet" ? -2.0 * sech2(z) * std::tanh(z) : sech2(z);
 }
 
-IntegratorSettings tight() {
-    IntegratorSettings s;
-    s.rtol = 1e-12;
-    s.atol = 1e-15;
-    return s;
-}
-
 } // namespace
 
 TEST_CASE("parallel-shear: the flow map and its gradient are the closed forms, for the jet and the layer") {
@@ -37,7 +31,7 @@ TEST_CASE("parallel-shear: the flow map and its gradient are the closed forms, f
         CAPTURE(name);
         const System s = test::make_system("parallel-shear", {{"profile", name}, {"velocity", U}, {"width", L}});
         const std::vector<double> x0 = {0.0, -1.0, 2.5, 0.3}, y0 = {0.0, 0.4, -1.1, 2.0};
-        const AdvectResult r = advect_points(Dynamics{&s, &none}, x0, y0, 0.0, T, tight(), true);
+        const AdvectResult r = advect_points(Dynamics{&s, &none}, x0, y0, 0.0, T, test::tight_integrator(), true);
         for (std::size_t k = 0; k < x0.size(); ++k) {
             CAPTURE(y0[k]);
             REQUIRE(r.mask[k] == 0);

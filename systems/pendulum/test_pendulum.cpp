@@ -4,6 +4,7 @@
 
 #include <geobarrier/conformance.hpp>
 #include <geobarrier/flow_map.hpp>
+#include <system_tests.hpp>
 #include <test_support.hpp>
 
 #include <cfloat>
@@ -14,13 +15,6 @@ using namespace geobarrier;
 
 namespace {
 const PluginHandle &pendulum() { return test::registry().find(PluginKind::system, "pendulum", "/system/plugin"); }
-
-IntegratorSettings tight() {
-    IntegratorSettings s;
-    s.rtol = 1e-12;
-    s.atol = 1e-15;
-    return s;
-}
 } // namespace
 
 TEST_CASE("pendulum: x' = y, y' = -omega0^2 sin x - damping y + f; Jacobian and divergence") {
@@ -56,7 +50,7 @@ TEST_CASE("pendulum: small swings follow the damped linear oscillator") {
     const double w0 = 2.0, c = 0.3, a = 1e-3, T = 10.0;
     const System s = test::make_system("pendulum", {{"omega0", w0}, {"damping", c}});
     const Forcing none = test::make_forcing("none");
-    const AdvectResult r = advect_points(Dynamics{&s, &none}, {a}, {0.0}, 0.0, T, tight(), false);
+    const AdvectResult r = advect_points(Dynamics{&s, &none}, {a}, {0.0}, 0.0, T, test::tight_integrator(), false);
     REQUIRE(r.mask[0] == 0);
     const double wd = std::sqrt(w0 * w0 - c * c / 4);
     const double decay = std::exp(-c * T / 2);
@@ -74,7 +68,7 @@ TEST_CASE("pendulum: without damping or forcing, energy y^2/2 + w0^2 (1 - cos x)
     const Forcing none = test::make_forcing("none");
     // Librations, and a rotation above the separatrix (energy 2 w0^2 = 3.38).
     const std::vector<double> x0 = {0.5, 2.5, 3.1, 0.0}, y0 = {0.0, 0.0, 0.2, 3.0};
-    const AdvectResult r = advect_points(Dynamics{&s, &none}, x0, y0, 0.0, 30.0, tight(), false);
+    const AdvectResult r = advect_points(Dynamics{&s, &none}, x0, y0, 0.0, 30.0, test::tight_integrator(), false);
     auto energy = [w0](double x, double y) { return 0.5 * y * y + w0 * w0 * (1 - std::cos(x)); };
     for (std::size_t k = 0; k < x0.size(); ++k) {
         CAPTURE(k);
@@ -88,7 +82,8 @@ TEST_CASE("pendulum: det DF = exp(-damping T) (Liouville), forced or not") {
     const double c = 0.25, T = 8.0;
     const System s = test::make_system("pendulum", {{"damping", c}});
     const Forcing cosine = test::make_forcing("cosine", {{"amplitude", 0.4}});
-    const AdvectResult r = advect_points(Dynamics{&s, &cosine}, {0.3, -1.0}, {0.0, 0.7}, 0.0, T, tight(), true);
+    const AdvectResult r =
+        advect_points(Dynamics{&s, &cosine}, {0.3, -1.0}, {0.0, 0.7}, 0.0, T, test::tight_integrator(), true);
     for (std::size_t k = 0; k < 2; ++k) {
         REQUIRE(r.mask[k] == 0);
         const double *F = &r.dF[4 * k];

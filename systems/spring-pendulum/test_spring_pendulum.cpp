@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include <geobarrier/plugin.hpp>
+#include <system_tests.hpp>
 #include <test_support.hpp>
 
 #include <array>
@@ -17,14 +18,7 @@ namespace {
 
 using State = std::array<double, 4>; // r, vr, theta, omega
 
-State rhs(const System &s, const State &x, double f) {
-    State dxdt{};
-    const double t = 0.0;
-    std::int32_t status = -1;
-    s.rhs(1, 1, &t, x.data(), &f, dxdt.data(), &status);
-    CHECK(status == GB_OK);
-    return dxdt;
-}
+State rhs(const System &s, const State &x, double f) { return test::rhs_at(s, x, f); }
 
 } // namespace
 

@@ -272,7 +272,7 @@ void read_member(const Sweep &s, const SweepMember &m, const fs::path &folder, C
         const json manifest = read_json_file(folder / "manifest.json");
         const json::json_pointer tangle("/crossings/tangle");
         if (manifest.contains(tangle) && manifest.at(tangle).is_number())
-            c.tangle_crossings = manifest.at(tangle).get<double>();
+            c.tangle_crossings = manifest.at(tangle).get<long long>();
     }
     c.available = true;
 }

@@ -27,7 +27,7 @@ struct ContinuationMember {
     std::vector<std::string> runs;    // per barrier: "" or, for both directions, "forward" / "backward"
     std::vector<std::size_t> indices; // per barrier: its index in its own barriers.json
     Grid grid;
-    std::optional<double> tangle_crossings; // both directions: the manifest's /crossings/tangle
+    std::optional<long long> tangle_crossings; // both directions: the manifest's /crossings/tangle (a count)
 };
 
 // The tracks and events of one series of members in the parameter's order: members[k]'s barriers matched to those of

@@ -102,15 +102,24 @@ int wait_for(const Process &p) {
     return -1;
 }
 
-// Waits until the paused writer has reached `point` (its hook file exists); fails if it ended first.
-void wait_until_paused(const Process &p, const fs::path &hooks, const std::string &point) {
+// Waits until a paused writer has reached `point` (its hook file exists), calling `still_running` between polls
+// (it fails the test when the writer ended first). Bounded at 300 s: a guard against a hang, not a timing.
+template <class StillRunning>
+void wait_for_hook(const fs::path &hooks, const std::string &point, StillRunning still_running) {
     for (int i = 0; i < 60000; ++i) {
         if (fs::exists(hooks / (point + ".reached"))) return;
-        int status = 0;
-        REQUIRE_MESSAGE(::waitpid(p.pid, &status, WNOHANG) == 0, read_text(p.err));
+        still_running();
         std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
     FAIL("the first writer never reached " << point);
+}
+
+// The same for a writer that is another process: fails if it ended first.
+void wait_until_paused(const Process &p, const fs::path &hooks, const std::string &point) {
+    wait_for_hook(hooks, point, [&] {
+        int status = 0;
+        REQUIRE_MESSAGE(::waitpid(p.pid, &status, WNOHANG) == 0, read_text(p.err));
+    });
 }
 
 void release(const fs::path &hooks, const std::string &point) { std::ofstream(hooks / (point + ".go")) << "go\n"; }
@@ -171,8 +180,7 @@ std::string second_thread_refused(const geobarrier::ResolvedExperiment &r, const
             first_error = e.what();
         }
     });
-    for (int i = 0; i < 60000 && !fs::exists(hooks / "locked.reached"); ++i)
-        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    wait_for_hook(hooks, "locked", [] {});
     CHECK_THROWS_AS(geobarrier::run_experiment(r, options), geobarrier::OutputBusyError);
     release(hooks, "locked");
     first.join();

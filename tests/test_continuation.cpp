@@ -1,10 +1,10 @@
 // Continuation across a sweep's parameter (core/src/run/continuation.hpp) against known answers: constructed barriers
 // whose tracks, areas and events are known exactly; unforced Duffing swept over a parameter that cannot move its
 // barriers; the damped, forced Duffing tangle appearing between 0.9 and 1.1 of Melnikov's threshold.
-#include "run/continuation.hpp"
+#include "sweep/continuation.hpp"
 
+#include "sweep/sweep.hpp"
 #include <geobarrier/experiment.hpp>
-#include <geobarrier/sweep.hpp>
 
 #include <test_support.hpp>
 

@@ -1,10 +1,10 @@
 // Frames and tracks (frames.hpp) against known answers: an autonomous system's frames are one frame and every track
 // lasts through all of them; under a forcing of period P the frame at t0 + P is the frame at t0; bad "time" input is
 // refused at its JSON path.
+#include "sweep/sweep.hpp"
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/frames.hpp>
-#include <geobarrier/sweep.hpp>
 
 #include <test_support.hpp>
 

@@ -1,8 +1,8 @@
 // Parameter sweeps: the sweep file's checks (JSON paths in every error), the members it makes, and the program on
 // a sweep: a failing member is reported while the others finish, a SIGINT leaves only whole members, and a re-run
 // resumes, skipping the members already complete.
+#include "sweep/sweep.hpp"
 #include <geobarrier/errors.hpp>
-#include <geobarrier/sweep.hpp>
 
 #include <doctest/doctest.h>
 #include <netcdf.h>

@@ -1,5 +1,6 @@
 // The geobarrier command-line program: run and validate experiments, list plugins.
 #include "run/mpi.hpp"
+#include "sweep/sweep.hpp"
 
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/conformance.hpp>
@@ -7,7 +8,6 @@
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/plugin.hpp>
-#include <geobarrier/sweep.hpp>
 
 #include <CLI/CLI.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>

@@ -1,5 +1,5 @@
 // Continuation across a sweep's parameter (continuation.hpp).
-#include "run/continuation.hpp"
+#include "sweep/continuation.hpp"
 
 #include "run/barrier_matching.hpp"
 

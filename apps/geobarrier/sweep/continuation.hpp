@@ -2,12 +2,12 @@
 // matched by distance with the frames' matcher (barrier_matching.hpp), tracks of their figures against the parameter,
 // and events (a torus or an island breaking up, a tangle forming, a track splitting or ending). docs/sweeps.md,
 // "Continuation across the parameter".
-#ifndef GEOBARRIER_RUN_CONTINUATION_HPP
-#define GEOBARRIER_RUN_CONTINUATION_HPP
+#ifndef GEOBARRIER_SWEEP_CONTINUATION_HPP
+#define GEOBARRIER_SWEEP_CONTINUATION_HPP
 
+#include "sweep/sweep.hpp"
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/frames.hpp>
-#include <geobarrier/sweep.hpp>
 
 #include <nlohmann/json.hpp>
 
@@ -44,4 +44,4 @@ std::vector<std::filesystem::path> write_continuation(const Sweep &sweep, const 
 
 } // namespace geobarrier
 
-#endif // GEOBARRIER_RUN_CONTINUATION_HPP
+#endif // GEOBARRIER_SWEEP_CONTINUATION_HPP

@@ -1,14 +1,14 @@
 // Parameter sweeps (see sweep.hpp): parsing and checking the sweep file, running the members in forked processes
 // (or in-process on MPI ranks), resuming, and the summary table and picture.
+#include "sweep/sweep.hpp"
 #include "output/folder_lock.hpp"
 #include "output/provenance.hpp"
-#include "run/continuation.hpp"
 #include "run/mpi.hpp"
+#include "sweep/continuation.hpp"
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/output.hpp>
-#include <geobarrier/sweep.hpp>
 
 #include "experiment/json_reader.hpp"
 #include "experiment/resources.hpp"

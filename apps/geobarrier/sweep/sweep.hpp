@@ -3,8 +3,8 @@
 // atomically as a single run: a folder with manifest.json is a finished member), members spread over local processes
 // or MPI ranks, a failed member is reported while the others finish, and a re-run skips the members already
 // complete. The format is in docs/sweeps.md; running on clusters in docs/cluster.md.
-#ifndef GEOBARRIER_SWEEP_HPP
-#define GEOBARRIER_SWEEP_HPP
+#ifndef GEOBARRIER_SWEEP_SWEEP_HPP
+#define GEOBARRIER_SWEEP_SWEEP_HPP
 
 #include <nlohmann/json.hpp>
 
@@ -94,4 +94,4 @@ SweepResult run_sweep(const Sweep &sweep, const SweepOptions &options);
 
 } // namespace geobarrier
 
-#endif // GEOBARRIER_SWEEP_HPP
+#endif // GEOBARRIER_SWEEP_SWEEP_HPP

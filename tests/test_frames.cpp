@@ -378,3 +378,86 @@ TEST_CASE("frames of a periodic forcing: the frame at t0 + P is the frame at t0,
     CHECK(barriers_in(dir / "single") == barriers_in(dir / "frames" / "002"));
     fs::remove_all(dir);
 }
+
+namespace {
+
+// A closed orbit of unforced Duffing x'' = x - x^3 around the centre (1, 0), the level set H = -1/4 + e of
+// H = y^2/2 - x^2/2 + x^4/4 (invariant, so every frame of an autonomous run holds it), as a barrier of 400 points
+// found along rays from the centre by bisection.
+json duffing_orbit(double e) {
+    const auto H = [](double x, double y) { return 0.5 * y * y - 0.5 * x * x + 0.25 * x * x * x * x; };
+    json points = json::array();
+    for (int k = 0; k < 400; ++k) {
+        const double angle = 2 * pi * k / 400, c = std::cos(angle), s = std::sin(angle);
+        double lo = 0.0, hi = 0.9;
+        for (int it = 0; it < 60; ++it) {
+            const double mid = 0.5 * (lo + hi);
+            (H(1 + mid * c, mid * s) < -0.25 + e ? lo : hi) = mid;
+        }
+        points.push_back({1 + lo * c, lo * s});
+    }
+    return {{"extractor", "elliptic"}, {"kind", "elliptic"}, {"closed", true}, {"points", points}};
+}
+
+} // namespace
+
+TEST_CASE("tracks across a missed frame: a barrier dropped from a frame keeps its track within the gap limit") {
+    // Three nested closed orbits of unforced Duffing, 4 to 5 grid spacings apart (farther than the match tolerance of
+    // 2): frames that hold all of them are tracked one to one. Drop one from the middle frames, as an extractor that
+    // misses a torus does: within max_gap frames its track skips them (one advection across the gap), beyond it the
+    // track ends and a new one starts; an orbit that is not there before the gap does not take the track.
+    json j = duffing(0, 0);
+    const ResolvedExperiment r = resolve_experiment(parse_experiment(j));
+    const json inner = duffing_orbit(0.04), middle = duffing_orbit(0.09), outer = duffing_orbit(0.16);
+    const auto track_of = [](const json &tracks, std::size_t frame, std::size_t barrier) {
+        for (const json &t : tracks["tracks"])
+            for (const json &f : t["frames"])
+                for (const json &b : f["barriers"])
+                    if (f["frame"] == frame && b["barrier"] == barrier) return t;
+        return json();
+    };
+    const std::vector<double> t0s = {0, 0.5, 1.0, 1.5};
+    SUBCASE("one frame missed, max_gap 1: one track with frame 1 skipped") {
+        const std::vector<json> frames = {json{inner, middle}, json{inner}, json{inner, middle}};
+        const json tracks = track_barriers(r, {0, 0.5, 1.0}, frames);
+        CHECK(tracks["max_gap_frames"] == 1);
+        CHECK(tracks["track_count"] == 2);
+        CHECK(tracks["tracks_through_all_frames"] == 1);
+        const json t = track_of(tracks, 0, 1);
+        REQUIRE(t["frames"].size() == 2);
+        CHECK(t["frames"][1]["frame"] == 2);
+        CHECK(t["frames"][1]["barriers"][0]["barrier"] == 1);
+        CHECK(t["frames"][1]["barriers"][0]["match_distance"].get<double>() < 0.5);
+        CHECK(t["skipped"] == json{1});
+        CHECK(t["death"].is_null());
+        CHECK(tracks["gaps"] == json{{{"from", 0}, {"to", 2}, {"matched_pairs", 1}}});
+        CHECK(track_of(tracks, 0, 0)["skipped"] == json::array());
+    }
+    SUBCASE("max_gap 0: the track ends at the missed frame and a new one starts after it") {
+        const std::vector<json> frames = {json{inner, middle}, json{inner}, json{inner, middle}};
+        TrackSettings settings;
+        settings.max_gap = 0;
+        const json tracks = track_barriers(r, {0, 0.5, 1.0}, frames, settings);
+        CHECK(tracks["track_count"] == 3);
+        CHECK(track_of(tracks, 0, 1)["death"] == 1);
+        CHECK(track_of(tracks, 2, 1)["birth"] == 2);
+        CHECK(tracks["gaps"] == json::array());
+    }
+    SUBCASE("two frames missed: bridged with max_gap 2, not with max_gap 1") {
+        const std::vector<json> frames = {json{inner, middle}, json{inner}, json{inner}, json{inner, middle}};
+        CHECK(track_barriers(r, t0s, frames)["track_count"] == 3);
+        TrackSettings settings;
+        settings.max_gap = 2;
+        const json tracks = track_barriers(r, t0s, frames, settings);
+        CHECK(tracks["track_count"] == 2);
+        CHECK(track_of(tracks, 0, 1)["skipped"] == json{1, 2});
+        CHECK(tracks["gaps"] == json{{{"from", 0}, {"to", 3}, {"matched_pairs", 1}}});
+    }
+    SUBCASE("another orbit after the gap is not the missed one") {
+        const std::vector<json> frames = {json{inner, middle}, json{inner}, json{inner, outer}};
+        const json tracks = track_barriers(r, {0, 0.5, 1.0}, frames);
+        CHECK(tracks["track_count"] == 3);
+        CHECK(track_of(tracks, 0, 1)["death"] == 1);
+        CHECK(track_of(tracks, 2, 1)["birth"] == 2);
+    }
+}

@@ -37,17 +37,22 @@ double mean_distance_to_polyline(const std::vector<double> &from, const std::vec
 // shorter piece of the same material curve still matches), of two closed ones the larger (nested tori stay apart).
 // Two curves match when it is at most `tolerance` grid spacings (the larger of dx, dy), one to one, closest pairs
 // first, then each open barrier left without a match takes its closest (a curve extracted in two pieces keeps one
-// track); only barriers of the same extractor, kind and direction (repelling, attracting) match.
+// track); only barriers of the same extractor, kind and direction (repelling, attracting) match. A barrier of frame k
+// that no barrier of frame k + 1 matched is advected straight to frame k + 2, ..., k + 1 + max_gap (nearest first) and
+// matched there with the barriers no earlier frame matched: an extractor that misses a barrier in one frame (a KAM
+// torus whose figure is a little above the threshold there) does not break its track.
 struct TrackSettings {
-    double tolerance = 2.0; // grid spacings
+    double tolerance = 2.0;  // grid spacings
+    std::size_t max_gap = 1; // frames a track may skip (0: every frame)
 };
 
 // The tracks of the barriers of several frames (`barriers[k]`: frame k's barriers as in its barriers.json, at the
 // initial time t0s[k]): each barrier of frame k is advected to t0s[k + 1] with the experiment's dynamics and
 // integrator (advect_curves, image gaps refined to a grid spacing inside the box) and matched (TrackSettings). A
-// barrier no earlier barrier matched starts a track. Returns tracks.json's contents (docs/experiment-format.md,
-// "Frames"): per track its barriers per frame, birth and death, and per-frame figures (length, the barrier's own
-// stretching figure, enclosed area of a closed barrier, the match distance).
+// barrier no earlier barrier matched starts a track; across a missed frame see TrackSettings::max_gap. Returns
+// tracks.json's contents (docs/experiment-format.md, "Frames"): per track its barriers per frame, birth and death, the
+// frames it skipped, and per-frame figures (length, the barrier's own stretching figure, enclosed area of a closed
+// barrier, the match distance).
 nlohmann::json track_barriers(const ResolvedExperiment &experiment, const std::vector<double> &t0s,
                               const std::vector<nlohmann::json> &barriers, const TrackSettings &settings = {});
 

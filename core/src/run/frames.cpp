@@ -12,6 +12,7 @@
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -307,8 +308,97 @@ json assemble_tracks(detail::TrackComponents &components, const std::vector<std:
     for (json &t : tracks) {
         const std::size_t last = t["frames"].back()["frame"];
         if (last + 1 < t0s.size()) t["death"] = last + 1;
+        // The frames a track crossed without a barrier there (TrackSettings::max_gap).
+        json skipped = json::array();
+        for (std::size_t f = 1; f < t["frames"].size(); ++f)
+            for (std::size_t k = t["frames"][f - 1]["frame"].get<std::size_t>() + 1; k < t["frames"][f]["frame"]; ++k)
+                skipped.push_back(k);
+        t["skipped"] = skipped;
     }
     return tracks;
+}
+
+} // namespace
+
+namespace {
+
+// What track_barriers has joined so far, barrier by barrier (numbered frame by frame from offset[k]).
+struct TrackState {
+    std::vector<std::size_t> offset;
+    detail::TrackComponents components;
+    std::vector<double> match_distance;               // of each barrier to its closest match in the frame before it
+    std::vector<bool> has_successor, has_predecessor; // matched to a later frame, from an earlier one
+    explicit TrackState(const std::vector<json> &barriers) : offset{0}, components(0) {
+        for (const json &frame : barriers) offset.push_back(offset.back() + frame.size());
+        components = detail::TrackComponents(offset.back());
+        match_distance.assign(offset.back(), NAN);
+        has_successor.assign(offset.back(), false);
+        has_predecessor.assign(offset.back(), false);
+    }
+};
+
+// Frame `from`'s barriers `previous` advected to frame `to`'s t0 and matched with `next` (subsets of the two frames'
+// barriers: `previous_index[b]` and `next_index[b]` are their indices in the frames); the matches joined in `state`.
+// Returns {matches, barriers advected, advections converged}.
+std::array<std::size_t, 3> match_frames(const ResolvedExperiment &r, const std::vector<double> &t0s, std::size_t from,
+                                        std::size_t to, const json &previous, const json &next,
+                                        const std::vector<std::size_t> &previous_index,
+                                        const std::vector<std::size_t> &next_index, double tolerance,
+                                        TrackState &state) {
+    std::vector<std::size_t> image_of;
+    const std::vector<AdvectedCurve> images = advect_frame(r, previous, t0s[from], t0s[to], image_of);
+    std::vector<std::vector<double>> curves;
+    std::vector<bool> closed;
+    std::size_t converged = 0;
+    for (const AdvectedCurve &a : images) {
+        curves.push_back(a.xy1);
+        closed.push_back(a.closed);
+        converged += a.converged ? 1 : 0;
+    }
+    const std::vector<detail::BarrierMatch> matches =
+        detail::match_barriers(curves, closed, image_of, previous, next, r.experiment.grid, tolerance);
+    for (const detail::BarrierMatch &m : matches) {
+        const std::size_t a = state.offset[from] + previous_index[m.from], b = state.offset[to] + next_index[m.to];
+        state.components.join(a, b);
+        state.has_successor[a] = state.has_predecessor[b] = true;
+        double &d = state.match_distance[b];
+        d = std::isnan(d) ? m.distance : std::min(d, m.distance);
+    }
+    return {matches.size(), images.size(), converged};
+}
+
+// The barriers of `frame` (global numbers from `first`) with `flag` equal to `wanted`: their items and indices.
+json barriers_where(const json &frame, const std::vector<bool> &flag, std::size_t first, bool wanted,
+                    std::vector<std::size_t> &index) {
+    json out = json::array();
+    for (std::size_t b = 0; b < frame.size(); ++b)
+        if (flag[first + b] == wanted) {
+            out.push_back(frame[b]);
+            index.push_back(b);
+        }
+    return out;
+}
+
+// Tracks across a missed frame: a barrier of frame k that no barrier of frame k + 1 matched is advected straight to
+// frame k + g (g = 2 ... max_gap + 1, the nearest first) and matched with the barriers there that no earlier frame
+// matched (the extractor may miss a barrier in one frame, e.g. a KAM torus whose stretching figure is a little above
+// the threshold there). One advection over the whole gap, not frame by frame, so the missing frame is not needed.
+json bridge_gaps(const ResolvedExperiment &r, const std::vector<double> &t0s, const std::vector<json> &barriers,
+                 std::size_t max_gap, double tolerance, TrackState &state) {
+    json gaps = json::array();
+    for (std::size_t k = 0; k < t0s.size(); ++k)
+        for (std::size_t g = 2; g <= max_gap + 1 && k + g < t0s.size(); ++g) {
+            std::vector<std::size_t> ended_index, unmatched_index;
+            const json ended = barriers_where(barriers[k], state.has_successor, state.offset[k], false, ended_index);
+            if (ended.empty()) break;
+            const json unmatched =
+                barriers_where(barriers[k + g], state.has_predecessor, state.offset[k + g], false, unmatched_index);
+            if (unmatched.empty()) continue;
+            const auto counts =
+                match_frames(r, t0s, k, k + g, ended, unmatched, ended_index, unmatched_index, tolerance, state);
+            if (counts[0] > 0) gaps.push_back({{"from", k}, {"to", k + g}, {"matched_pairs", counts[0]}});
+        }
+    return gaps;
 }
 
 } // namespace
@@ -316,51 +406,40 @@ json assemble_tracks(detail::TrackComponents &components, const std::vector<std:
 json track_barriers(const ResolvedExperiment &r, const std::vector<double> &t0s, const std::vector<json> &barriers,
                     const TrackSettings &settings) {
     const Grid &g = r.experiment.grid;
-    std::vector<std::size_t> offset = {0};
-    for (const json &frame : barriers) offset.push_back(offset.back() + frame.size());
-    detail::TrackComponents components(offset.back());
-    std::vector<double> match_distance(offset.back(), NAN); // of each barrier to its closest match in the frame before
+    TrackState state(barriers);
     json transitions = json::array();
     for (std::size_t k = 0; k + 1 < t0s.size(); ++k) {
-        std::vector<std::size_t> image_of;
-        const std::vector<AdvectedCurve> images = advect_frame(r, barriers[k], t0s[k], t0s[k + 1], image_of);
-        std::vector<std::vector<double>> curves;
-        std::vector<bool> closed;
-        for (const AdvectedCurve &a : images) {
-            curves.push_back(a.xy1);
-            closed.push_back(a.closed);
-        }
-        const std::vector<detail::BarrierMatch> matches =
-            detail::match_barriers(curves, closed, image_of, barriers[k], barriers[k + 1], g, settings.tolerance);
-        std::vector<bool> continued(barriers[k].size(), false), reached(barriers[k + 1].size(), false);
-        for (const detail::BarrierMatch &m : matches) {
-            components.join(offset[k] + m.from, offset[k + 1] + m.to);
-            continued[m.from] = reached[m.to] = true;
-            double &d = match_distance[offset[k + 1] + m.to];
-            d = std::isnan(d) ? m.distance : std::min(d, m.distance);
-        }
-        std::size_t converged = 0;
-        for (const AdvectedCurve &a : images) converged += a.converged ? 1 : 0;
-        transitions.push_back({{"from", k},
-                               {"to", k + 1},
-                               {"matched_pairs", matches.size()},
-                               {"ended", std::count(continued.begin(), continued.end(), false)},
-                               {"new", std::count(reached.begin(), reached.end(), false)},
-                               {"advected", images.size()},
-                               {"advection_converged", converged}});
+        std::vector<std::size_t> all_k(barriers[k].size()), all_next(barriers[k + 1].size());
+        for (std::size_t b = 0; b < all_k.size(); ++b) all_k[b] = b;
+        for (std::size_t b = 0; b < all_next.size(); ++b) all_next[b] = b;
+        const auto counts =
+            match_frames(r, t0s, k, k + 1, barriers[k], barriers[k + 1], all_k, all_next, settings.tolerance, state);
+        const auto first_k = state.has_successor.begin() + static_cast<std::ptrdiff_t>(state.offset[k]);
+        const auto first_next = state.has_predecessor.begin() + static_cast<std::ptrdiff_t>(state.offset[k + 1]);
+        transitions.push_back(
+            {{"from", k},
+             {"to", k + 1},
+             {"matched_pairs", counts[0]},
+             {"ended", std::count(first_k, first_k + static_cast<std::ptrdiff_t>(barriers[k].size()), false)},
+             {"new", std::count(first_next, first_next + static_cast<std::ptrdiff_t>(barriers[k + 1].size()), false)},
+             {"advected", counts[1]},
+             {"advection_converged", counts[2]}});
     }
-    const json tracks = assemble_tracks(components, offset, t0s, barriers, match_distance);
+    const json gaps = bridge_gaps(r, t0s, barriers, settings.max_gap, settings.tolerance, state);
+    const json tracks = assemble_tracks(state.components, state.offset, t0s, barriers, state.match_distance);
     std::size_t whole = 0;
     for (const json &t : tracks) whole += t["frames"].size() == t0s.size() ? 1 : 0;
     return {{"tolerance_grid_spacings", settings.tolerance},
             {"grid_spacing", std::max(g.dx(), g.dy())},
+            {"max_gap_frames", settings.max_gap},
             {"distance",
-             "the smaller directed mean distance between frame k's barrier advected to frame k + 1's t0 and frame "
-             "k + 1's barrier, in grid spacings"},
+             "the smaller directed mean distance between frame k's barrier advected to frame k + 1's t0 (k + g's "
+             "across a gap) and that frame's barrier, in grid spacings"},
             {"frame_count", t0s.size()},
             {"track_count", tracks.size()},
             {"tracks_through_all_frames", whole},
             {"transitions", transitions},
+            {"gaps", gaps},
             {"tracks", tracks}};
 }
 

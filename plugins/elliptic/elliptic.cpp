@@ -8,6 +8,7 @@
 #include <geobarrier/line_field.hpp>
 #include <geobarrier/output.hpp>
 #include <geobarrier/sdk.hpp>
+#include <geobarrier/sdk_plot.hpp>
 #include <geobarrier/shear.hpp>
 
 #include <nlohmann/json.hpp>
@@ -495,8 +496,8 @@ struct Elliptic {
                                                const std::vector<const Found *> &barriers) const;
     void report_barriers(const sdk::Host &host, const gb_extract_input &in, const std::vector<Found> &found,
                          const std::vector<std::size_t> &kept, double h, bool conservative) const;
-    void draw_shearlines_picture(const std::filesystem::path &out_dir, const CauchyGreenField &cg,
-                                 const gb_extract_input &in, const Search &search,
+    void draw_shearlines_picture(const sdk::Host &host, const std::filesystem::path &out_dir,
+                                 const CauchyGreenField &cg, const gb_extract_input &in, const Search &search,
                                  const std::vector<Candidate> &candidates, const std::vector<std::size_t> &kept) const;
 
     double m_max_mean_deviation;
@@ -576,7 +577,7 @@ void Elliptic::extract(const sdk::Host &host, const gb_extract_input &in) const 
         if (s.anisotropy < m_max_anisotropy) singularities.push_back({s.x, s.y, 0.5 * s.twice_index, s.anisotropy});
     doc["resolved_singularities"] = singularities;
     write_text_file(out_dir / "elliptic-sections.json", doc.dump(1) + "\n");
-    if (in.plots) draw_shearlines_picture(out_dir, cg, in, search, candidates, kept);
+    if (in.plots) draw_shearlines_picture(host, out_dir, cg, in, search, candidates, kept);
 }
 
 ShearDeviationForm Elliptic::deviation_form() const {
@@ -1165,8 +1166,8 @@ void Elliptic::report_barriers(const sdk::Host &host, const gb_extract_input &in
 }
 
 // The paper's figure "shearlines-ex1": shearlines in black, closed ones in red, over the FTLE.
-void Elliptic::draw_shearlines_picture(const std::filesystem::path &out_dir, const CauchyGreenField &cg,
-                                       const gb_extract_input &in, const Search &search,
+void Elliptic::draw_shearlines_picture(const sdk::Host &host, const std::filesystem::path &out_dir,
+                                       const CauchyGreenField &cg, const gb_extract_input &in, const Search &search,
                                        const std::vector<Candidate> &candidates,
                                        const std::vector<std::size_t> &kept) const {
     FieldPlot plot;
@@ -1185,7 +1186,7 @@ void Elliptic::draw_shearlines_picture(const std::filesystem::path &out_dir, con
         plot.curves.push_back({{c.section.x0, c.section.y0, c.section.x1, c.section.y1}, "white", 0.8, false});
     for (std::size_t i : kept)
         plot.curves.push_back({search.found[i].orbit.xy, "red", search.found[i].outermost ? 2.6 : 1.2, true});
-    plot_field_png(out_dir / "elliptic-shearlines.png", cg.grid, cg.ftle, cg.mask, plot);
+    sdk::draw_field_png(host, out_dir / "elliptic-shearlines.png", cg.grid, cg.ftle, cg.mask, plot);
 }
 
 } // namespace

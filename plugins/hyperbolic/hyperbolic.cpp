@@ -8,6 +8,7 @@
 #include <geobarrier/line_field.hpp>
 #include <geobarrier/output.hpp>
 #include <geobarrier/sdk.hpp>
+#include <geobarrier/sdk_plot.hpp>
 #include <geobarrier/tensor_lines.hpp>
 
 #include "whole_curves.hpp"
@@ -574,8 +575,9 @@ struct Hyperbolic {
                                             const std::vector<Selected> &selected) const;
     AdvectionCheck advect_barriers(const sdk::Host &host, const gb_extract_input &in, const CauchyGreenField &cg,
                                    const std::vector<ReportedCurve> &curves) const;
-    void draw_strainlines(const gb_extract_input &in, const SegmentMeter &meter, const std::vector<Strainline> &lines,
-                          const std::vector<Selected> &selected, const std::vector<ReportedCurve> &curves) const;
+    void draw_strainlines(const sdk::Host &host, const gb_extract_input &in, const SegmentMeter &meter,
+                          const std::vector<Strainline> &lines, const std::vector<Selected> &selected,
+                          const std::vector<ReportedCurve> &curves) const;
 };
 
 // The seed lattice: points (steps_x, steps_y) grid cells apart, starting half a step in from the box's lower
@@ -1269,8 +1271,8 @@ void report_barriers(const sdk::Host &host, const std::vector<Segment> &candidat
 }
 
 // The picture barriers.png: the FTLE with the barriers, the least-stretching one red, candidates thin grey.
-void draw_barriers(const gb_extract_input &in, const CauchyGreenField &cg, const std::vector<ReportedCurve> &curves,
-                   bool backward) {
+void draw_barriers(const sdk::Host &host, const gb_extract_input &in, const CauchyGreenField &cg,
+                   const std::vector<ReportedCurve> &curves, bool backward) {
     const std::string which = backward ? "attracting" : "repelling";
     FieldPlot fp;
     fp.title =
@@ -1286,12 +1288,12 @@ void draw_barriers(const gb_extract_input &in, const CauchyGreenField &cg, const
         c.width = best ? 3.0 : curves[b].significant ? 1.5 : 0.75;
         fp.curves.push_back(c);
     }
-    plot_field_png(std::filesystem::path(in.output_dir) / "barriers.png", cg.grid, cg.ftle, cg.mask, fp);
+    sdk::draw_field_png(host, std::filesystem::path(in.output_dir) / "barriers.png", cg.grid, cg.ftle, cg.mask, fp);
 }
 
 // The picture strainlines.png, the paper's figure strainline-ex2: all strainlines grey, the least-stretching barrier
 // red on the strainline of its part of least q, the points of that strainline with d_g >= epsilon black.
-void Hyperbolic::draw_strainlines(const gb_extract_input &in, const SegmentMeter &meter,
+void Hyperbolic::draw_strainlines(const sdk::Host &host, const gb_extract_input &in, const SegmentMeter &meter,
                                   const std::vector<Strainline> &lines, const std::vector<Selected> &selected,
                                   const std::vector<ReportedCurve> &curves) const {
     const Grid &g = meter.grid;
@@ -1346,7 +1348,7 @@ void Hyperbolic::draw_strainlines(const gb_extract_input &in, const SegmentMeter
             }
         if (!above.xy.empty()) xp.series.push_back(above);
     }
-    plot_xy_png(std::filesystem::path(in.output_dir) / "strainlines.png", xp);
+    sdk::draw_xy_png(host, std::filesystem::path(in.output_dir) / "strainlines.png", xp);
 }
 
 // Alg. 1 in stages: strainlines (step 1), their segments with d_g^xi1 < epsilon and q (step 2), the wall filter, the
@@ -1400,8 +1402,8 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     lap("report");
     host.info("stages: " + timings);
     if (!in.plots) return;
-    draw_barriers(in, cg, curves, backward);
-    draw_strainlines(in, meter, lines, selected, curves);
+    draw_barriers(host, in, cg, curves, backward);
+    draw_strainlines(host, in, meter, lines, selected, curves);
 }
 
 } // namespace

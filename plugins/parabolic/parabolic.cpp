@@ -12,6 +12,7 @@
 #include <geobarrier/line_field.hpp>
 #include <geobarrier/output.hpp>
 #include <geobarrier/sdk.hpp>
+#include <geobarrier/sdk_plot.hpp>
 #include <geobarrier/shear.hpp>
 #include <geobarrier/tensor_lines.hpp>
 
@@ -148,8 +149,8 @@ struct Parabolic {
                       double min_length, Shearlines &out) const;
     Shearlines shearlines(const sdk::Host &host, const CauchyGreenField &cg, const ShearFields &shear,
                           double max_length, double min_length) const;
-    void draw_shearlines(const gb_extract_input &in, const CauchyGreenField &cg, const Shearlines &found,
-                         const std::vector<std::size_t> &barriers) const;
+    void draw_shearlines(const sdk::Host &host, const gb_extract_input &in, const CauchyGreenField &cg,
+                         const Shearlines &found, const std::vector<std::size_t> &barriers) const;
 };
 
 // Jet cores: trenches of the FTLE (a monotone function of lambda2, on a log scale), at least min_length long,
@@ -212,7 +213,8 @@ void Parabolic::extract_shearless(const sdk::Host &host, const gb_extract_input 
         for (const parabolic::Trench &t : all)
             if (t.length < min_length) plot.curves.push_back({t.xy, "black", 0.8, t.closed});
         for (const parabolic::Trench *t : kept) plot.curves.push_back({t->xy, "red", 2.5, t->closed});
-        plot_field_png(std::filesystem::path(in.output_dir) / "parabolic.png", g, cg.ftle, ftle_mask(cg), plot);
+        sdk::draw_field_png(host, std::filesystem::path(in.output_dir) / "parabolic.png", g, cg.ftle, ftle_mask(cg),
+                            plot);
     }
 }
 
@@ -377,8 +379,8 @@ std::vector<std::size_t> disjoint_minima(const std::vector<Segment> &candidates,
 }
 
 // The picture: open shearlines (grey), candidates (black), barriers (red) over the FTLE.
-void Parabolic::draw_shearlines(const gb_extract_input &in, const CauchyGreenField &cg, const Shearlines &found,
-                                const std::vector<std::size_t> &barriers) const {
+void Parabolic::draw_shearlines(const sdk::Host &host, const gb_extract_input &in, const CauchyGreenField &cg,
+                                const Shearlines &found, const std::vector<std::size_t> &barriers) const {
     FieldPlot plot;
     plot.title = "Parabolic barriers (red); shearlines with d_g < " + format(m_epsilon) + " (black)";
     plot.colorbar_label = "FTLE";
@@ -389,7 +391,8 @@ void Parabolic::draw_shearlines(const gb_extract_input &in, const CauchyGreenFie
         plot.curves.push_back({found.open_lines[l], "#b0b0b0", 0.6, false});
     for (const Segment &s : found.candidates) plot.curves.push_back({s.xy, "black", 0.8, false});
     for (std::size_t b : barriers) plot.curves.push_back({found.candidates[b].xy, "red", 2.5, false});
-    plot_field_png(std::filesystem::path(in.output_dir) / "parabolic.png", cg.grid, cg.ftle, ftle_mask(cg), plot);
+    sdk::draw_field_png(host, std::filesystem::path(in.output_dir) / "parabolic.png", cg.grid, cg.ftle, ftle_mask(cg),
+                        plot);
 }
 
 // The shearline method (paper, section 2.1): open shearlines and their segments with d_g^eta < epsilon (step 1), the
@@ -429,7 +432,7 @@ void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const
                           {"rank", static_cast<double>(b + 1)}});
         host.set_barrier_attributes({{"family", s.family > 0 ? "\"+\"" : "\"-\""}, {"method", "\"shearline\""}});
     }
-    if (in.plots && in.output_dir) draw_shearlines(in, cg, found, barriers);
+    if (in.plots && in.output_dir) draw_shearlines(host, in, cg, found, barriers);
 }
 
 } // namespace

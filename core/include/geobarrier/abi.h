@@ -46,7 +46,9 @@ extern "C" {
  * GB_EXTENSION_BUILD_INFO), gb_advance_request.tableau_revision, and the flag GB_SYSTEM_JACOBIAN_DERIVED.
  * Minor 3 also added the method GB_ADVANCE_DOP853_CHECKED and appended gb_advance_request.lane_error (the fused
  * step's error estimate), read only with that method. */
-#define GB_ABI_VERSION_MINOR 3u
+/* Minor 4 added the core extension GB_EXTENSION_PLOT (gb_plot_service): an extractor draws its pictures through the
+ * core, so that it needs nothing of the core's C++ library. */
+#define GB_ABI_VERSION_MINOR 4u
 
 /* The one symbol every plugin library exports. */
 #define GB_PLUGIN_ENTRY_SYMBOL "geobarrier_plugin_entry"
@@ -317,6 +319,84 @@ typedef struct gb_build_info {
     uint32_t vector_bits;      /* widest vectors the compiler could use: 128 (e.g. SSE2), 256 (AVX2), 512 (AVX-512) */
     uint32_t fma;              /* nonzero when a * b + c compiles to one fused multiply-add */
 } gb_build_info;
+
+/* ABI 1.4 extension "geobarrier.plot", offered by the core (gb_host_info.get_extension): pictures drawn by the core
+ * (PLplot, PNG, written atomically) from plain arrays, so that an extractor draws them without linking the core. A
+ * core older than 1.4 answers NULL for it: the extractor then skips its pictures (the SDK logs a note,
+ * <geobarrier/sdk_plot.hpp>). Called from the thread that runs extract() only, like gb_host. Strings are UTF-8;
+ * colours are a name the core knows ("red", "blue", "black", "white", "green", "orange", ...) or "#rrggbb". Arrays of
+ * gb_plot_curve and gb_plot_series never grow; gb_plot_field, gb_plot_xy and gb_plot_service start with their size. */
+#define GB_EXTENSION_PLOT "geobarrier.plot"
+
+/* A polyline drawn over a field picture: `count` points, x and y interleaved. */
+typedef struct gb_plot_curve {
+    const double *xy;
+    uint64_t count;
+    const char *color;
+    double width;
+    int32_t closed;
+    int32_t points_only; /* nonzero: filled discs of marker_px diameter (pixels), no line */
+    double marker_px;
+} gb_plot_curve;
+
+/* A field on the grid (values and mask as in gb_extract_input: row-major, ny rows of nx; mask 0 = valid, masked
+ * points drawn in light grey) as a colour map with axes, a colour bar and curves over it. */
+typedef struct gb_plot_field {
+    uint32_t struct_size;
+    double x_min, x_max, y_min, y_max;
+    uint64_t nx, ny;
+    const double *values;
+    const uint8_t *mask; /* may be NULL: nothing masked */
+    const char *title, *x_label, *y_label, *colorbar_label;
+    uint32_t curve_count;
+    const gb_plot_curve *curves;
+    int32_t width_px; /* the picture's width; its height follows the box's aspect */
+} gb_plot_field;
+
+/* One series of an x-y picture; non-finite points split a line. */
+typedef enum gb_plot_style { GB_PLOT_LINE = 0, GB_PLOT_POINTS = 1, GB_PLOT_LINE_POINTS = 2 } gb_plot_style;
+typedef enum gb_plot_dash { GB_PLOT_SOLID = 0, GB_PLOT_DASHED = 1, GB_PLOT_DOTTED = 2 } gb_plot_dash;
+typedef struct gb_plot_series {
+    const double *xy;
+    uint64_t count;
+    const char *label; /* legend entry; "" or NULL: not listed */
+    const char *color;
+    double width;
+    int32_t style; /* gb_plot_style */
+    int32_t dash;  /* gb_plot_dash */
+    double marker_px;
+    int32_t closed;
+} gb_plot_series;
+
+typedef enum gb_plot_legend {
+    GB_LEGEND_TOP_RIGHT = 0,
+    GB_LEGEND_TOP_LEFT = 1,
+    GB_LEGEND_BOTTOM_RIGHT = 2,
+    GB_LEGEND_BOTTOM_LEFT = 3,
+    GB_LEGEND_OUTSIDE_RIGHT = 4
+} gb_plot_legend;
+
+/* An x-y picture: axes, a title, series and, when a series has a label, a legend. */
+typedef struct gb_plot_xy {
+    uint32_t struct_size;
+    const char *title, *x_label, *y_label;
+    uint32_t series_count;
+    const gb_plot_series *series;
+    int32_t log_x, log_y;             /* logarithmic axes (non-positive values left out) */
+    int32_t equal_aspect;             /* one unit of x as long as one of y */
+    double aspect;                    /* box height / width when not equal_aspect */
+    int32_t has_x_range, has_y_range; /* else the data's range, padded by 3% */
+    double x_range[2], y_range[2];
+    int32_t legend; /* gb_plot_legend */
+    int32_t width_px;
+} gb_plot_xy;
+
+typedef struct gb_plot_service {
+    uint32_t struct_size;
+    /* Write the picture to `file` (a path; PNG). GB_ERROR with the reason in msg when it cannot. */
+    gb_status (*field_png)(const char *file, const gb_plot_field *plot, gb_message *msg);
+    gb_status (*xy_png)(const char *file, const gb_plot_xy *plot, gb_message *msg);
+} gb_plot_service;
 
 typedef struct gb_plugin_entry {
     uint32_t abi_major; /* must equal GB_ABI_VERSION_MAJOR; checked before anything else is read */

@@ -283,25 +283,6 @@ CurveStats curve_statistics(const double *values, std::size_t n, const double *s
     return st;
 }
 
-AdvectPointsFn make_advect_points_fn(const Dynamics &dynamics, double t_from, double t_to,
-                                     const IntegratorSettings &settings, const std::optional<Bounds> &bounds) {
-    return [=](const std::vector<double> &xy_in, std::vector<double> &xy_out, std::vector<std::uint8_t> &mask) {
-        const std::size_t n = xy_in.size() / 2;
-        std::vector<double> x0(n), y0(n);
-        for (std::size_t k = 0; k < n; ++k) {
-            x0[k] = xy_in[2 * k];
-            y0[k] = xy_in[2 * k + 1];
-        }
-        const AdvectResult a = advect_points(dynamics, x0, y0, t_from, t_to, settings, false, bounds);
-        xy_out.resize(2 * n);
-        for (std::size_t k = 0; k < n; ++k) {
-            xy_out[2 * k] = a.x[k];
-            xy_out[2 * k + 1] = a.y[k];
-        }
-        mask = a.mask;
-    };
-}
-
 namespace {
 
 struct Node {

@@ -1,5 +1,6 @@
 // Loading plugin libraries (Boost.DLL), checking what they declare, validating
 // parameters against their schemas, and the wrappers that call across the ABI.
+#include "plot/plot_service.hpp"
 #include "plugins/library_check.hpp"
 #include "plugins/plugin_entry.hpp"
 
@@ -91,10 +92,12 @@ std::string cpp_series(const std::string &version) {
     return version.substr(0, version.find('.', first + 1));
 }
 
-// Extensions the core offers plugins by id (gb_host_info.get_extension): its own build info.
+// Extensions the core offers plugins by id (gb_host_info.get_extension): its own build info, and from ABI 1.4 the
+// picture service through which extractors draw (plot/plot_service.cpp).
 const void *core_extension(const char *id) {
     static constexpr gb_build_info build = sdk::build_info();
     if (id && std::strcmp(id, GB_EXTENSION_BUILD_INFO) == 0) return &build;
+    if (id && std::strcmp(id, GB_EXTENSION_PLOT) == 0) return plot_service();
     return nullptr;
 }
 

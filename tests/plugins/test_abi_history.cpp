@@ -1,7 +1,8 @@
 // The compatibility promise of docs/plugins.md, tested: plugins built against the ABI headers of earlier releases
 // (1.0, 1.1 and 1.2, kept verbatim in abi-history/ as taken from the repository's history) load into this core and
 // give the right answers as a system, a forcing and an extractor; the core reads only what each release declared;
-// and a plugin of another major version is refused with a message naming both versions.
+// an extractor of 1.3 that links the core's C++ library still loads and runs; and a plugin of another major version
+// is refused with a message naming both versions.
 #include <doctest/doctest.h>
 
 #include <geobarrier/conformance.hpp>
@@ -9,7 +10,10 @@
 #include <test_support.hpp>
 
 #include <cmath>
+#include <cstdint>
+#include <filesystem>
 #include <string>
+#include <utility>
 #include <vector>
 
 using namespace geobarrier;
@@ -124,6 +128,87 @@ TEST_CASE("plugins built against the 1.0, 1.1 and 1.2 headers load and compute i
         CHECK(barriers[0].metrics[0].first == "ftle_sum");
         CHECK(barriers[0].metrics[0].second == 7.75);
         CHECK(barriers[0].metrics[1].second == std::exp(2.0));
+    }
+}
+
+TEST_CASE("an extractor built against 1.3 that links the core's C++ library loads and runs in this core") {
+    const std::vector<PluginHandle> handles = load_plugin_library(GEOBARRIER_ABI_1_3_EXTRACTOR);
+    REQUIRE(handles.size() == 1);
+    const PluginHandle &circle = handles[0];
+    CHECK(circle.info.abi_minor == 3);
+    CHECK(circle.info.core_version == GEOBARRIER_VERSION); // tied to the core's C++ series, which the loader checked
+    const Extractor extractor(circle, validate_params(circle.info, {{"radius", 0.75}}, "/extractors/0"));
+
+    const std::filesystem::path out = std::filesystem::temp_directory_path() / "geobarrier-abi-1-3-extractor";
+    std::filesystem::remove_all(out);
+    std::filesystem::create_directories(out);
+    const std::vector<double> ftle = {0.5, 1.0, 2.0, 100.0, 0.25, 4.0};
+    const std::vector<std::uint8_t> mask = {0, 0, 0, 1, 0, 0}; // the masked 100 is left out: 7.75 / 5
+    const gb_field fields[1] = {{"ftle", ftle.data()}};
+    const char *names[2] = {"x", "y"}, *units[2] = {"", ""};
+    gb_extract_input input{};
+    input.x_min = -1.0;
+    input.x_max = 2.0;
+    input.y_min = -3.0;
+    input.y_max = 4.0;
+    input.nx = 3;
+    input.ny = 2;
+    input.t0 = 0.0;
+    input.t1 = 2.0;
+    input.mask = mask.data();
+    input.field_count = 1;
+    input.fields = fields;
+    const std::string out_dir = out.string();
+    input.output_dir = out_dir.c_str();
+    input.plots = 1;
+    input.state_names = names;
+    input.state_units = units;
+    ExtractServices services;
+    services.advect = [](std::size_t n, const double *xy, double t_from, double t_to, double *xy_out, double *,
+                         std::uint8_t *mask_out) {
+        for (std::size_t k = 0; k < n; ++k) { // x' = x: x(t) = x0 e^{t - t0}
+            xy_out[2 * k] = xy[2 * k] * std::exp(t_to - t_from);
+            xy_out[2 * k + 1] = xy[2 * k + 1];
+            mask_out[k] = 0;
+        }
+    };
+    const std::vector<Barrier> barriers = extractor.extract(input, services);
+    REQUIRE(barriers.size() == 1);
+    const Barrier &b = barriers[0];
+    CHECK(b.kind == "elliptic");
+    CHECK(b.closed);
+    // The polygon of 64 points on the circle of radius 0.75 around the centre (0.5, 0.5), resampled to at most r/8
+    // apart: ceil(length / (r / 8)) = ceil(50.26...) = 51 points, each on the circle or on a chord of it.
+    const double length = 128.0 * 0.75 * std::sin(M_PI / 64.0);
+    REQUIRE(b.xy.size() % 2 == 0);
+    CHECK(b.xy.size() / 2 == 51);
+    const double chord_depth = 0.75 * (1.0 - std::cos(M_PI / 64.0)); // the farthest a chord comes inside
+    for (std::size_t k = 0; k < b.xy.size() / 2; ++k) {
+        const double radius = std::hypot(b.xy[2 * k] - 0.5, b.xy[2 * k + 1] - 0.5);
+        CHECK(radius <= 0.75 + 1e-12);
+        CHECK(radius >= 0.75 - chord_depth - 1e-12);
+    }
+    REQUIRE(b.metrics.size() == 3);
+    CHECK(b.metrics[0].first == "length");
+    CHECK(b.metrics[0].second == doctest::Approx(length).epsilon(1e-14));
+    CHECK(b.metrics[1].second == 7.75 / 5.0);
+    CHECK(b.metrics[2].second == 0.5 * std::exp(2.0)); // the centre advected by the host
+    REQUIRE(b.attributes.size() == 1);
+    CHECK(b.attributes[0] == std::pair<std::string, std::string>{"family", "\"+\""});
+    // Its picture, drawn by the core's plot_field_png it links: a PNG file.
+    const std::string png = test::read_text(out / "history-circle.png");
+    CHECK(png.substr(0, 8) == std::string("\x89PNG\r\n\x1a\n", 8));
+    std::filesystem::remove_all(out);
+}
+
+TEST_CASE("the built-in extractors are on the C ABI alone: no core version, the current ABI") {
+    for (const char *name : {"hyperbolic", "elliptic", "parabolic"}) {
+        CAPTURE(name);
+        const std::vector<PluginHandle> handles =
+            load_plugin_library((test::plugin_dir() / ("geobarrier-" + std::string(name) + ".so")).string());
+        REQUIRE(handles.size() == 1);
+        CHECK(handles[0].info.core_version.empty()); // not tied to the core's C++ series any more
+        CHECK(handles[0].info.abi_minor == GB_ABI_VERSION_MINOR);
     }
 }
 

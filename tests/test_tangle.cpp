@@ -310,20 +310,56 @@ TEST_CASE("both directions: bad input names /time/directions") {
     j["time"]["period"] = 7.4;
     j["time"]["directions"] = "one";
     CHECK_THROWS_WITH_AS(parse_experiment(j), doctest::Contains("/time/period"), ConfigError);
-    // Both directions look for crossings of barriers, and write two runs: no extractor is refused as the experiment
-    // is read (so validate and a sweep's checks say so), results kept in memory only (the Python module's way) before
-    // anything runs.
+    // Both directions look for crossings of barriers: no extractor is refused as the experiment is read (so validate
+    // and a sweep's checks say so).
     json d = json::parse(R"({"system": {"plugin": "duffing"}, "grid": {"x": [-1, 1], "y": [-1, 1], "n": [11, 11]},
                              "time": {"t0": 0, "t1": 1, "directions": "both"}, "products": ["ftle"]})");
     d["plugin_paths"] = {test::plugin_dir().string()};
-    const fs::path out = fs::temp_directory_path() / ("geobarrier-test-tangle-bad-" + std::to_string(::getpid()));
-    RunOptions options;
-    options.output_dir = out;
-    options.quiet = true;
     CHECK_THROWS_WITH_AS(parse_experiment(d), doctest::Contains("/time/directions"), ConfigError);
-    d["extractors"] = {{{"plugin", "hyperbolic"}}};
-    options.keep_results = true;
-    CHECK_THROWS_WITH_AS(run_experiment(resolve_experiment(parse_experiment(d)), options),
-                         doctest::Contains("/time/directions"), ConfigError);
-    CHECK_FALSE(fs::exists(out));
+}
+
+TEST_CASE("both directions in memory (the Python module's way): the results the files hold, nothing written") {
+    // Unforced Duffing x'' = x - x^3: the origin is a saddle whose stable (forward, repelling) and unstable (backward,
+    // attracting) manifolds are the homoclinic loops, crossing there at the angle between the eigenvectors (1, +-1):
+    // 90 degrees.
+    json d = json::parse(R"({"system": {"plugin": "duffing"}, "grid": {"x": [-1.5, 1.5], "y": [-1, 1], "n": [151, 101]},
+                             "time": {"t0": 0, "t1": 8, "directions": "both"}, "products": ["ftle"],
+                             "extractors": [{"plugin": "hyperbolic"}], "output": {"plots": true}})");
+    d["plugin_paths"] = {test::plugin_dir().string()};
+    const ResolvedExperiment r = resolve_experiment(parse_experiment(d));
+    const fs::path dir = fs::temp_directory_path() / ("geobarrier-test-tangle-memory-" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    RunOptions written;
+    written.output_dir = dir / "written";
+    written.quiet = true;
+    run_experiment(r, written);
+    RunOptions in_memory = written;
+    in_memory.output_dir = dir / "in-memory";
+    in_memory.write_files = false;
+    in_memory.keep_results = true;
+    const RunSummary kept = run_experiment(r, in_memory);
+    CHECK_FALSE(fs::exists(dir / "in-memory"));
+    CHECK(kept.files.empty());
+    REQUIRE(kept.directions.size() == 2);
+    const char *names[] = {"forward", "backward"};
+    for (std::size_t k = 0; k < 2; ++k) {
+        CAPTURE(names[k]);
+        const RunSummary &one = kept.directions[k];
+        const json file = json::parse(test::read_text(dir / "written" / names[k] / "barriers.json"));
+        CHECK(one.barriers == file["barriers"]);
+        CHECK(one.manifest["resolved"]["time"]["t1"].get<double>() == (k == 0 ? 8.0 : -8.0));
+        REQUIRE(one.grid.nx == 151);
+        CHECK(one.fields.size() >= 1);
+    }
+    const json tangle = json::parse(test::read_text(dir / "written" / "tangle.json"));
+    CHECK(kept.tangle["crossings"] == tangle["crossings"]);
+    CHECK(kept.manifest["crossings"] == tangle["counts"]);
+    // The repelling and attracting barriers cross at the saddle, at right angles.
+    const json &crossings = kept.tangle["crossings"];
+    const auto at_saddle = std::find_if(crossings.begin(), crossings.end(), [](const json &c) {
+        return std::hypot(c["point"][0].get<double>(), c["point"][1].get<double>()) < 0.04;
+    });
+    REQUIRE(at_saddle != crossings.end());
+    CHECK((*at_saddle)["angle_degrees"].get<double>() == doctest::Approx(90.0).epsilon(0.05));
+    fs::remove_all(dir);
 }

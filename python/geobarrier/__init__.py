@@ -27,8 +27,8 @@ from ._fields import Fields
 from ._plot import plot
 from ._progress import InContext, ProgressBar, ProgressLine, default_progress
 
-__all__ = ["run", "validate", "plugins", "set_log_level", "plot", "Result", "Barrier", "Barriers", "Fields",
-           "Error", "ConfigError", "PluginError", "NumericalError", "IoError", "ProgressLine", "ProgressBar",
+__all__ = ["run", "validate", "plugins", "set_log_level", "plot", "Result", "BothDirections", "Barrier", "Barriers",
+           "Fields", "Error", "ConfigError", "PluginError", "NumericalError", "IoError", "ProgressLine", "ProgressBar",
            "flow_map", "cauchy_green", "ftle", "barriers", "System", "Forcing", "CauchyGreen"]
 
 
@@ -68,6 +68,51 @@ class Result:
         names = [n for n in self.fields if n != "mask"] if not hasattr(self.fields, "data_vars") else [
             n for n in self.fields.data_vars if n != "mask"]
         return f"<geobarrier.Result fields: {', '.join(names) or 'none'}; {len(self.barriers)} barriers>"
+
+
+class BothDirections(Result):
+    """What run() returns for ``"time": {"directions": "both"}``, a Result whose ``barriers`` and ``candidates`` are
+    both directions' (the repelling ones first: ``barrier.repelling`` or ``barrier.attracting`` is True) and whose
+    ``fields`` are the forward run's; ``forward`` and ``backward`` are a Result each, as a run of one direction
+    gives it (the CLI writes them to forward/ and backward/); ``tangle`` is the dict tangle.json holds (the
+    barriers' transverse ``crossings`` and their ``counts``; with ``"period"`` the saddle orbits; with
+    ``"grow_periods"`` the grown manifolds under ``"grown"``), ``crossings`` its list of crossings, ``manifest`` the
+    folder's manifest.json.
+    ``plot()`` draws a field of one direction with both barrier sets and the crossings."""
+
+    def __init__(self, native, use_xarray=True):  # not Result.__init__: that reads one run, these are two
+        directions = native["directions"]
+        self.forward = Result(directions["forward"], use_xarray)
+        self.backward = Result(directions["backward"], use_xarray)
+        self.fields = self.forward.fields
+        self.barriers = Barriers(list(self.forward.barriers) + list(self.backward.barriers))
+        self.candidates = Barriers(list(self.forward.candidates) + list(self.backward.candidates))
+        self.tangle = json.loads(native["tangle"])
+        self.crossings = self.tangle["crossings"]
+        self.manifest = json.loads(native["manifest"])
+        self.warnings = self.forward.warnings + self.backward.warnings
+        self.output_dir = native["output_dir"] or None
+        self.files = list(native["files"])
+
+    def plot(self, variable="ftle", *, ax=None, candidates=False, direction="forward", crossings=True, **kwargs):
+        """Draws the field ``variable`` of the ``direction`` run ("forward" or "backward") with the repelling
+        barriers (red) and the attracting ones (blue) over it, the candidates dashed when ``candidates`` is True,
+        and the crossings as black dots when ``crossings`` is True; returns the matplotlib Axes. Keyword arguments
+        as for geobarrier.plot()."""
+        if direction not in ("forward", "backward"):
+            raise ValueError(f'direction is "forward" or "backward", not {direction!r}')
+        ax = plot(getattr(self, direction).fields, self.forward.barriers, variable=variable, ax=ax,
+                  candidates=self.candidates if candidates else (), barrier_kwargs={"color": "tab:red"}, **kwargs)
+        for barrier in self.backward.barriers:
+            barrier.plot(ax=ax, color="tab:blue")
+        if crossings and self.crossings:
+            ax.plot([c["point"][0] for c in self.crossings], [c["point"][1] for c in self.crossings], "k.",
+                    markersize=6)
+        return ax
+
+    def __repr__(self):
+        return (f"<geobarrier.BothDirections {len(self.forward.barriers)} repelling and {len(self.backward.barriers)} "
+                f"attracting barriers, {len(self.crossings)} crossings>")
 
 
 def _json_default(value):
@@ -124,6 +169,9 @@ def run(experiment, out=None, *, write=None, threads=0, progress=False, flow_map
     The GIL is released while the core computes. Ctrl-C (a notebook's "interrupt kernel") stops the run and raises
     KeyboardInterrupt; no file of the run is left in the output folder. Bad input raises ConfigError (``e.path``
     is the JSON path); a failed computation raises another geobarrier.Error.
+
+    An experiment with ``"time": {"directions": "both"}`` returns BothDirections: a Result per direction and the
+    tangle (what the command line writes to forward/, backward/ and tangle.json).
     """
     text, file = _experiment_text(experiment)
     if flow_map:
@@ -156,7 +204,7 @@ def run(experiment, out=None, *, write=None, threads=0, progress=False, flow_map
     finally:
         if line is not None:
             line.close(completed=completed)
-    return Result(native, xarray)
+    return BothDirections(native, xarray) if "directions" in native else Result(native, xarray)
 
 
 def validate(experiment):

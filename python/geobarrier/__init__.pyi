@@ -10,8 +10,8 @@ import numpy as np
 import numpy.typing as npt
 
 __version__: str
-__all__ = ["run", "validate", "plugins", "set_log_level", "plot", "Result", "Barrier", "Barriers", "Fields",
-           "Error", "ConfigError", "PluginError", "NumericalError", "IoError", "ProgressLine", "ProgressBar",
+__all__ = ["run", "validate", "plugins", "set_log_level", "plot", "Result", "BothDirections", "Barrier", "Barriers",
+           "Fields", "Error", "ConfigError", "PluginError", "NumericalError", "IoError", "ProgressLine", "ProgressBar",
            "flow_map", "cauchy_green", "ftle", "barriers", "System", "Forcing", "CauchyGreen"]
 
 _Experiment = Union[Dict[str, Any], str, "os.PathLike[str]"]
@@ -90,6 +90,16 @@ class Result:
     def __init__(self, native: Dict[str, Any], use_xarray: bool = ...) -> None: ...
     def plot(self, variable: str = ..., *, ax: Optional[Any] = ..., candidates: bool = ..., **kwargs: Any) -> Any: ...
     def to_dataframe(self, candidates: bool = ...) -> Any: ...
+
+class BothDirections(Result):
+    """What run() returns for "directions": "both": both directions' barriers, a Result per direction, the tangle."""
+    forward: Result
+    backward: Result
+    tangle: Dict[str, Any]
+    crossings: List[Dict[str, Any]]
+    def __init__(self, native: Dict[str, Any], use_xarray: bool = ...) -> None: ...
+    def plot(self, variable: str = ..., *, ax: Optional[Any] = ..., candidates: bool = ...,
+             direction: Literal["forward", "backward"] = ..., crossings: bool = ..., **kwargs: Any) -> Any: ...
 
 class ProgressLine:
     """The text progress line on stderr: progress(stage, done, total)."""

@@ -14,7 +14,9 @@ max_threads: int
 def run(text: str, file: str, out: Optional[str], write: bool, threads: int,
         progress: Optional[_ProgressCallback], handle_interrupt: bool) -> Dict[str, Any]:
     """Runs an experiment given as JSON text (or, with text "", the file `file`); the result's "fields",
-    "coordinates", "mask", "attributes", "barriers", "candidates", "manifest", "output_dir" and "files"."""
+    "coordinates", "mask", "attributes", "barriers", "candidates", "manifest", "output_dir" and "files"; for
+    "directions": "both" also "directions" ({"forward": ..., "backward": ...}, each such a dict) and "tangle"
+    (tangle.json as JSON text)."""
 def validate(text: str, file: str) -> str:
     """Checks an experiment; the summary as JSON text."""
 def plugins(extra_folders: List[str]) -> str:

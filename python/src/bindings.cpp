@@ -102,6 +102,8 @@ class ProgressRelay {
     std::exception_ptr m_error;
 };
 
+py::dict results_of(geobarrier::RunSummary &summary);
+
 // geobarrier._geobarrier.run: see python/geobarrier/__init__.py, run().
 py::dict run(const std::string &text, const std::string &file, std::optional<std::string> out, bool write, int threads,
              py::object progress, bool handle_interrupt) {
@@ -148,6 +150,20 @@ py::dict run(const std::string &text, const std::string &file, std::optional<std
         throw py::error_already_set();
     }
 
+    py::dict result = results_of(summary);
+    // "directions": "both": each direction's results as a run of one direction gives them, and the tangle.
+    if (!summary.directions.empty()) {
+        py::dict directions;
+        directions["forward"] = results_of(summary.directions[0]);
+        directions["backward"] = results_of(summary.directions[1]);
+        result["directions"] = directions;
+        result["tangle"] = summary.tangle.dump();
+    }
+    return result;
+}
+
+// What a run keeps (RunOptions::keep_results) as the dict geobarrier.Result reads; the arrays move out of the summary.
+py::dict results_of(geobarrier::RunSummary &summary) {
     const std::size_t nx = summary.grid.nx, ny = summary.grid.ny;
     const std::vector<py::ssize_t> shape{static_cast<py::ssize_t>(ny), static_cast<py::ssize_t>(nx)};
     py::list fields;

@@ -229,3 +229,43 @@ def test_threads_setting_is_the_runs_own():
     assert r.manifest["threads"] == default + 1
     r = geobarrier.run(base_experiment())  # not left at default + 1 by the run before
     assert r.manifest["threads"] == default
+
+
+def test_both_directions_give_a_result_per_direction_and_the_tangle(tmp_path):
+    # Unforced Duffing x'' = x - x^3: the origin is a saddle whose stable (forward, repelling barriers) and unstable
+    # (backward, attracting barriers) manifolds, the homoclinic loops, cross there at the angle between its
+    # eigenvectors (1, 1) and (1, -1): 90 degrees. In memory, the results are those the command line writes.
+    experiment = base_experiment(grid={"x": [-1.5, 1.5], "y": [-1, 1], "n": [151, 101]},
+                                 time={"t0": 0, "t1": 8, "directions": "both"}, extractors=[{"plugin": "hyperbolic"}])
+    del experiment["forcing"]
+    r = geobarrier.run(experiment, xarray=False)
+    assert isinstance(r, geobarrier.BothDirections)
+    assert r.output_dir is None and r.files == []
+    assert r.forward.manifest["resolved"]["time"]["t1"] == 8 and r.backward.manifest["resolved"]["time"]["t1"] == -8
+    assert len(r.forward.barriers) >= 1 and len(r.backward.barriers) >= 1
+    # As a Result: both directions' barriers, the repelling ones first, and the forward run's fields.
+    assert [b.attributes.get("attracting", False) for b in r.barriers] == \
+        [False] * len(r.forward.barriers) + [True] * len(r.backward.barriers)
+    assert all(b.repelling for b in r.forward.barriers) and all(b.attracting for b in r.backward.barriers)
+    assert r.fields is r.forward.fields
+    # Backward time's FTLE is its own field, not the forward one again.
+    assert not np.allclose(r.forward.fields.ftle, r.backward.fields.ftle)
+    at_saddle = [c for c in r.crossings if math.hypot(*c["point"]) < 0.04]
+    assert at_saddle and at_saddle[0]["angle_degrees"] == pytest.approx(90.0, rel=0.05)
+    assert r.manifest["crossings"] == r.tangle["counts"]
+    # The picture: the backward run's FTLE, every barrier of both directions, and the crossings as one line of dots.
+    import matplotlib
+    matplotlib.use("Agg")
+    ax = r.plot(direction="backward", colorbar=False)
+    assert np.allclose(np.ma.filled(ax.collections[0].get_array(), np.nan).ravel(), r.backward.fields.ftle.ravel(),
+                       equal_nan=True)
+    assert len(ax.get_lines()) == len(r.barriers) + 1
+    assert np.array_equal(ax.get_lines()[-1].get_xydata(), [c["point"] for c in r.crossings])
+
+    written = geobarrier.run(experiment, tmp_path / "out")
+    assert {p.name for p in (tmp_path / "out").iterdir()} >= {"forward", "backward", "tangle.json", "manifest.json"}
+    tangle = json.loads((tmp_path / "out" / "tangle.json").read_text())
+    assert r.tangle["crossings"] == tangle["crossings"] == written.crossings
+    for name in ("forward", "backward"):
+        on_disk = json.loads((tmp_path / "out" / name / "barriers.json").read_text())["barriers"]
+        assert [b.points.tolist() for b in getattr(r, name).barriers] == [b["points"] for b in on_disk]

@@ -63,10 +63,13 @@ def instances():
     from conftest import base_experiment
 
     result = geobarrier.run(base_experiment(), xarray=False)
+    both = geobarrier.run(base_experiment(time={"t0": 0, "t1": 2, "directions": "both"},
+                                          extractors=[{"plugin": "hyperbolic"}]), xarray=False)
     barrier = geobarrier.Barrier({"kind": "elliptic", "closed": True, "extractor": "elliptic",
                                   "points": [[0, 0], [1, 0], [0, 1]], "rank": 1.0})
-    return {"Result": result, "Fields": result.fields, "Barrier": barrier, "Barriers": geobarrier.Barriers([barrier]),
-            "ProgressLine": geobarrier.ProgressLine(io.StringIO()), "ProgressBar": geobarrier.ProgressBar(object),
+    return {"Result": result, "BothDirections": both, "Fields": result.fields, "Barrier": barrier,
+            "Barriers": geobarrier.Barriers([barrier]), "ProgressLine": geobarrier.ProgressLine(io.StringIO()),
+            "ProgressBar": geobarrier.ProgressBar(object),
             "Error": geobarrier.Error("e"), "ConfigError": geobarrier.ConfigError("m", "/grid/n"),
             "PluginError": geobarrier.PluginError("p"), "NumericalError": geobarrier.NumericalError("n"),
             "IoError": geobarrier.IoError("i"), "System": geobarrier.System("linear-saddle"),

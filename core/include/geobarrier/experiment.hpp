@@ -180,6 +180,11 @@ struct RunSummary {
     nlohmann::json field_attributes; // fields.nc's global attributes
     nlohmann::json barriers = nlohmann::json::array();
     nlohmann::json candidates = nlohmann::json::array(); // curves an extractor reported but does not assert
+    // keep_results of a "directions": "both" run (tangle.hpp): the forward run's results, then the backward one's,
+    // each as a run of one direction keeps them, and what tangle.json holds; grid, fields, mask and barriers above
+    // stay empty.
+    std::vector<RunSummary> directions;
+    nlohmann::json tangle;
 };
 
 RunSummary run_experiment(const ResolvedExperiment &experiment, const RunOptions &options);

@@ -86,8 +86,9 @@ GrownBarriers grow_barriers_over_periods(const ResolvedExperiment &experiment, c
 // tangle.json lists the saddle orbits found at them. <out>/manifest.json, written last, names the two runs and counts
 // the crossings by kind (a sweep's figures can point into it, e.g. "/crossings/tangle"). With "grow_periods": k, the
 // barriers are grown over k periods (grow_barriers), their crossings classified alike, and <out>/grown.png drawn. Each
-// folder is published when its run finishes: a failed backward run leaves a finished forward run and no tangle. Writes
-// files only (RunOptions::write_files; keep_results is refused).
+// folder is published when its run finishes: a failed backward run leaves a finished forward run and no tangle. With
+// RunOptions::keep_results the summary's `directions` hold the two runs' results and `tangle` what tangle.json holds;
+// with write_files false nothing is written (no folder, no picture), as for a run of one direction.
 RunSummary run_both_directions(const ResolvedExperiment &experiment, const RunOptions &options);
 
 } // namespace geobarrier

@@ -423,16 +423,15 @@ void classify_crossings(std::vector<BarrierCrossing> &crossings, const json &for
 
 RunSummary run_both_directions(const ResolvedExperiment &r, const RunOptions &options) {
     const Experiment &e = r.experiment;
-    if (!options.write_files || options.keep_results)
-        throw ConfigError("/time/directions", "\"both\" writes two runs and their tangle into the output folder; "
-                                              "to keep results in memory, run the two directions one by one");
     const auto start = std::chrono::steady_clock::now();
     const fs::path out = options.output_dir ? *options.output_dir : e.output_dir;
-    const RunSummary forward = run_direction(e, +1.0, out / "forward", options);
-    const RunSummary backward = run_direction(e, -1.0, out / "backward", options);
+    RunSummary forward = run_direction(e, +1.0, out / "forward", options);
+    RunSummary backward = run_direction(e, -1.0, out / "backward", options);
     RunSummary summary;
     if (mpi::rank() != 0) return summary; // the other ranks only shared the flow map's tiles
-    summary.output_dir = out;
+    // Nothing is written (the Python module's write=False): no folder, no picture; the results are kept.
+    const bool write = options.write_files;
+    if (write) summary.output_dir = out;
     summary.files = forward.files;
     summary.files.insert(summary.files.end(), backward.files.begin(), backward.files.end());
     // Within two grid spacings, two crossings are one: a barrier folded back on itself, or two pieces ending there.
@@ -469,21 +468,23 @@ RunSummary run_both_directions(const ResolvedExperiment &r, const RunOptions &op
                 {{"point", {o.x, o.y}}, {"multipliers", {o.multipliers[0], o.multipliers[1]}}});
     }
     json files = json::array({"forward", "backward", "tangle.json"});
-    if (e.plots) {
+    if (e.plots && write) {
         plot_tangle(out / "tangle.png", e, forward, backward, forward.barriers, backward.barriers, crossings,
                     "repelling (red) and attracting (white) barriers");
         summary.files.push_back(out / "tangle.png");
         files.push_back("tangle.png");
     }
     if (e.grow_periods > 0) {
-        tangle["grown"] = grown_tangle(r, forward, backward, orbits, out / "grown.png");
-        if (e.plots) {
+        tangle["grown"] = grown_tangle(r, forward, backward, orbits, write ? out / "grown.png" : fs::path());
+        if (e.plots && write) {
             summary.files.push_back(out / "grown.png");
             files.push_back("grown.png");
         }
     }
-    write_text_file(out / "tangle.json", tangle.dump(1) + "\n");
-    summary.files.push_back(out / "tangle.json");
+    if (write) {
+        write_text_file(out / "tangle.json", tangle.dump(1) + "\n");
+        summary.files.push_back(out / "tangle.json");
+    }
     // The folder's manifest, written last: what a sweep reads (its "experiment" is the experiment as given).
     files.push_back("manifest.json");
     const json manifest = {
@@ -494,8 +495,10 @@ RunSummary run_both_directions(const ResolvedExperiment &r, const RunOptions &op
         {"grown_crossings", e.grow_periods > 0 ? tangle["grown"]["counts"] : json()},
         {"wall_seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()},
         {"files", files}};
-    write_text_file(out / "manifest.json", manifest.dump(2) + "\n");
-    summary.files.push_back(out / "manifest.json");
+    if (write) {
+        write_text_file(out / "manifest.json", manifest.dump(2) + "\n");
+        summary.files.push_back(out / "manifest.json");
+    }
     summary.manifest = manifest;
     if (e.forcing_period)
         spdlog::info(
@@ -508,6 +511,11 @@ RunSummary run_both_directions(const ResolvedExperiment &r, const RunOptions &op
         spdlog::info("tangle: {} repelling and {} attracting barriers, {} transverse crossings (give \"time\": "
                      "{{\"period\": ...}} to tell the crossings at saddle orbits from those of a tangle)",
                      forward.barriers.size(), backward.barriers.size(), crossings.size());
+    if (options.keep_results) { // each direction's results as its own run keeps them (run_direction keeps them all)
+        summary.tangle = std::move(tangle);
+        summary.directions.push_back(std::move(forward));
+        summary.directions.push_back(std::move(backward));
+    }
     return summary;
 }
 
@@ -541,7 +549,7 @@ json grown_tangle(const ResolvedExperiment &r, const RunSummary &forward, const 
     classify_crossings(by_barrier, forward.barriers, backward.barriers, orbits, reach);
     for (std::size_t k = 0; k < crossings.size(); ++k)
         crossings[k].kind = by_barrier[k].kind, crossings[k].orbit = by_barrier[k].orbit;
-    if (e.plots)
+    if (e.plots && !picture.empty())
         plot_tangle(picture, e, forward, backward, repelling.pieces, attracting.pieces, crossings,
                     fmt::format("barriers grown over {} period(s)", e.grow_periods));
     json saddles = json::array();

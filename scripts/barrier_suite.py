@@ -736,9 +736,11 @@ _add(Case(
                bounds={"x": [-3.2, 3.2], "y": [-3.2, 3.2]}),
     (181, 181), (361, 361), 0.035, "0.035: about 2 spacings of a 361 x 361 grid on the 6 x 6 box", limit_cycle,
     {"start": [2.0, 0.0]}, expected_to_pass=False,
-    reason="open system in backward time: with bounds that stop exits (the default) nothing is masked and the "
-    "backward FTLE ridge lies on the cycle, but the hyperbolic extractor's strainlines run 0.05-0.1 outside it, "
-    "in pieces, and its rank-1 barrier is elsewhere (a closed attracting barrier; open work)"))
+    reason="open system in backward time: with bounds that stop exits (the default) nothing is masked; the cycle is "
+    "the edge of the captured set (inside it backward trajectories converge to the origin and never leave), so the "
+    "backward FTLE ridge on it is one-sided and d_g < 1e-3 only in a band about a cell wide; the hyperbolic "
+    "extractor's strainlines run 0.05-0.1 outside it and its rank-1 barrier lies elsewhere (precision 0). The exit "
+    "time jumps exactly there (exit_time_edges: 1.0 on the cycle, covering 1.0 of it): a barrier source to build"))
 _add(Case(
     "double-gyre-forward", "double gyre (experiments/double-gyre.json), forward T = 15: a repelling barrier on the "
     "stable manifold of the periodic orbit on the bottom wall near x = 1",
@@ -765,8 +767,14 @@ ESCAPE_BOX = ((-1.2, 1.6), (-1.2, 1.2))
 # Measured on 281 x 241 (AMD EPYC, 2026-11-28): below-forward passes (precision 0.974, recall 0.975, one piece).
 ESCAPE_EXPECTED = {
     ("below", "backward"): dict(expected_to_pass=False, reason="precision 0.98 but recall 0.61 (0.995 for the truth "
-                                "grown |T|/2): the barrier covers the unstable manifold near the saddle orbit, not "
-                                "its far part that the truth grown for |T| reaches"),
+                                "grown |T|/2): the barrier follows the unstable manifold up to where it folds into a "
+                                "tongue (points leaving the saddle about 12 of the 25 time units before t0), then "
+                                "leaves it; the far part spirals into the captured set's edge in strands 0.014-0.02 "
+                                "apart, where a strainline started on the manifold follows it within 0.001 with "
+                                "d_g < 1e-3 but those started a cell off drift away and are cut, so none covers it "
+                                "(also with 6x denser seeds, a 5x smaller neighbour distance, no significance test, "
+                                "or a 4x finer grid: recall 0.56-0.66). The exit time jumps there (exit_time_edges: "
+                                "0.975 on the truth, covering 0.977 of it): a barrier source to build"),
     ("above", "forward"): dict(expected_to_pass=False, reason="not scored yet: the truth used to grow from a wrong "
                                "saddle orbit (undamped Newton, fixed in TRUTH_VERSION 2); grown right, the stable "
                                "manifold above the threshold is a tangle whose growth for |T| took over 25 minutes "
@@ -977,6 +985,46 @@ def passes(result):
                 and result["max_pieces"] <= THRESHOLDS["pieces"] and result["top_on_truth"])
 
 
+def exit_time_edges(fields_nc, branches, tol, box, jump=2.0):
+    """Where the truth lies in a run's exit_time field (fields.nc of a run with bounds whose exits stop): the grid
+    edges across which the exit time jumps by more than `jump` (a captured point, fill value, counts as never
+    leaving), each as its midpoint. Away from the manifolds of the saddle that the escaping trajectories pass, the
+    exit time varies continuously; across them it jumps by a loop's duration (the trajectories on either side leave
+    its neighbourhood on opposite sides, one escaping at once, the other after another turn), so these edges are
+    the singular set of the escape-time function, which lies on the stable (forward) or unstable (backward)
+    manifold. Returns {"edges", "on_truth": share of the edges within tol of the truth, "truth_covered": share of
+    the truth's length in the box within tol of an edge}, or None when the file has no exit_time."""
+    import netCDF4  # Debian's python3-netcdf4; only this diagnostic reads fields.nc
+    with netCDF4.Dataset(fields_nc) as nc:
+        if "exit_time" not in nc.variables:
+            return None
+        x, y = np.asarray(nc["x"][:], float), np.asarray(nc["y"][:], float)
+        exit_time = np.ma.filled(nc["exit_time"][:].astype(float), np.nan)
+    t = np.where(np.isnan(exit_time), np.inf, np.abs(exit_time))
+    with np.errstate(invalid="ignore"):  # inf - inf: two captured neighbours, no jump
+        across_x = np.nonzero(np.nan_to_num(np.abs(np.diff(t, axis=1)), nan=0.0) > jump)
+        across_y = np.nonzero(np.nan_to_num(np.abs(np.diff(t, axis=0)), nan=0.0) > jump)
+    mid = np.concatenate([np.c_[0.5 * (x[across_x[1]] + x[across_x[1] + 1]), y[across_x[0]]],
+                          np.c_[x[across_y[1]], 0.5 * (y[across_y[0]] + y[across_y[0] + 1])]])
+    result = {"edges": int(len(mid)), "on_truth": 0.0, "truth_covered": 0.0}
+    if len(mid) == 0:
+        return result
+    truth_all = prefix([tuple(b) + (None,) * (3 - len(b)) for b in branches], None)
+    on = CurveSet([p for _, p in truth_all], tol / 8).distance(mid) <= tol
+    result["on_truth"] = round(float(on.mean()), 4)
+    tree = cKDTree(mid)
+    (x0, x1), (y0, y1) = box
+    total = found = 0.0
+    for _, poly in truth_all:
+        P, w = length_samples(poly, tol / 4)
+        inside = (P[:, 0] >= x0) & (P[:, 0] <= x1) & (P[:, 1] >= y0) & (P[:, 1] <= y1)
+        d, _ = tree.query(P[inside])
+        total += float(w[inside].sum())
+        found += float(w[inside][d <= tol].sum())
+    result["truth_covered"] = round(found / total, 4) if total > 0 else 0.0
+    return result
+
+
 def cloud_share(doc, points, tol):
     """Share of the barriers' length within tol of a point cloud (the attractor's tracers)."""
     tree = cKDTree(points)
@@ -1069,6 +1117,9 @@ def evaluate(case, binary=DEFAULT_BIN, grid="small", out=None, cache=None, threa
     result = score(doc, branches, case.tol, case.box, case.horizon)
     if cloud_points is not None:
         result["cloud_precision"] = cloud_share(doc, cloud_points, case.tol)
+    if case.experiment.get("bounds"):  # an open system: where the exit time jumps, against the same truth
+        result["exit_time_edges"] = exit_time_edges(os.path.join(folder, "run", "fields.nc"), branches, case.tol,
+                                                    case.box)
     score_wall = time.monotonic() - start
     if plots:
         for g in (0.5, 1.0) if any(e is not None for _, _, e in branches) else (1.0,):

@@ -323,3 +323,40 @@ def test_grown_manifolds_of_the_escape_oscillator_meet_the_thresholds(tmp_path):
         r = bs.score(doc, bs.truth_full(case), case.tol, case.box, horizon=case.horizon)
         assert r["precision"] >= bs.THRESHOLDS["precision"], (case_name, r["precision"], r["recall"])
         assert r["recall"] >= bs.THRESHOLDS["recall"], (case_name, r["precision"], r["recall"])
+
+
+def exit_edges_of(case_name, tmp_path):
+    """geobarrier run of a suite case (small grid) and barrier_suite.exit_time_edges of its fields.nc."""
+    case = bs.CASES[case_name]
+    exp = bs.case_experiment(case, list(case.small), str(tmp_path / case_name))
+    with open(tmp_path / f"{case_name}.json", "w") as f:
+        json.dump(exp, f)
+    subprocess.run([BIN, "run", str(tmp_path / f"{case_name}.json"), "--quiet"], check=True)
+    return bs.exit_time_edges(str(tmp_path / case_name / "fields.nc"), bs.truth_full(case), case.tol, case.box)
+
+
+def test_exit_time_jumps_on_the_van_der_pol_cycle(tmp_path):
+    """Backward time, bounds whose exits stop: inside the limit cycle the backward trajectories converge to the origin
+    and never leave, outside they leave, so the exit time jumps from finite to never across the cycle (the
+    independent truth, a long SciPy trajectory): every jump lies on it and together they cover it."""
+    if not os.access(BIN, os.X_OK):
+        pytest.skip(f"no geobarrier program at {BIN}")
+    edges = exit_edges_of("van-der-pol-backward", tmp_path)
+    assert edges["edges"] > 0
+    assert edges["on_truth"] >= 0.95, edges
+    assert edges["truth_covered"] >= 0.95, edges
+
+
+@pytest.mark.skipif(not ALL, reason="the escape truth takes minutes to grow the first time; BARRIER_ACCURACY_ALL=1 "
+                    "runs it")
+@pytest.mark.parametrize("name", ["escape-below-forward", "escape-below-backward"])
+def test_exit_time_jumps_on_the_escape_manifolds(name, tmp_path):
+    """The escape oscillator (281 x 241): the exit time jumps across the stable (forward) and unstable (backward)
+    manifold of the hilltop's saddle orbit grown with SciPy, where trajectories on either side leave over the hilltop
+    one turn apart; the jumps lie on the manifold and cover it, also the far part of the unstable one that the
+    hyperbolic barriers miss."""
+    if not os.access(BIN, os.X_OK):
+        pytest.skip(f"no geobarrier program at {BIN}")
+    edges = exit_edges_of(name, tmp_path)
+    assert edges["on_truth"] >= 0.95, edges
+    assert edges["truth_covered"] >= 0.95, edges

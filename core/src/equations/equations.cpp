@@ -539,7 +539,10 @@ std::string cache_key(const Definition &d, const Toolchain &tc) {
     h.add(tc.identity);
     for (const std::string &f : tc.flags) h.add(f);
     h.add(tc.include_dir.string());
-    for (const char *header : {"abi.h", "sdk.hpp", "rk_tableaux.hpp"})
+    // Every header the generated source compiles: a change in any of them (the SDK's detail headers and its dual
+    // numbers included) must not reuse a library built from the old one.
+    for (const char *header : {"abi.h", "sdk.hpp", "sdk_dual.hpp", "rk_tableaux.hpp", "sdk/detail/traits.hpp",
+                               "sdk/detail/lanes.hpp", "sdk/detail/fused_step.hpp", "sdk/detail/thunks.hpp"})
         h.add(read_text(tc.include_dir / "geobarrier" / header));
     return h.hex();
 }

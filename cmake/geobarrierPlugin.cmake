@@ -2,6 +2,8 @@
 # included by find_package(geobarrier CONFIG)). Same call as inside the tree:
 #
 #   geobarrier_add_plugin(NAME name SOURCES file.cpp ...
+#                         [KIT]                        compile in geobarrier::kit, the extractor kit (fields,
+#                                                      tensor lines, curves), its symbols hidden: no libgeobarrier
 #                         [LINK_CORE]                  link geobarrier::core (extractors using its C++ API)
 #                         [OUTPUT_DIRECTORY dir]       default: ${CMAKE_BINARY_DIR}/plugins
 #                         [INSTALL_DESTINATION dir]    default: lib/geobarrier/plugins under the install prefix
@@ -45,7 +47,8 @@ if(GEOBARRIER_PLUGIN_COMPILE_OPTIONS AND CMAKE_CXX_COMPILER_LOADED)
 endif()
 
 function(geobarrier_add_plugin)
-  cmake_parse_arguments(P "LINK_CORE;NO_INSTALL;PORTABLE" "NAME;OUTPUT_DIRECTORY;INSTALL_DESTINATION" "SOURCES" ${ARGN})
+  cmake_parse_arguments(P "LINK_CORE;KIT;NO_INSTALL;PORTABLE" "NAME;OUTPUT_DIRECTORY;INSTALL_DESTINATION" "SOURCES"
+                        ${ARGN})
   if(P_UNPARSED_ARGUMENTS)
     message(FATAL_ERROR "geobarrier_add_plugin: unknown arguments: ${P_UNPARSED_ARGUMENTS}")
   endif()
@@ -76,6 +79,16 @@ function(geobarrier_add_plugin)
     endif()
     # The SDK then records the core's version in the plugin and the loader insists on it.
     target_link_libraries(${target} PRIVATE geobarrier::core)
+  endif()
+  if(P_KIT)
+    if(NOT TARGET geobarrier::kit OR NOT TARGET nlohmann_json::nlohmann_json OR NOT TARGET OpenMP::OpenMP_CXX)
+      message(FATAL_ERROR "geobarrier_add_plugin(NAME ${P_NAME} KIT): geobarrier::kit needs the packages "
+                          "nlohmann_json and OpenMP (C++), which were not both found: install them (Debian: "
+                          "nlohmann-json3-dev; OpenMP comes with GCC) or point CMAKE_PREFIX_PATH at them")
+    endif()
+    # Compiled in with its symbols hidden: the plugin never binds to libgeobarrier's copies, and needs no core library.
+    target_link_libraries(${target} PRIVATE geobarrier::kit)
+    target_link_options(${target} PRIVATE LINKER:--exclude-libs,libgeobarrier_kit.a)
   endif()
   set_target_properties(${target} PROPERTIES
     PREFIX "" OUTPUT_NAME ${target} SUFFIX ".so"

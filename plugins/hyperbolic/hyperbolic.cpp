@@ -1305,8 +1305,10 @@ void Hyperbolic::draw_strainlines(const sdk::Host &host, const gb_extract_input 
     xp.x_range = std::make_pair(g.x_min, g.x_max);
     xp.y_range = std::make_pair(g.y_min, g.y_max);
     // At most 600 grey lines, each thinned to points about a pixel apart (1200 px across the box): thousands of
-    // strainlines crowd onto the same curves, and drawing all their points cost more than extracting them.
-    const std::size_t stride = std::max<std::size_t>(1, lines.size() / 600);
+    // strainlines crowd onto the same curves, and drawing all their points cost more than extracting them. The
+    // stride rounds up: W's 935 lines at stride 1 (935 / 600 rounded down) drew 3.8 million points, 3 of the run's
+    // 4.6 s.
+    const std::size_t stride = std::max<std::size_t>(1, (lines.size() + 599) / 600);
     const double pixel = std::max(g.x_max - g.x_min, g.y_max - g.y_min) / 1200.0;
     for (std::size_t l = 0; l < lines.size(); l += stride) {
         PlotSeries s;

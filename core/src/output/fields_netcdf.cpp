@@ -10,6 +10,7 @@
 #include <cctype>
 #include <cerrno>
 #include <cstring>
+#include <mutex>
 #include <vector>
 
 #include <cmath>
@@ -194,6 +195,10 @@ void write_fields_netcdf(const std::filesystem::path &file, const Grid &grid,
                          const nlohmann::json &global_attributes, const StateAxes &axes) {
     check_arguments(grid, variables, mask);
     const NcChecker check(file);
+    // One file at a time: NetCDF-C and the HDF5 under it (Debian's build) are not thread-safe, and a frames run
+    // writes two frames' fields.nc from two threads (frames.cpp).
+    static std::mutex netcdf_mutex;
+    const std::lock_guard<std::mutex> lock(netcdf_mutex);
     write_file_atomically(file, [&](const std::filesystem::path &temp) {
         NcFile nc(temp, file, check);
         const int ncid = nc.id();

@@ -5,19 +5,26 @@
 #include <geobarrier/frames.hpp>
 #include <geobarrier/output.hpp>
 
+#include "engine/tiles.hpp"
+#include "experiment/resources.hpp"
 #include "run/barrier_matching.hpp"
 #include "run/mpi.hpp"
 
 #include <fmt/format.h>
+#include <omp.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <deque>
 #include <filesystem>
+#include <future>
 #include <limits>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <unordered_map>
 
@@ -445,19 +452,44 @@ json track_barriers(const ResolvedExperiment &r, const std::vector<double> &t0s,
 
 namespace {
 
-// Frame k's run: the experiment as written with one initial time and t1 = t0 + T, into `folder`.
-RunSummary run_frame(const Experiment &e, double t0, const fs::path &folder, const RunOptions &options) {
+// Frame k's experiment: the experiment as written with one initial time and t1 = t0 + T. Resolved (its plugins'
+// instances created) on the thread that runs run_frames, as the plugin ABI asks of create and destroy.
+std::unique_ptr<ResolvedExperiment> resolve_frame(const Experiment &e, double t0) {
     json source = e.source;
     json &time = source["time"];
     time["t0"] = t0;
     time["t1"] = t0 + (e.t1 - e.t0);
     time.erase("T");
-    const ResolvedExperiment r = resolve_experiment(parse_experiment(source, e.file));
-    RunOptions o = options;
-    o.output_dir = folder;
-    o.keep_results = true; // the barriers for the tracks
-    return run_experiment(r, o);
+    return std::make_unique<ResolvedExperiment>(resolve_experiment(parse_experiment(source, e.file)));
 }
+
+// How the frames are run: `in_flight` at a time, each on `threads` threads (0: OpenMP's default).
+struct FrameSchedule {
+    std::size_t in_flight = 1;
+    int threads = 0;
+};
+
+// Two frames at a time, each on half the threads, when there are two frames, two threads and memory for two runs.
+// A frame's own run leaves cores idle in its serial parts: the pictures (drawn one at a time, PLplot has one global
+// state), fields.nc (NetCDF is not thread-safe either), the extractors' serial steps; the other frame computes
+// meanwhile. The frames' results do not depend on it: a run's results do not depend on its thread count. Under
+// mpirun the ranks share each frame's tiles, one frame at a time.
+FrameSchedule frame_schedule(const ResolvedExperiment &r, const RunOptions &options) {
+    const Experiment &e = r.experiment;
+    const int threads = options.threads > 0 ? options.threads : omp_get_max_threads();
+    if (e.frames.size() < 2 || threads < 2 || mpi::sharing_tiles()) return {1, options.threads};
+    const AvailableMemory memory = available_memory();
+    if (memory.known && 2 * estimate_run_memory(e.grid, e.integrator, plan_fields(r)) > memory.bytes)
+        return {1, options.threads};
+    return {2, threads / 2};
+}
+
+// A frame being run: its experiment (destroyed on this thread, after the run) and the run on a thread of its own.
+struct RunningFrame {
+    std::size_t index = 0;
+    std::unique_ptr<ResolvedExperiment> experiment;
+    std::future<RunSummary> run; // declared after `experiment`: destroyed first, waiting for the run to end
+};
 
 std::string frame_folder(std::size_t k) { return fmt::format("frames/{:03d}", k); }
 
@@ -488,15 +520,23 @@ void keep_ftle(const RunSummary &frame, double t0, std::size_t frames, std::vect
 }
 
 // tracks.json and, with plots, the animation and the tracks' picture; the names written, for the manifest.
+// Seconds since `since`.
+double seconds_since(std::chrono::steady_clock::time_point since) {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
 json write_tracks(const ResolvedExperiment &r, const fs::path &out, const std::vector<json> &barriers,
-                  const std::vector<FrameField> &fields, RunSummary &summary, json &files) {
+                  const std::vector<FrameField> &fields, RunSummary &summary, json &files, json &stages) {
     const Experiment &e = r.experiment;
+    auto start = std::chrono::steady_clock::now();
     const json tracks = track_barriers(r, e.frames, barriers);
     write_text_file(out / "tracks.json", tracks.dump(1) + "\n");
     summary.files.push_back(out / "tracks.json");
     files.push_back("tracks.json");
     spdlog::info("tracks: {} over {} frames, {} through all of them", tracks["track_count"].get<std::size_t>(),
                  e.frames.size(), tracks["tracks_through_all_frames"].get<std::size_t>());
+    stages.push_back({{"stage", "tracks"}, {"wall_seconds", seconds_since(start)}});
+    start = std::chrono::steady_clock::now();
     if (e.plots) {
         plot_track_figures(out / "tracks.png", tracks);
         summary.files.push_back(out / "tracks.png");
@@ -514,6 +554,7 @@ json write_tracks(const ResolvedExperiment &r, const fs::path &out, const std::v
             spdlog::warn("frames: no animation.png (it needs the \"ftle\" product, and every frame's FTLE field "
                          "within 1 GiB)");
         }
+        stages.push_back({{"stage", "track pictures"}, {"wall_seconds", seconds_since(start)}});
     }
     return {{"count", tracks["track_count"]},
             {"through_all_frames", tracks["tracks_through_all_frames"]},
@@ -529,14 +570,30 @@ RunSummary run_frames(const ResolvedExperiment &r, const RunOptions &options) {
                                       "folder; to keep results in memory (Python), run one initial time at a time");
     const auto start = std::chrono::steady_clock::now();
     const fs::path out = options.output_dir ? *options.output_dir : e.output_dir;
+    const FrameSchedule schedule = frame_schedule(r, options);
+    if (schedule.in_flight > 1)
+        spdlog::info("frames: {} at a time, {} threads each", schedule.in_flight, schedule.threads);
+    RunOptions o = options;
+    o.keep_results = true; // the barriers for the tracks
+    o.threads = schedule.threads;
+    std::mutex progress_mutex; // RunOptions::progress is called one call at a time
+    if (schedule.in_flight > 1) {
+        o.quiet = true; // two frames' progress bars would overwrite each other
+        if (options.progress)
+            o.progress = [&](const std::string &stage, std::size_t done, std::size_t total) {
+                const std::lock_guard<std::mutex> lock(progress_mutex);
+                options.progress(stage, done, total);
+            };
+    }
     std::vector<json> barriers;
     std::vector<FrameField> fields;
     json frames = json::array();
     RunSummary summary;
-    for (std::size_t k = 0; k < e.frames.size(); ++k) {
-        spdlog::info("frame {} of {}: t0 = {}, t1 = {}", k + 1, e.frames.size(), e.frames[k],
-                     e.frames[k] + e.t1 - e.t0);
-        RunSummary frame = run_frame(e, e.frames[k], out / frame_folder(k), options);
+    // The frames' results in frame order, each as its run ends (the oldest first).
+    const auto finish = [&](RunningFrame &running) {
+        RunSummary frame = running.run.get();
+        running.experiment.reset();
+        const std::size_t k = running.index;
         summary.files.insert(summary.files.end(), frame.files.begin(), frame.files.end());
         frames.push_back({{"index", k},
                           {"t0", e.frames[k]},
@@ -546,20 +603,44 @@ RunSummary run_frames(const ResolvedExperiment &r, const RunOptions &options) {
                           {"barriers", frame.barriers.size()}});
         if (e.plots && !e.extractors.empty()) keep_ftle(frame, e.frames[k], e.frames.size(), fields);
         barriers.push_back(std::move(frame.barriers));
+    };
+    std::deque<RunningFrame> running;
+    for (std::size_t k = 0; k < e.frames.size(); ++k) {
+        while (running.size() >= schedule.in_flight) {
+            finish(running.front());
+            running.pop_front();
+        }
+        spdlog::info("frame {} of {}: t0 = {}, t1 = {}", k + 1, e.frames.size(), e.frames[k],
+                     e.frames[k] + e.t1 - e.t0);
+        RunningFrame next;
+        next.index = k;
+        next.experiment = resolve_frame(e, e.frames[k]);
+        RunOptions frame_options = o;
+        frame_options.output_dir = out / frame_folder(k);
+        // One at a time: on this thread, when finished (under mpirun the ranks call MPI from their main thread).
+        const auto policy = schedule.in_flight > 1 ? std::launch::async : std::launch::deferred;
+        next.run = std::async(policy, [experiment = next.experiment.get(), frame_options] {
+            return run_experiment(*experiment, frame_options);
+        });
+        running.push_back(std::move(next));
     }
+    for (; !running.empty(); running.pop_front()) finish(running.front());
     if (mpi::rank() != 0) return summary; // the other ranks only shared the flow maps' tiles
     remove_stale_frames(out / "frames", e.frames.size());
     summary.output_dir = out;
     json files = json::array({"frames"}), manifest_tracks = nullptr;
-    if (!e.extractors.empty()) manifest_tracks = write_tracks(r, out, barriers, fields, summary, files);
+    json stages = json::array({{{"stage", "frames"}, {"wall_seconds", seconds_since(start)}}});
+    if (!e.extractors.empty()) manifest_tracks = write_tracks(r, out, barriers, fields, summary, files, stages);
     files.push_back("manifest.json");
-    const json manifest = {
-        {"experiment", e.source},
-        {"frames", frames},
-        {"horizon", e.t1 - e.t0},
-        {"tracks", manifest_tracks},
-        {"wall_seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()},
-        {"files", files}};
+    const json manifest = {{"experiment", e.source},
+                           {"frames", frames},
+                           {"horizon", e.t1 - e.t0},
+                           {"frames_in_flight", schedule.in_flight},
+                           {"threads_per_frame", schedule.threads},
+                           {"tracks", manifest_tracks},
+                           {"stages", stages},
+                           {"wall_seconds", seconds_since(start)},
+                           {"files", files}};
     write_text_file(out / "manifest.json", manifest.dump(2) + "\n");
     summary.files.push_back(out / "manifest.json");
     summary.manifest = manifest;

@@ -16,6 +16,19 @@
 namespace geobarrier {
 namespace {
 
+// The C enums of abi.h and the C++ ones of output.hpp are converted by casts (here and in sdk_plot.hpp): same values.
+static_assert(static_cast<int>(PlotSeries::Style::line) == GB_PLOT_LINE &&
+              static_cast<int>(PlotSeries::Style::points) == GB_PLOT_POINTS &&
+              static_cast<int>(PlotSeries::Style::line_points) == GB_PLOT_LINE_POINTS);
+static_assert(static_cast<int>(PlotSeries::Dash::solid) == GB_PLOT_SOLID &&
+              static_cast<int>(PlotSeries::Dash::dashed) == GB_PLOT_DASHED &&
+              static_cast<int>(PlotSeries::Dash::dotted) == GB_PLOT_DOTTED);
+static_assert(static_cast<int>(XYPlot::Legend::top_right) == GB_LEGEND_TOP_RIGHT &&
+              static_cast<int>(XYPlot::Legend::top_left) == GB_LEGEND_TOP_LEFT &&
+              static_cast<int>(XYPlot::Legend::bottom_right) == GB_LEGEND_BOTTOM_RIGHT &&
+              static_cast<int>(XYPlot::Legend::bottom_left) == GB_LEGEND_BOTTOM_LEFT &&
+              static_cast<int>(XYPlot::Legend::outside_right) == GB_LEGEND_OUTSIDE_RIGHT);
+
 void set_message(gb_message *msg, const std::string &text) {
     if (!msg || !msg->text || msg->capacity == 0) return;
     const std::size_t n = std::min(text.size(), msg->capacity - 1);

@@ -5,6 +5,7 @@
 // (full mode) the sweep over tolerance, stepper, gradient method, offset, block size and the double gyre. Writes
 // bench.csv, bench.md and the Pareto picture (error against time); timings live here, never in tests.
 #include <geobarrier/cauchy_green.hpp>
+#include <geobarrier/frames.hpp>
 #include <geobarrier/output.hpp>
 
 #include "peak_rate.hpp"
@@ -747,6 +748,99 @@ std::string load_average() {
     return a + " " + b + " " + c;
 }
 
+// --- Frames (docs/experiment-format.md, "Frames"): experiments/duffing-frames.json as one frames run against the same
+// frames as separate runs, one process after the other. Needs no reference or baseline. ---
+
+// The processor as the docs name it: "AMD EPYC family 25 model 17, 2 cores" (/proc/cpuinfo).
+std::string cpu_name() {
+    std::ifstream in("/proc/cpuinfo");
+    std::map<std::string, std::string> first;
+    int cores = 0;
+    for (std::string line; std::getline(in, line);) {
+        const std::size_t colon = line.find(':');
+        if (colon == std::string::npos) continue;
+        std::string key = line.substr(0, colon), value = colon + 2 <= line.size() ? line.substr(colon + 2) : "";
+        key.erase(key.find_last_not_of(" \t") + 1);
+        if (key == "processor") ++cores;
+        first.emplace(key, value);
+    }
+    return first["model name"] + " family " + first["cpu family"] + " model " + first["model"] + ", " +
+           std::to_string(cores) + " cores";
+}
+
+// Best wall and user CPU seconds of one side of the frames comparison.
+struct FramesSide {
+    double wall = HUGE_VAL, user = HUGE_VAL;
+    void keep(double w, double u) { wall = std::min(wall, w), user = std::min(user, u); }
+};
+
+// The frames run (one `geobarrier run` of the frames experiment: the frames, their tracks and the animation) and the
+// same frames as separate runs (one process per initial time, in turn), interleaved `repeat` times so that both sides
+// see the same load, the fastest of each kept. Rows go to bench.csv (section "frames"); returns the markdown.
+std::string frames_section(Bench &bench, int repeat) {
+    const fs::path file = bench.source / "experiments" / "duffing-frames.json";
+    const json experiment = json::parse(std::ifstream(file));
+    const std::vector<double> t0s = geobarrier::frame_initial_times(experiment["time"]["t0"], "/time/t0");
+    const fs::path scratch = bench.out / "frames";
+    fs::remove_all(scratch);
+    fs::create_directories(scratch);
+    std::vector<fs::path> singles;
+    for (std::size_t k = 0; k < t0s.size(); ++k) {
+        json single = experiment;
+        single["time"] = {{"t0", t0s[k]}, {"T", experiment["time"]["T"]}};
+        singles.push_back(scratch / ("frame-" + std::to_string(k) + ".json"));
+        std::ofstream(singles.back()) << single.dump(1) << "\n";
+    }
+    const auto run = [&](const fs::path &experiment_file, const fs::path &out) {
+        ProcessResult r = run_process({bench.program.string(), "run", "-q", "--out", out.string(), experiment_file});
+        if (r.status != 0)
+            throw std::runtime_error("frames section: " + experiment_file.string() + ": " + first_line(r.output));
+        return r;
+    };
+    FramesSide frames, separate;
+    for (int attempt = 0; attempt < repeat; ++attempt) {
+        std::cerr << "[frames] " << t0s.size() << " frames, attempt " << attempt + 1 << " of " << repeat << "\n";
+        const ProcessResult f = run(file, scratch / "frames-run");
+        frames.keep(f.wall_seconds, f.user_seconds);
+        double wall = 0, user = 0;
+        for (std::size_t k = 0; k < singles.size(); ++k) {
+            const ProcessResult r = run(singles[k], scratch / ("separate-" + std::to_string(k)));
+            wall += r.wall_seconds, user += r.user_seconds;
+        }
+        separate.keep(wall, user);
+        std::cerr << "  frames run " << fixed(f.wall_seconds, 1) << " s, separate runs " << fixed(wall, 1) << " s\n";
+    }
+    const json manifest = json::parse(std::ifstream(scratch / "frames-run" / "manifest.json"));
+    fs::remove_all(scratch);
+    const std::size_t nx = experiment["grid"]["n"][0], ny = experiment["grid"]["n"][1];
+    for (const auto &[name, side] : {std::pair<const char *, FramesSide>{"frames run", frames},
+                                     std::pair<const char *, FramesSide>{"separate runs", separate}}) {
+        Row row;
+        row.section = "frames";
+        row.workload = "W, " + std::to_string(t0s.size()) + " frames";
+        row.name = name;
+        row.nx = nx, row.ny = ny, row.threads = 0;
+        row.wall = side.wall;
+        row.ratio = side.wall / separate.wall;
+        row.note = "user CPU " + fixed(side.user, 1) + " s";
+        bench.add(row);
+    }
+    std::ostringstream md;
+    md << "## Frames\n\n`experiments/duffing-frames.json`: W over one forcing period in " << t0s.size()
+       << " frames (t0 from 0 to 2π, T = 8π, " << nx << " × " << ny
+       << ", hyperbolic barriers, pictures). The frames run is one process (every frame's run, the tracks and the "
+          "animation), "
+       << manifest.value("frames_in_flight", 1)
+       << " frames at a time; the separate runs are one process per t0, one after the other, all threads each. "
+          "Interleaved, the fastest of "
+       << repeat << " each, on " << cpu_name() << " (load average " << load_average()
+       << " after).\n\n| | wall (s) | user CPU (s) | × separate runs |\n|---|---|---|---|\n"
+       << "| frames run (with tracks and animation) | " << fixed(frames.wall, 1) << " | " << fixed(frames.user, 1)
+       << " | " << fixed(frames.wall / separate.wall, 2) << " |\n| " << t0s.size() << " separate runs | "
+       << fixed(separate.wall, 1) << " | " << fixed(separate.user, 1) << " | 1.00 |\n\n";
+    return md.str();
+}
+
 } // namespace
 
 // --- The equations system (docs/experiment-format.md, "Equations"): W with the oscillator written in the experiment,
@@ -908,8 +1002,8 @@ std::optional<int> parse_options(int argc, char **argv, BenchOptions &o) {
     app.add_option("--extraction-n", o.extraction_n, "grid points per direction of the extraction runs");
     app.add_option("--sections", sections_text,
                    "comma-separated: headline,threads,widths,scaling,memory,extraction,scipy,equations,suite,ndim,"
-                   "sweep,gyre (default: all but sweep and gyre with --quick, all without); suite, ndim or equations "
-                   "alone need no baseline");
+                   "frames,sweep,gyre (default: all but sweep and gyre with --quick, all without); suite, ndim, "
+                   "frames or equations alone need no baseline");
     app.add_option("--repeat", o.repeat,
                    "runs per configuration, the fastest kept (default: 2 for threads and scaling, 1 elsewhere)");
     app.add_option("--try", o.tries,
@@ -928,9 +1022,10 @@ std::optional<int> parse_options(int argc, char **argv, BenchOptions &o) {
     }
     const std::string text =
         sections_text.empty()
-            ? std::string(o.quick ? "headline,threads,widths,scaling,memory,extraction,scipy,equations,suite,ndim"
+            ? std::string(o.quick ? "headline,threads,widths,scaling,memory,extraction,scipy,equations,suite,ndim,"
+                                    "frames"
                                   : "headline,threads,widths,scaling,memory,extraction,scipy,equations,suite,ndim,"
-                                    "sweep,gyre")
+                                    "frames,sweep,gyre")
             : sections_text;
     std::istringstream in(text);
     for (std::string section; std::getline(in, section, ',');) o.sections.insert(section);
@@ -944,7 +1039,7 @@ struct BenchResults {
     Row base;                  // the naive Boost.Odeint baseline at N
     std::vector<Row> headline, scipy, threads, widths, scaling, extraction, sweep, gyre;
     std::optional<Row> default_row, unchecked_row, memory;
-    std::string suite_md, ndim_md;
+    std::string suite_md, ndim_md, frames_md;
     std::optional<EquationsTiming> equations;
 };
 
@@ -1328,6 +1423,7 @@ void report_sections(Bench &bench, const BenchOptions &o, const BenchResults &re
         bench.table({*res.memory});
     }
     report_extraction(md, o.extraction_n, res.extraction);
+    if (!res.frames_md.empty()) md << res.frames_md;
     if (!res.gyre.empty()) {
         md << "## The double gyre\n\n`experiments/double-gyre.json` (A = 0.1, ε = 0.25, ω = 2π/10, T = 15) on an "
            << o.n << " × " << o.n / 2
@@ -1384,6 +1480,14 @@ int main(int argc, char **argv) {
     if (o.wants("ndim")) res.ndim_md = ndim_section(bench, std::min<std::size_t>(o.n, 300), o.best_of(2));
     if (o.sections == std::set<std::string>{"ndim"}) {
         std::ofstream(bench.out / "bench.md") << res.ndim_md;
+        std::cerr << "wrote " << (bench.out / "bench.csv").string() << " and bench.md\n";
+        return 0;
+    }
+
+    // Frames against separate runs (section "frames"); alone, it needs no baseline either.
+    if (o.wants("frames")) res.frames_md = frames_section(bench, o.best_of(o.quick ? 1 : 2));
+    if (o.sections == std::set<std::string>{"frames"}) {
+        std::ofstream(bench.out / "bench.md") << res.frames_md;
         std::cerr << "wrote " << (bench.out / "bench.csv").string() << " and bench.md\n";
         return 0;
     }

@@ -10,6 +10,8 @@ its ground truth against what it must satisfy, and the hyperbolic extractor agai
 - End to end (QUICK cases, whose truth costs under a second; the others, whose manifolds take minutes to grow the
   first time, with BARRIER_ACCURACY_ALL=1): geobarrier run on the small grid, then precision >= 0.95,
   recall >= 0.9, at most 2 pieces per branch and the rank-1 barrier on the truth, for every case expected to pass.
+- Open systems: the grid edges where a run's exit_time jumps lie on the truth and cover it (van der Pol's cycle,
+  backward; the escape oscillator's manifolds both ways with BARRIER_ACCURACY_ALL=1).
 
 Run: /usr/bin/python3 -m pytest -q tests/scripts/test_barrier_accuracy.py (GEOBARRIER_BIN names the program;
 default build/bin/geobarrier). Needs numpy, scipy and pytest (Debian's python3-scipy, python3-pytest).

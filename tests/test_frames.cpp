@@ -14,6 +14,8 @@
 
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <string>
 #include <vector>
@@ -321,6 +323,23 @@ void check_animation(const fs::path &file, std::uint32_t frames) {
     CHECK(crcs);
     CHECK(actl == frames);
     CHECK(fctl == frames);
+    // ffmpeg's reader, when installed (not a dependency: Debian's ffmpeg pulls in about 80 packages): it decodes
+    // every frame of the animation.
+    if (std::system("command -v ffprobe >/dev/null 2>&1") != 0) {
+        MESSAGE("ffprobe is not installed: the animation is checked by the APNG specification only");
+        return;
+    }
+    const std::string command = "ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+                                "stream=codec_name,nb_read_frames -of csv=p=0 '" +
+                                file.string() + "'";
+    std::string answer;
+    if (std::FILE *pipe = ::popen(command.c_str(), "r")) {
+        char buffer[256];
+        while (std::fgets(buffer, sizeof buffer, pipe) != nullptr) answer += buffer;
+        CHECK(::pclose(pipe) == 0);
+    }
+    MESSAGE("ffprobe: " << answer);
+    CHECK(answer == "apng," + std::to_string(frames) + "\n");
 }
 
 // The barriers a track holds in frame k, as one list of barriers.json items.

@@ -115,8 +115,14 @@ void write_animated_png(const fs::path &file, const std::vector<fs::path> &frame
         } else if (chunks.front().data != ihdr) { // every frame as the first: size, depth, colour type
             throw IoError(frames[k].string() + ": not the size and kind of the animation's first frame");
         }
-        put_chunk(out, "fcTL", frame_control(sequence++, ihdr, delay_ms));
+        // Each frame's fcTL right before its first IDAT or fdAT, after the first frame's ancillary chunks: ffmpeg's
+        // reader refuses any other chunk between them (the APNG specification only asks that fcTL precede them).
+        bool control = false;
         for (const Chunk &c : chunks) {
+            if (c.type == "IDAT" && !control) {
+                put_chunk(out, "fcTL", frame_control(sequence++, ihdr, delay_ms));
+                control = true;
+            }
             if (c.type == "IDAT" && k == 0) {
                 put_chunk(out, "IDAT", c.data);
             } else if (c.type == "IDAT") {
@@ -130,6 +136,7 @@ void write_animated_png(const fs::path &file, const std::vector<fs::path> &frame
                 throw IoError(frames[k].string() + ": a palette PNG (the animation takes true-colour frames)");
             }
         }
+        if (!control) throw IoError(frames[k].string() + ": a PNG file without image data");
     }
     put_chunk(out, "IEND", {});
     write_file_atomically(file, [&](const fs::path &temp) {

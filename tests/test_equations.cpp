@@ -4,9 +4,9 @@
 #include <doctest/doctest.h>
 #include <test_support.hpp>
 
+#include "equations/equations.hpp"
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/conformance.hpp>
-#include <geobarrier/equations.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 

@@ -2,9 +2,9 @@
 #include "run/mpi.hpp"
 #include "sweep/sweep.hpp"
 
+#include "equations/equations.hpp"
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/conformance.hpp>
-#include <geobarrier/equations.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/plugin.hpp>

@@ -4,10 +4,10 @@
 // gradients with the core's own code (cauchy_green.hpp). Arrays cross as NumPy buffers, never as JSON; the GIL is
 // released while the core computes. The Python side (python/geobarrier/_arrays.py) checks the arguments and names
 // them in its errors; the checks here are the last line, so that no call can crash the interpreter.
+#include "equations/equations.hpp"
 #include "interrupt_scope.hpp"
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/cauchy_green.hpp>
-#include <geobarrier/equations.hpp>
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/extraction.hpp>

@@ -5,7 +5,7 @@
 #ifndef GEOBARRIER_TESTS_FUZZ_EXPERIMENT_CHECK_HPP
 #define GEOBARRIER_TESTS_FUZZ_EXPERIMENT_CHECK_HPP
 
-#include <geobarrier/equations.hpp>
+#include "equations/equations.hpp"
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/plugin.hpp>

@@ -1,6 +1,6 @@
 // The `equations` system: checking the experiment's equations, generating an SDK plugin from their parsed trees,
-// compiling it with this build's toolchain into a per-user cache, and loading it (<geobarrier/equations.hpp>).
-#include <geobarrier/equations.hpp>
+// compiling it with this build's toolchain into a per-user cache, and loading it (equations/equations.hpp).
+#include "equations/equations.hpp"
 
 #include "equations/expression.hpp"
 #include "equations_toolchain.hpp" // configured by core/CMakeLists.txt

@@ -9,8 +9,8 @@
 // plugin's create() cannot raise; and the toolchain to compile with (this build's compiler, flags and headers) is a
 // fact of the core's build. What is loaded is a plain plugin library through the ordinary loader, so everything
 // downstream (System, check-plugin, the fused step) treats it like any other.
-#ifndef GEOBARRIER_EQUATIONS_HPP
-#define GEOBARRIER_EQUATIONS_HPP
+#ifndef GEOBARRIER_EQUATIONS_EQUATIONS_HPP
+#define GEOBARRIER_EQUATIONS_EQUATIONS_HPP
 
 #include <geobarrier/plugin.hpp>
 
@@ -76,4 +76,4 @@ Compiled compile(const nlohmann::json &params, const std::string &json_path);
 
 } // namespace geobarrier::equations
 
-#endif // GEOBARRIER_EQUATIONS_HPP
+#endif // GEOBARRIER_EQUATIONS_EQUATIONS_HPP

@@ -1,7 +1,7 @@
 // Resolving a read experiment (experiment.hpp): its plugins created from the registry with their parameters checked
 // against their schemas (an `equations` system compiled first), the slice of a higher-dimensional state, the stages
 // the requested products need, the memory they take, and the settings as resolved, echoed into the manifest.
-#include <geobarrier/equations.hpp>
+#include "equations/equations.hpp"
 #include <geobarrier/errors.hpp>
 #include <geobarrier/experiment.hpp>
 #include <geobarrier/frames.hpp>

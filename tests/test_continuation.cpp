@@ -135,6 +135,54 @@ TEST_CASE("continuation of constructed barriers: tracks, areas and every kind of
     CHECK(series["events"].size() == 8);
 }
 
+TEST_CASE("continuation carries an island across a member where the extractor missed it, up to max_gap") {
+    // Box [-1, 1]^2 on 101 x 101 points. Island F: outermost torus of radius 0.4 - 0.02 p around (0.1, 0) in members
+    // 0, 1, 3, 4 (missed at 2, as the KAM sweep's left island at one amplitude); island G: radius 0.2 around
+    // (-0.6, 0.5) in members 0, 1 only (missed at 2 and 3, back at 4).
+    const int n = 200;
+    std::vector<ContinuationMember> members(5);
+    for (int p = 0; p < 5; ++p) {
+        ContinuationMember &m = members[p];
+        m.name = "member-00" + std::to_string(p);
+        m.value = 0.1 * p;
+        m.grid.x_min = m.grid.y_min = -1.0;
+        m.grid.x_max = m.grid.y_max = 1.0;
+        m.grid.nx = m.grid.ny = 101;
+        m.available = true;
+        if (p != 2) m.barriers.push_back(circle(0.4 - 0.02 * p, n, true, 0.1, 0.0));
+        if (p <= 1 || p == 4) m.barriers.push_back(circle(0.2, n, true, -0.6, 0.5));
+        for (std::size_t b = 0; b < m.barriers.size(); ++b) m.runs.push_back(""), m.indices.push_back(b);
+    }
+    const json carried = continue_series(members); // max_gap 1 by default
+    const json &islands = carried["islands"];
+    REQUIRE(islands.size() == 3); // F throughout, G until its two-member gap, G again at member 4 (a new island)
+    CHECK(islands[0]["death"].is_null());
+    CHECK(islands[0]["members"].size() == 4);
+    CHECK(islands[0]["skipped"] == json::array({2}));
+    CHECK(islands[0]["members"][2]["area"].get<double>() ==
+          doctest::Approx(n / 2.0 * 0.34 * 0.34 * std::sin(2 * pi / n)).epsilon(1e-12));
+    CHECK(islands[1]["death"] == 2); // the first member of the gap it did not come back from
+    CHECK(islands[1]["skipped"].empty());
+    CHECK(islands[2]["birth"] == 4);
+    REQUIRE(events_of(carried, "island-breakup").size() == 1);
+    CHECK(events_of(carried, "island-breakup")[0]["member"] == "member-002");
+    CHECK(events_of(carried, "island-breakup")[0]["island"] == 1);
+
+    TrackSettings every_member;
+    every_member.max_gap = 0;
+    const json strict = continue_series(members, every_member);
+    REQUIRE(strict["islands"].size() == 4); // F until 2, F again from 3, G until 2, G again at 4
+    CHECK(strict["islands"][0]["death"] == 2);
+    CHECK(events_of(strict, "island-breakup").size() == 2);
+
+    TrackSettings two_members;
+    two_members.max_gap = 2;
+    const json bridged = continue_series(members, two_members);
+    REQUIRE(bridged["islands"].size() == 2);
+    CHECK(bridged["islands"][1]["skipped"] == json::array({2, 3}));
+    CHECK(events_of(bridged, "island-breakup").empty());
+}
+
 TEST_CASE("continuation of unforced Duffing over a parameter that cannot move its barriers: one track per torus") {
     // x'' = x - x^3 with the cosine forcing at amplitude 0 swept over its frequency: the flow, and so every member's
     // barriers, are the same, so each nested torus (about a grid spacing from the next) continues as itself through

@@ -103,14 +103,26 @@ bool encloses(const std::vector<double> &xy, double x, double y) {
 struct Outermost {
     std::size_t barrier = 0, track = 0;
     std::vector<double> xy;
-    double cx = 0.0, cy = 0.0; // the mean of its points
+    double cx = 0.0, cy = 0.0;    // the mean of its points
+    std::size_t missed = 0;       // members in a row without it since it was last seen (carried across a gap)
+    std::size_t first_missed = 0; // the first of them
 };
+
+// Where member index k stands in `order` (it is there).
+std::size_t position_of(const std::vector<std::size_t> &order, std::size_t k) {
+    return static_cast<std::size_t>(std::find(order.begin(), order.end(), k) - order.begin());
+}
 
 // Islands: the regions inside the elliptic extractor's outermost tori ("outermost": true). A generalized KAM torus
 // moves with the parameter by more than the matching tolerance, and each member's nested tori are a different
 // family of curves, so an island is continued by position instead: two neighbouring members' outermost tori bound the
-// same island when each encloses the other's mean point; one to one, the closest mean points first.
-json continue_islands(const std::vector<ContinuationMember> &members, const std::vector<std::size_t> &order) {
+// same island when each encloses the other's mean point; one to one, the closest mean points first. An island the
+// extractor misses in up to `max_gap` members in a row is carried across them (its last torus compared with the next
+// members'), as frames' tracks bridge a missed frame: one member where the extractor finds no closed shearline around
+// an island that is there again in the next is no breakup. Its `skipped` members say where; its `death` is the first
+// member of a gap it does not come back from (or the first member without it at the end of the series).
+json continue_islands(const std::vector<ContinuationMember> &members, const std::vector<std::size_t> &order,
+                      std::size_t max_gap) {
     json islands = json::array();
     std::vector<Outermost> before;
     for (const std::size_t k : order) {
@@ -131,14 +143,31 @@ json continue_islands(const std::vector<ContinuationMember> &members, const std:
         std::sort(pairs.begin(), pairs.end());
         std::vector<bool> continued(before.size(), false), reached(now.size(), false);
         for (const auto &[d, p, c] : pairs)
-            if (!continued[p] && !reached[c]) continued[p] = reached[c] = true, now[c].track = before[p].track;
-        for (std::size_t p = 0; p < before.size(); ++p)
-            if (!continued[p]) islands[before[p].track]["death"] = k;
+            if (!continued[p] && !reached[c]) {
+                continued[p] = reached[c] = true;
+                now[c].track = before[p].track;
+                for (std::size_t g = 0; g < before[p].missed; ++g) // the members it was carried across
+                    islands[now[c].track]["skipped"].push_back(order[position_of(order, before[p].first_missed) + g]);
+            }
+        std::vector<Outermost> carried;
+        for (std::size_t p = 0; p < before.size(); ++p) {
+            if (continued[p]) continue;
+            if (before[p].missed < max_gap) {
+                Outermost o = before[p];
+                if (o.missed++ == 0) o.first_missed = k;
+                carried.push_back(std::move(o));
+            } else {
+                islands[before[p].track]["death"] = before[p].missed > 0 ? before[p].first_missed : k;
+            }
+        }
         for (std::size_t c = 0; c < now.size(); ++c) {
             if (!reached[c]) {
                 now[c].track = islands.size();
-                islands.push_back(
-                    {{"id", islands.size()}, {"birth", k}, {"death", nullptr}, {"members", json::array()}});
+                islands.push_back({{"id", islands.size()},
+                                   {"birth", k},
+                                   {"death", nullptr},
+                                   {"skipped", json::array()},
+                                   {"members", json::array()}});
             }
             const json &b = m.barriers[now[c].barrier];
             islands[now[c].track]["members"].push_back(
@@ -150,7 +179,10 @@ json continue_islands(const std::vector<ContinuationMember> &members, const std:
                  {"centre", {now[c].cx, now[c].cy}}});
         }
         before = std::move(now);
+        for (Outermost &o : carried) before.push_back(std::move(o));
     }
+    for (const Outermost &o : before) // missing at the end of the series: gone from the first member without it
+        if (o.missed > 0) islands[o.track]["death"] = o.first_missed;
     return islands;
 }
 
@@ -234,7 +266,7 @@ json continue_series(const std::vector<ContinuationMember> &members, const Track
                           {"tangle_crossings", m.tangle_crossings ? json(*m.tangle_crossings) : json(nullptr)}});
     }
     const json tracks = assemble(members, order, components, offset, match_distance);
-    const json islands = continue_islands(members, order);
+    const json islands = continue_islands(members, order, settings.max_gap);
     return {{"members", listed},
             {"tracks", tracks},
             {"islands", islands},

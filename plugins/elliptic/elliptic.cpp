@@ -5,6 +5,7 @@
 #include "closed_shearlines.hpp"
 
 #include <geobarrier/curves.hpp>
+#include <geobarrier/extractor_keys.hpp>
 #include <geobarrier/line_field.hpp>
 #include <geobarrier/output.hpp>
 #include <geobarrier/sdk.hpp>
@@ -354,7 +355,7 @@ struct Elliptic {
         real_param("max_mean_deviation", 0.7, 0.0, HUGE_VAL, "",
                    "keep closed shearlines whose mean geodesic shear deviation is below this (paper: 0.7)"),
         integer_param("launch_points", 500, 4, 1000000, "shearlines launched from each Poincare section (paper: 500)"),
-        string_param("families", "both", "both|plus|minus", "shearline families searched: eta+, eta- or both"),
+        shearline_families_param("shearline families searched: eta+, eta- or both"),
         string_param("sections", "", nullptr,
                      "Poincare sections by hand, \"x0 y0 x1 y1; ...\" from the region's centre outwards; when given, "
                      "no regions are searched"),
@@ -366,10 +367,8 @@ struct Elliptic {
         real_param("section_margin", 1.25, 1.0, 10.0, "", "section length as a multiple of the island's reach"),
         real_param("max_turns", 1.5, 1.0, 1000.0, "",
                    "longest shearline followed, in turns around a circle whose radius is the section length"),
-        real_param("singular_gap", 1e-3, 0.0, 1.0, "",
-                   "shearlines stop in cells where lambda2 - lambda1 <= singular_gap * lambda2"),
-        string_param("deviation_form", "general", "general|area-preserving",
-                     "d_g formula: general (any flow) or the paper's eq. dg_shr (lambda1 lambda2 = 1 only)"),
+        singular_gap_param("shearlines stop in cells where lambda2 - lambda1 <= singular_gap * lambda2"),
+        deviation_form_param("d_g formula: general (any flow) or the paper's eq. dg_shr (lambda1 lambda2 = 1 only)"),
         string_param("advect", "all", "all|outermost|none",
                      "barriers advected to t1 to measure their arclength and area change (paper eq. rel_def)"),
         real_param("poincare_period", 0.0, 0.0, HUGE_VAL, "time",
@@ -377,9 +376,7 @@ struct Elliptic {
         integer_param("poincare_iterates", 20, 1, 100000, "Poincare map iterates of each barrier's points"),
         integer_param("poincare_points", 200, 8, 100000, "points per barrier iterated by the Poincare map"),
         integer_param("plot_shearlines", 24, 0, 100000, "launched shearlines drawn per section and family"),
-        string_param("line_method", "midpoint", "midpoint|rk4|bs32|dopri5",
-                     "tensor-line integration: fixed half-cell steps (midpoint, rk4) or adaptive pairs at the "
-                     "tolerance (bs32, dopri5); docs/extractors.md"),
+        line_method_param(),
         real_param("line_rtol", 1e-6, 1e-14, 1e-2, "",
                    "relative tolerance of shearline integration (adaptive line_method only)"),
         real_param("barrier_spacing", 0.05, 0.0, 1.0, "",
@@ -635,12 +632,7 @@ std::vector<Candidate> Elliptic::candidate_regions(const sdk::Host &host, const 
 }
 
 // The shearline families searched, eta+ (sign +1) before eta- (eq. shrvec).
-std::vector<int> Elliptic::families() const {
-    std::vector<int> signs;
-    if (m_families != "minus") signs.push_back(+1);
-    if (m_families != "plus") signs.push_back(-1);
-    return signs;
-}
+std::vector<int> Elliptic::families() const { return shearline_family_signs(m_families); }
 
 ReturnMapSettings Elliptic::return_map_settings(const gb_extract_input &in, double h) const {
     ReturnMapSettings rs;

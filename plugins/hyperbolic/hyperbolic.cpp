@@ -5,6 +5,7 @@
 // for line fields, tensor lines, curve advection and pictures.
 #include <geobarrier/cauchy_green.hpp>
 #include <geobarrier/curves.hpp>
+#include <geobarrier/extractor_keys.hpp>
 #include <geobarrier/line_field.hpp>
 #include <geobarrier/output.hpp>
 #include <geobarrier/sdk.hpp>
@@ -502,14 +503,12 @@ struct Hyperbolic {
         real_param("neighbour_distance", 0.0, 0.0, HUGE_VAL, "state",
                    "neighbours of a segment pass within this of its midpoint; 0 = 1/50 of the box diagonal"),
         integer_param("max_barriers", 0, 0, 1e9, "report at most this many barriers, least q first; 0 = all"),
-        real_param("singular_gap", default_singular_gap, 0.0, 0.999, "",
-                   "points with lambda2 - lambda1 <= singular_gap lambda2 are singular: strainlines stop there"),
+        singular_gap_param(
+            "points with lambda2 - lambda1 <= singular_gap lambda2 are singular: strainlines stop there"),
         string_param("route", "direct", "direct|opposite-time",
                      "direct: integrate xi1 at t0; opposite-time: advect stretchlines of the opposite-time "
                      "Cauchy-Green tensor from t1 to t0 (paper, section 2.2, last paragraph)"),
-        string_param("line_method", "midpoint", "midpoint|rk4|bs32|dopri5",
-                     "tensor-line integration: fixed half-cell steps (midpoint, rk4) or adaptive pairs at the "
-                     "tolerance (bs32, dopri5); docs/extractors.md"),
+        line_method_param(),
         real_param("line_step", 0.0, 0.0, HUGE_VAL, "state",
                    "strainline step (largest step of the adaptive methods), direct route; 0 = half a grid cell, "
                    "but at least 1/16 of the seed distance unless seed_spacing is given"),

@@ -9,6 +9,7 @@
 //   of strongest shear on either side of the core.
 // Built on the core's shear fields (shear.hpp), tensor lines and curves; links the core's C++ library.
 #include <geobarrier/curves.hpp>
+#include <geobarrier/extractor_keys.hpp>
 #include <geobarrier/line_field.hpp>
 #include <geobarrier/output.hpp>
 #include <geobarrier/sdk.hpp>
@@ -96,7 +97,7 @@ struct Parabolic {
                    "FTLE range"),
         real_param("max_deviation", 0.1, 0.0, HUGE_VAL, "",
                    "shearline: epsilon: shearlines are cut where the pointwise d_g^eta >= this"),
-        string_param("families", "both", "both|eta+|eta-", "shearline: shearline families searched"),
+        shearline_families_param("shearline: shearline families searched"),
         integer_param("seed_spacing", 2, 1, 1e6,
                       "shearline: grid cells between neighbouring seeds (seeds sit on grid points)"),
         real_param("max_length", 0.0, 0.0, HUGE_VAL, "state",
@@ -108,13 +109,11 @@ struct Parabolic {
         integer_param("max_barriers", 0, 0, 1e9,
                       "report at most this many barriers, the best first (deepest trench, least mean deviation); "
                       "0 = all"),
-        real_param("singular_gap", default_singular_gap, 0.0, 0.999, "",
-                   "shearline: shearlines stop where lambda2 - lambda1 <= singular_gap lambda2 (eta± undefined)"),
-        string_param("deviation_form", "general", "general|area-preserving",
-                     "shearline: d_g formula: general (any flow) or the paper's eq. dg_shr (lambda1 lambda2 = 1 only)"),
-        string_param("line_method", "midpoint", "midpoint|rk4|bs32|dopri5",
-                     "tensor-line integration: fixed half-cell steps (midpoint, rk4) or adaptive pairs at the "
-                     "tolerance (bs32, dopri5); docs/extractors.md"),
+        singular_gap_param(
+            "shearline: shearlines stop where lambda2 - lambda1 <= singular_gap lambda2 (eta± undefined)"),
+        deviation_form_param(
+            "shearline: d_g formula: general (any flow) or the paper's eq. dg_shr (lambda1 lambda2 = 1 only)"),
+        line_method_param(),
     };
 
     explicit Parabolic(const sdk::Params &p)
@@ -322,8 +321,7 @@ void Parabolic::add_segments(const Grid &g, const std::vector<double> &line, con
 Shearlines Parabolic::shearlines(const sdk::Host &host, const CauchyGreenField &cg, const ShearFields &shear,
                                  double max_length, double min_length) const {
     Shearlines found;
-    for (const int sign : {+1, -1}) {
-        if ((sign > 0 && m_families == "eta-") || (sign < 0 && m_families == "eta+")) continue;
+    for (const int sign : shearline_family_signs(m_families)) {
         const LineField field = shear_line_field(cg, shear, sign, m_singular_gap);
         const std::vector<double> &deviation = sign > 0 ? shear.deviation_plus : shear.deviation_minus;
         const std::vector<double> seeds = shearline_seeds(cg.grid, field, deviation);

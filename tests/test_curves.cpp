@@ -38,6 +38,24 @@ AdvectPointsFn twist(double k) {
 
 } // namespace
 
+TEST_CASE("runs_below: the pieces of a line where a value stays below a threshold") {
+    const double nan = std::nan("");
+    // Below 1 at points 1-2, 4-6 and 8; point 8 alone has no length, NaN and the threshold itself are not below.
+    const std::vector<double> d = {nan, 0.1, 0.2, 5.0, 0.1, 0.3, 0.2, 1.0, 0.1};
+    const std::vector<PointRun> runs = runs_below(d, 1.0);
+    REQUIRE(runs.size() == 2);
+    CHECK((runs[0].first == 1 && runs[0].end == 3));
+    CHECK((runs[1].first == 4 && runs[1].end == 7));
+    CHECK(runs_below(d, 0.1).empty()); // nothing is below 0.1 at two neighbouring points
+    const std::vector<PointRun> all = runs_below(std::vector<double>{0.0, 0.0, 0.0}, 1.0);
+    REQUIRE(all.size() == 1);
+    CHECK((all[0].first == 0 && all[0].end == 3)); // a run to the last point
+    std::vector<PointRun> reused = runs;           // the buffer form clears what it is given
+    runs_below(d.data(), 3, 1.0, reused);
+    REQUIRE(reused.size() == 1);
+    CHECK((reused[0].first == 1 && reused[0].end == 3));
+}
+
 TEST_CASE("lengths, resampling, shoelace area, bilinear sampling, statistics") {
     const std::vector<double> square = {0, 0, 1, 0, 1, 1, 0, 1};
     CHECK(polyline_length(square) == doctest::Approx(3.0));

@@ -799,6 +799,7 @@ void Hyperbolic::truncate(const std::vector<Strainline> &lines, std::size_t firs
         // segment's cumulative lengths.
         Sampled along;
         std::vector<double> steps, arc, near_wall;
+        std::vector<PointRun> pieces;
 #pragma omp for schedule(dynamic)
         for (std::size_t l = first; l < end; ++l) {
             const Strainline &line = lines[l];
@@ -806,12 +807,9 @@ void Hyperbolic::truncate(const std::vector<Strainline> &lines, std::size_t firs
             meter.sample(line.xy, along);
             const std::vector<double> &deviation = along.deviation();
             if (steps.size() < n) steps.resize(n);
-            std::size_t k = 0;
-            while (k < n) {
-                while (k < n && !(deviation[k] < m_epsilon)) ++k;
-                const std::size_t begin = k;
-                while (k < n && deviation[k] < m_epsilon) ++k;
-                if (k - begin < 2) continue;
+            runs_below(deviation.data(), n, m_epsilon, pieces);
+            for (const PointRun &piece : pieces) {
+                const std::size_t begin = piece.first, k = piece.end; // points begin..k - 1
                 segment_lengths(line.xy.data(), begin, k - 1, steps.data());
                 Segment s;
                 s.line = l;

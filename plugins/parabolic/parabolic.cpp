@@ -297,21 +297,15 @@ Segment measured_segment(int family, std::vector<double> xy, double length, cons
 void Parabolic::add_segments(const Grid &g, const std::vector<double> &line, const std::vector<double> &deviation,
                              int family, double min_length, Shearlines &out) const {
     const std::vector<double> dev = sample_along(g, deviation, {}, line);
-    const std::size_t m = line.size() / 2;
-    std::size_t k = 0;
-    while (k < m) {
-        while (k < m && !(dev[k] < m_epsilon)) ++k;
-        const std::size_t first = k;
-        while (k < m && dev[k] < m_epsilon) ++k;
-        if (k - first < 2) continue;
-        std::vector<double> xy(line.begin() + 2 * first, line.begin() + 2 * k);
+    for (const auto &[first, end] : runs_below(dev, m_epsilon)) {
+        std::vector<double> xy(line.begin() + 2 * first, line.begin() + 2 * end);
         const double length = polyline_length(xy);
         if (length < min_length) {
             ++out.short_segments;
             continue;
         }
-        Segment s =
-            measured_segment(family, std::move(xy), length, std::vector<double>(dev.begin() + first, dev.begin() + k));
+        Segment s = measured_segment(family, std::move(xy), length,
+                                     std::vector<double>(dev.begin() + first, dev.begin() + end));
         if (std::isfinite(s.mean_deviation)) out.candidates.push_back(std::move(s));
     }
 }

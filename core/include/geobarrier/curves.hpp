@@ -65,6 +65,17 @@ std::vector<double> segment_lengths(const std::vector<double> &xy, bool closed =
 // the lengths of some stretches of a long line (the strainline pieces with d_g < epsilon) measures only those.
 void segment_lengths(const double *xy, std::size_t first, std::size_t last, double *out);
 
+// Points first..end - 1 of a polyline.
+struct PointRun {
+    std::size_t first = 0, end = 0;
+};
+// The compact pieces of a tensor line where a pointwise quantity stays below a threshold: the maximal runs of at least
+// two consecutive points with value < threshold (NaN is not below), in order, into `out` (cleared first; a caller
+// looping over many lines reuses it). The hyperbolic extractor truncates strainlines where d_g^xi1 >= epsilon (paper
+// Alg. 1, step 2), the parabolic one shearlines where d_g^eta >= epsilon, both with this.
+void runs_below(const double *values, std::size_t n, double threshold, std::vector<PointRun> &out);
+std::vector<PointRun> runs_below(const std::vector<double> &values, double threshold);
+
 // "Advect these points": xy_in (x, y interleaved, n points) to xy_out (2n values) with mask (n MaskBits, 0 =
 // valid). The runner wraps advect_points in one; an extractor plugin wraps sdk::Host::advect.
 using AdvectPointsFn =

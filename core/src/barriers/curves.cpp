@@ -243,6 +243,23 @@ void segment_lengths(const double *xy, std::size_t first, std::size_t last, doub
         out[k - 1] = step_length(xy[2 * k] - xy[2 * k - 2], xy[2 * k + 1] - xy[2 * k - 1]);
 }
 
+void runs_below(const double *values, std::size_t n, double threshold, std::vector<PointRun> &out) {
+    out.clear();
+    std::size_t k = 0;
+    while (k < n) {
+        while (k < n && !(values[k] < threshold)) ++k;
+        const std::size_t first = k;
+        while (k < n && values[k] < threshold) ++k;
+        if (k - first >= 2) out.push_back({first, k}); // one point has no length
+    }
+}
+
+std::vector<PointRun> runs_below(const std::vector<double> &values, double threshold) {
+    std::vector<PointRun> out;
+    runs_below(values.data(), values.size(), threshold, out);
+    return out;
+}
+
 CurveStats curve_statistics(const std::vector<double> &xy, const std::vector<double> &values, bool closed) {
     const std::size_t n = xy.size() / 2;
     if (values.size() != n) throw std::invalid_argument("curve_statistics: one value per point is needed");

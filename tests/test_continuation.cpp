@@ -207,6 +207,7 @@ TEST_CASE("continuation of unforced Duffing over a parameter that cannot move it
     REQUIRE(result.failed == 0);
     const json continuation = json::parse(test::read_text(dir / "continuation.json"));
     CHECK(continuation["parameter"]["name"] == "omega");
+    CHECK(continuation["island_max_gap_members"] == 2); // a sweep carries an island across two missed members
     CHECK(fs::exists(dir / "continuation.png"));
     REQUIRE(continuation["series"].size() == 1);
     const json &series = continuation["series"][0];

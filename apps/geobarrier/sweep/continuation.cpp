@@ -275,6 +275,16 @@ json continue_series(const std::vector<ContinuationMember> &members, const Track
 
 namespace {
 
+// A sweep's matching rule: the frames' tolerance, and islands carried across up to two members in a row where the
+// elliptic extractor finds no outermost torus. On the KAM amplitude sweep it misses the right island's at two
+// neighbouring amplitudes (0.14 and 0.16) and finds it again at 0.18 where its centre was heading; an island is
+// continued only when each outermost torus encloses the other's mean point, so a gap cannot join two islands.
+TrackSettings sweep_track_settings() {
+    TrackSettings settings;
+    settings.max_gap = 2;
+    return settings;
+}
+
 json read_json_file(const fs::path &file) {
     std::ifstream in(file);
     if (!in) throw IoError(file.string() + ": cannot read it");
@@ -391,11 +401,12 @@ std::vector<fs::path> write_continuation(const Sweep &s, const fs::path &out,
             if (q != x && s.parameters[q].values[a.choice[q]] != s.parameters[q].values[b.choice[q]]) return false;
         return true;
     };
+    const TrackSettings settings = sweep_track_settings();
     const auto flush = [&](std::size_t first) {
         json fixed = json::object();
         for (std::size_t q = 0; q < s.parameters.size(); ++q)
             if (q != x) fixed[s.parameters[q].name] = s.parameters[q].values[s.members[first].choice[q]];
-        json one = continue_series(series);
+        json one = continue_series(series, settings);
         one["fixed"] = fixed;
         all.push_back(std::move(one));
         series.clear();
@@ -421,9 +432,9 @@ std::vector<fs::path> write_continuation(const Sweep &s, const fs::path &out,
         series.push_back(std::move(c));
     }
     flush(first);
-    const TrackSettings settings;
     const json continuation = {{"parameter", {{"name", p.name}, {"path", p.path}}},
                                {"tolerance_grid_spacings", settings.tolerance},
+                               {"island_max_gap_members", settings.max_gap},
                                {"distance",
                                 "between neighbouring members' barriers (same t0, no advection): the frames' rule "
                                 "(docs/experiment-format.md, Frames), in grid spacings of the later member"},

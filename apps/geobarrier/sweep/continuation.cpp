@@ -105,13 +105,8 @@ struct Outermost {
     std::vector<double> xy;
     double cx = 0.0, cy = 0.0;    // the mean of its points
     std::size_t missed = 0;       // members in a row without it since it was last seen (carried across a gap)
-    std::size_t first_missed = 0; // the first of them
+    std::size_t first_missed = 0; // the first of them, as a position in `order`
 };
-
-// Where member index k stands in `order` (it is there).
-std::size_t position_of(const std::vector<std::size_t> &order, std::size_t k) {
-    return static_cast<std::size_t>(std::find(order.begin(), order.end(), k) - order.begin());
-}
 
 // Islands: the regions inside the elliptic extractor's outermost tori ("outermost": true). A generalized KAM torus
 // moves with the parameter by more than the matching tolerance, and each member's nested tori are a different
@@ -125,7 +120,8 @@ json continue_islands(const std::vector<ContinuationMember> &members, const std:
                       std::size_t max_gap) {
     json islands = json::array();
     std::vector<Outermost> before;
-    for (const std::size_t k : order) {
+    for (std::size_t i = 0; i < order.size(); ++i) {
+        const std::size_t k = order[i];
         const ContinuationMember &m = members[k];
         std::vector<Outermost> now;
         for (std::size_t b = 0; b < m.barriers.size(); ++b)
@@ -147,17 +143,17 @@ json continue_islands(const std::vector<ContinuationMember> &members, const std:
                 continued[p] = reached[c] = true;
                 now[c].track = before[p].track;
                 for (std::size_t g = 0; g < before[p].missed; ++g) // the members it was carried across
-                    islands[now[c].track]["skipped"].push_back(order[position_of(order, before[p].first_missed) + g]);
+                    islands[now[c].track]["skipped"].push_back(order[before[p].first_missed + g]);
             }
         std::vector<Outermost> carried;
         for (std::size_t p = 0; p < before.size(); ++p) {
             if (continued[p]) continue;
             if (before[p].missed < max_gap) {
                 Outermost o = before[p];
-                if (o.missed++ == 0) o.first_missed = k;
+                if (o.missed++ == 0) o.first_missed = i;
                 carried.push_back(std::move(o));
             } else {
-                islands[before[p].track]["death"] = before[p].missed > 0 ? before[p].first_missed : k;
+                islands[before[p].track]["death"] = before[p].missed > 0 ? order[before[p].first_missed] : k;
             }
         }
         for (std::size_t c = 0; c < now.size(); ++c) {
@@ -182,7 +178,7 @@ json continue_islands(const std::vector<ContinuationMember> &members, const std:
         for (Outermost &o : carried) before.push_back(std::move(o));
     }
     for (const Outermost &o : before) // missing at the end of the series: gone from the first member without it
-        if (o.missed > 0) islands[o.track]["death"] = o.first_missed;
+        if (o.missed > 0) islands[o.track]["death"] = order[o.first_missed];
     return islands;
 }
 

@@ -38,6 +38,23 @@ json segment(double x0, double x1, double y) {
     return {{"extractor", "hyperbolic"}, {"kind", "hyperbolic"}, {"closed", false}, {"repelling", true}, {"points", p}};
 }
 
+// Member p of a constructed series over the box [-1, 1]^2 on 101 x 101 points (h = 0.02), value 0.1 p, no barriers yet.
+ContinuationMember constructed_member(int p, bool available = true) {
+    ContinuationMember m;
+    m.name = "member-00" + std::to_string(p);
+    m.value = 0.1 * p;
+    m.grid.x_min = m.grid.y_min = -1.0;
+    m.grid.x_max = m.grid.y_max = 1.0;
+    m.grid.nx = m.grid.ny = 101;
+    m.available = available;
+    return m;
+}
+
+// Lists member m's barriers as its own, each from run "" at its own index.
+void index_barriers(ContinuationMember &m) {
+    for (std::size_t b = 0; b < m.barriers.size(); ++b) m.runs.push_back(""), m.indices.push_back(b);
+}
+
 // The events of one kind.
 std::vector<json> events_of(const json &series, const std::string &kind) {
     std::vector<json> found;
@@ -49,7 +66,7 @@ std::vector<json> events_of(const json &series, const std::string &kind) {
 } // namespace
 
 TEST_CASE("continuation of constructed barriers: tracks, areas and every kind of event where they were built") {
-    // Box [-1, 1]^2 on 101 x 101 points (h = 0.02). Members p = 0..5 (value 0.1 p), member 1 failed (skipped):
+    // Members p = 0..5 (constructed_member), member 1 failed (skipped):
     // torus A, radius 0.5 + 0.01 p (half a grid spacing per member), in all, the outermost of its island; torus B,
     // radius 0.2 inside it, while p <= 2; island E around (-0.7, -0.45), its outermost torus of radius 0.2 - 0.05 p
     // (2.5 grid spacings per member: each torus its own track, the island one track) while p <= 3; line C (y = 0.8)
@@ -58,13 +75,7 @@ TEST_CASE("continuation of constructed barriers: tracks, areas and every kind of
     const int n = 400;
     std::vector<ContinuationMember> members(6);
     for (int p = 0; p < 6; ++p) {
-        ContinuationMember &m = members[p];
-        m.name = "member-00" + std::to_string(p);
-        m.value = 0.1 * p;
-        m.grid.x_min = m.grid.y_min = -1.0;
-        m.grid.x_max = m.grid.y_max = 1.0;
-        m.grid.nx = m.grid.ny = 101;
-        m.available = p != 1;
+        ContinuationMember &m = members[p] = constructed_member(p, p != 1);
         if (!m.available) continue;
         m.barriers.push_back(circle(0.5 + 0.01 * p, n, true));
         if (p <= 2) m.barriers.push_back(circle(0.2, n));
@@ -76,7 +87,7 @@ TEST_CASE("continuation of constructed barriers: tracks, areas and every kind of
             m.barriers.push_back(segment(0.1, 0.9, 0.8));
         }
         if (p == 0) m.barriers.push_back(segment(-0.9, 0.9, -0.8));
-        for (std::size_t b = 0; b < m.barriers.size(); ++b) m.runs.push_back(""), m.indices.push_back(b);
+        index_barriers(m);
         m.tangle_crossings = std::vector<double>{0, 0, 0, 4, 6, 6}[p];
     }
     const json series = continue_series(members);
@@ -136,22 +147,16 @@ TEST_CASE("continuation of constructed barriers: tracks, areas and every kind of
 }
 
 TEST_CASE("continuation carries an island across a member where the extractor missed it, up to max_gap") {
-    // Box [-1, 1]^2 on 101 x 101 points. Island F: outermost torus of radius 0.4 - 0.02 p around (0.1, 0) in members
-    // 0, 1, 3, 4 (missed at 2, as the KAM sweep's left island at one amplitude); island G: radius 0.2 around
+    // Members p = 0..4 (constructed_member). Island F: outermost torus of radius 0.4 - 0.02 p around (0.1, 0) in
+    // members 0, 1, 3, 4 (missed at 2, as the KAM sweep's left island at one amplitude); island G: radius 0.2 around
     // (-0.6, 0.5) in members 0, 1 only (missed at 2 and 3, back at 4).
     const int n = 200;
     std::vector<ContinuationMember> members(5);
     for (int p = 0; p < 5; ++p) {
-        ContinuationMember &m = members[p];
-        m.name = "member-00" + std::to_string(p);
-        m.value = 0.1 * p;
-        m.grid.x_min = m.grid.y_min = -1.0;
-        m.grid.x_max = m.grid.y_max = 1.0;
-        m.grid.nx = m.grid.ny = 101;
-        m.available = true;
+        ContinuationMember &m = members[p] = constructed_member(p);
         if (p != 2) m.barriers.push_back(circle(0.4 - 0.02 * p, n, true, 0.1, 0.0));
         if (p <= 1 || p == 4) m.barriers.push_back(circle(0.2, n, true, -0.6, 0.5));
-        for (std::size_t b = 0; b < m.barriers.size(); ++b) m.runs.push_back(""), m.indices.push_back(b);
+        index_barriers(m);
     }
     const json carried = continue_series(members); // max_gap 1 by default
     const json &islands = carried["islands"];

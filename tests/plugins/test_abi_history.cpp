@@ -34,6 +34,52 @@ const PluginHandle &find(const std::vector<PluginHandle> &handles, PluginKind ki
     throw;
 }
 
+// What both ABI-history extractors are handed: a 3 x 2 grid over [-1, 2] x [-3, 4], t from 0 to 2, and one field
+// "ftle" whose masked point (100) an extractor must leave out (the others sum to 7.75). Not copyable: `input` points
+// into the members.
+struct SmallExtractInput {
+    std::vector<double> ftle = {0.5, 1.0, 2.0, 100.0, 0.25, 4.0};
+    std::vector<std::uint8_t> mask = {0, 0, 0, 1, 0, 0};
+    gb_field fields[1] = {{"ftle", nullptr}};
+    const char *names[2] = {"x", "y"}, *units[2] = {"", ""};
+    std::string output_dir;
+    gb_extract_input input{};
+
+    explicit SmallExtractInput(std::string out_dir) : output_dir(std::move(out_dir)) {
+        fields[0].data = ftle.data();
+        input.x_min = -1.0;
+        input.x_max = 2.0;
+        input.y_min = -3.0;
+        input.y_max = 4.0;
+        input.nx = 3;
+        input.ny = 2;
+        input.t0 = 0.0;
+        input.t1 = 2.0;
+        input.mask = mask.data();
+        input.field_count = 1;
+        input.fields = fields;
+        input.output_dir = output_dir.c_str();
+        input.state_names = names;
+        input.state_units = units;
+    }
+    SmallExtractInput(const SmallExtractInput &) = delete;
+    SmallExtractInput &operator=(const SmallExtractInput &) = delete;
+};
+
+// The host's advection for x' = x, y' = 0: x(t) = x0 e^{t - t0}, nothing masked.
+ExtractServices exponential_advection() {
+    ExtractServices services;
+    services.advect = [](std::size_t n, const double *xy, double t_from, double t_to, double *xy_out, double *,
+                         std::uint8_t *mask_out) {
+        for (std::size_t k = 0; k < n; ++k) {
+            xy_out[2 * k] = xy[2 * k] * std::exp(t_to - t_from);
+            xy_out[2 * k + 1] = xy[2 * k + 1];
+            mask_out[k] = 0;
+        }
+    };
+    return services;
+}
+
 } // namespace
 
 TEST_CASE("plugins built against the 1.0, 1.1 and 1.2 headers load and compute in this core") {
@@ -92,35 +138,8 @@ TEST_CASE("plugins built against the 1.0, 1.1 and 1.2 headers load and compute i
         const PluginHandle &probe = find(handles, PluginKind::extractor);
         REQUIRE(probe.info.required_fields == std::vector<std::string>{"ftle"});
         const Extractor extractor(probe, validate_params(probe.info, nlohmann::json::object(), "/extractors/0"));
-        const std::vector<double> ftle = {0.5, 1.0, 2.0, 100.0, 0.25, 4.0};
-        const std::vector<std::uint8_t> mask = {0, 0, 0, 1, 0, 0}; // the masked 100 is left out: 7.75
-        const gb_field fields[1] = {{"ftle", ftle.data()}};
-        const char *names[2] = {"x", "y"}, *units[2] = {"", ""};
-        gb_extract_input input{};
-        input.x_min = -1.0;
-        input.x_max = 2.0;
-        input.y_min = -3.0;
-        input.y_max = 4.0;
-        input.nx = 3;
-        input.ny = 2;
-        input.t0 = 0.0;
-        input.t1 = 2.0;
-        input.mask = mask.data();
-        input.field_count = 1;
-        input.fields = fields;
-        input.output_dir = ".";
-        input.state_names = names;
-        input.state_units = units;
-        ExtractServices services;
-        services.advect = [](std::size_t n, const double *xy, double t_from, double t_to, double *xy_out, double *,
-                             std::uint8_t *mask_out) {
-            for (std::size_t k = 0; k < n; ++k) { // x' = x: x(t) = x0 e^{t - t0}
-                xy_out[2 * k] = xy[2 * k] * std::exp(t_to - t_from);
-                xy_out[2 * k + 1] = xy[2 * k + 1];
-                mask_out[k] = 0;
-            }
-        };
-        const std::vector<Barrier> barriers = extractor.extract(input, services);
+        const SmallExtractInput small("."); // the masked 100 is left out: 7.75
+        const std::vector<Barrier> barriers = extractor.extract(small.input, exponential_advection());
         REQUIRE(barriers.size() == 1);
         CHECK(barriers[0].kind == "hyperbolic");
         CHECK(barriers[0].xy == std::vector<double>{-1.0, -3.0, 2.0, 4.0});
@@ -142,37 +161,9 @@ TEST_CASE("an extractor built against 1.3 that links the core's C++ library load
     const std::filesystem::path out = std::filesystem::temp_directory_path() / "geobarrier-abi-1-3-extractor";
     std::filesystem::remove_all(out);
     std::filesystem::create_directories(out);
-    const std::vector<double> ftle = {0.5, 1.0, 2.0, 100.0, 0.25, 4.0};
-    const std::vector<std::uint8_t> mask = {0, 0, 0, 1, 0, 0}; // the masked 100 is left out: 7.75 / 5
-    const gb_field fields[1] = {{"ftle", ftle.data()}};
-    const char *names[2] = {"x", "y"}, *units[2] = {"", ""};
-    gb_extract_input input{};
-    input.x_min = -1.0;
-    input.x_max = 2.0;
-    input.y_min = -3.0;
-    input.y_max = 4.0;
-    input.nx = 3;
-    input.ny = 2;
-    input.t0 = 0.0;
-    input.t1 = 2.0;
-    input.mask = mask.data();
-    input.field_count = 1;
-    input.fields = fields;
-    const std::string out_dir = out.string();
-    input.output_dir = out_dir.c_str();
-    input.plots = 1;
-    input.state_names = names;
-    input.state_units = units;
-    ExtractServices services;
-    services.advect = [](std::size_t n, const double *xy, double t_from, double t_to, double *xy_out, double *,
-                         std::uint8_t *mask_out) {
-        for (std::size_t k = 0; k < n; ++k) { // x' = x: x(t) = x0 e^{t - t0}
-            xy_out[2 * k] = xy[2 * k] * std::exp(t_to - t_from);
-            xy_out[2 * k + 1] = xy[2 * k + 1];
-            mask_out[k] = 0;
-        }
-    };
-    const std::vector<Barrier> barriers = extractor.extract(input, services);
+    SmallExtractInput small(out.string()); // the masked 100 is left out: 7.75 / 5
+    small.input.plots = 1;
+    const std::vector<Barrier> barriers = extractor.extract(small.input, exponential_advection());
     REQUIRE(barriers.size() == 1);
     const Barrier &b = barriers[0];
     CHECK(b.kind == "elliptic");

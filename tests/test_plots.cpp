@@ -1,8 +1,10 @@
 // x-y, field and 3-D pictures: PNGs of the requested width whose height follows the box's aspect, read back pixel by
 // pixel to check what they show (a field's colour ramp, lines drawn where their coordinates say), point markers over
-// a field, log axes, and bad arguments refused before anything is written.
+// a field, log axes, and bad arguments refused before anything is written; curves thinned to the picture's pixels.
 #include <geobarrier/errors.hpp>
 #include <geobarrier/output.hpp>
+
+#include "plot/plot_internal.hpp"
 
 #include <doctest/doctest.h>
 #include <png.h>
@@ -12,7 +14,9 @@
 #include <cstdint>
 #include <fstream>
 #include <iterator>
+#include <limits>
 #include <string>
+#include <vector>
 
 #include <unistd.h>
 
@@ -363,4 +367,95 @@ TEST_CASE("plot_field_png: the field's colour ramp fills the box, masked points 
     CHECK(std::abs(red.last_row - row_of(0.0)) <= 4.0);
     CHECK(std::abs(red.first_row - row_of(0.6)) <= 4.0);
     fs::remove_all(dir);
+}
+
+namespace {
+
+// Distance in pixels from (x, y) to the segment a-b (world units; px_x, px_y world units per pixel).
+double pixels_to_segment(double x, double y, double ax, double ay, double bx, double by, double px_x, double px_y) {
+    const double qx = (x - ax) / px_x, qy = (y - ay) / px_y, dx = (bx - ax) / px_x, dy = (by - ay) / px_y;
+    const double len2 = dx * dx + dy * dy;
+    const double s = len2 > 0 ? std::clamp((qx * dx + qy * dy) / len2, 0.0, 1.0) : 0.0;
+    return std::hypot(qx - s * dx, qy - s * dy);
+}
+
+// The thinned polyline (tx, ty) against the original (x, y): it keeps the ends and only original points, in order;
+// every dropped point lies within `tolerance` pixels of the chord that replaces it, and every point of a chord within
+// `tolerance` of the stretch of the original it replaces (sampled a tenth of a pixel apart).
+void check_thinned(const std::vector<double> &x, const std::vector<double> &y, const std::vector<double> &tx,
+                   const std::vector<double> &ty, double px_x, double px_y, double tolerance) {
+    REQUIRE(tx.size() >= 2);
+    REQUIRE(tx.size() == ty.size());
+    std::vector<std::size_t> kept;
+    for (std::size_t p = 0, t = 0; p < x.size() && t < tx.size(); ++p)
+        if (x[p] == tx[t] && y[p] == ty[t]) {
+            kept.push_back(p);
+            ++t;
+        }
+    REQUIRE(kept.size() == tx.size());
+    CHECK(kept.front() == 0);
+    CHECK(kept.back() == x.size() - 1);
+    double dropped_worst = 0.0, chord_worst = 0.0;
+    for (std::size_t c = 0; c + 1 < kept.size(); ++c) {
+        const std::size_t a = kept[c], b = kept[c + 1];
+        for (std::size_t p = a + 1; p < b; ++p)
+            dropped_worst = std::max(dropped_worst, pixels_to_segment(x[p], y[p], x[a], y[a], x[b], y[b], px_x, px_y));
+        const double chord_px = std::hypot((x[b] - x[a]) / px_x, (y[b] - y[a]) / px_y);
+        const int samples = 1 + static_cast<int>(chord_px / 0.1);
+        for (int k = 0; k <= samples; ++k) {
+            const double s = static_cast<double>(k) / samples;
+            const double cx = x[a] + s * (x[b] - x[a]), cy = y[a] + s * (y[b] - y[a]);
+            double nearest = std::numeric_limits<double>::infinity();
+            for (std::size_t p = a; p < b; ++p)
+                nearest = std::min(nearest, pixels_to_segment(cx, cy, x[p], y[p], x[p + 1], y[p + 1], px_x, px_y));
+            chord_worst = std::max(chord_worst, nearest);
+        }
+    }
+    CHECK(dropped_worst <= tolerance);
+    CHECK(chord_worst <= tolerance + 1e-9);
+}
+
+} // namespace
+
+TEST_CASE("decimate_polyline: a dense curve thinned within the tolerance both ways; a straight line to its ends; a "
+          "zigzag of a pixel kept whole") {
+    using plot_internal::decimate_polyline;
+    const double tolerance = plot_internal::decimation_tolerance_px;
+    // A spiral of 6 turns with a small wiggle, 40001 points, on a picture of 800 x 500 pixels over [-3, 3] x [-1, 1]
+    // (a pixel is 3 times wider in x than in y, in world units): thinned within a quarter of a pixel, the smooth
+    // stretches need a chord per several pixels, so far fewer points remain.
+    const double px_x = 6.0 / 800, px_y = 2.0 / 500;
+    std::vector<double> x, y;
+    for (int k = 0; k <= 40000; ++k) {
+        const double s = k / 40000.0, r = 0.1 + 0.85 * s, angle = 12.0 * M_PI * s;
+        x.push_back(3.0 * r * std::cos(angle));
+        y.push_back(r * std::sin(angle) + 0.003 * std::sin(400.0 * M_PI * s));
+    }
+    std::vector<double> tx = x, ty = y;
+    decimate_polyline(tx, ty, px_x, px_y, tolerance);
+    CHECK(tx.size() < x.size() / 10);
+    check_thinned(x, y, tx, ty, px_x, px_y, tolerance);
+
+    // Collinear points: only the ends are needed.
+    std::vector<double> lx, ly;
+    for (int k = 0; k < 1000; ++k) {
+        lx.push_back(-1.0 + 0.002 * k);
+        ly.push_back(2.0 * lx.back() + 1.0);
+    }
+    decimate_polyline(lx, ly, px_x, px_y, tolerance);
+    REQUIRE(lx.size() == 2);
+    CHECK(lx[0] == -1.0);
+    CHECK(ly[1] == 2.0 * (-1.0 + 0.002 * 999) + 1.0);
+
+    // A zigzag one pixel high with a pixel between its points: every chord across more than two points misses one
+    // of them by more than half a pixel, so all 50 points stay.
+    std::vector<double> zx, zy;
+    for (int k = 0; k < 50; ++k) {
+        zx.push_back(k * px_x);
+        zy.push_back((k % 2) * px_y);
+    }
+    const std::vector<double> zx0 = zx, zy0 = zy;
+    decimate_polyline(zx, zy, px_x, px_y, tolerance);
+    CHECK(zx == zx0);
+    CHECK(zy == zy0);
 }

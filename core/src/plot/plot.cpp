@@ -241,10 +241,71 @@ void draw_box(const AxisFormats &formats, const std::string &x_opt, const std::s
     plslabelfunc(nullptr, nullptr);
 }
 
-void draw_polyline(const std::vector<double> &x, const std::vector<double> &y, bool closed) {
+namespace {
+
+// The squared distance from point p to the segment a-b.
+double squared_distance_to_segment(const std::array<double, 2> &p, const std::array<double, 2> &a,
+                                   const std::array<double, 2> &b) {
+    const double dx = b[0] - a[0], dy = b[1] - a[1], len2 = dx * dx + dy * dy;
+    const double s = len2 > 0 ? std::clamp(((p[0] - a[0]) * dx + (p[1] - a[1]) * dy) / len2, 0.0, 1.0) : 0.0;
+    const double ex = p[0] - a[0] - s * dx, ey = p[1] - a[1] - s * dy;
+    return ex * ex + ey * ey;
+}
+
+// Douglas-Peucker on points first..last (both kept, in pixels): marks in `keep` the points the chords need so that
+// every dropped point lies within `tolerance` pixels of its chord. An explicit stack, no recursion.
+void mark_kept(const std::vector<std::array<double, 2>> &px, double tolerance, std::size_t first, std::size_t last,
+               std::vector<bool> &keep) {
+    std::vector<std::pair<std::size_t, std::size_t>> stack{{first, last}};
+    keep[first] = keep[last] = true;
+    const double tolerance2 = tolerance * tolerance;
+    while (!stack.empty()) {
+        const auto [a, b] = stack.back();
+        stack.pop_back();
+        double worst = tolerance2;
+        std::size_t at = a;
+        for (std::size_t p = a + 1; p < b; ++p) {
+            const double d2 = squared_distance_to_segment(px[p], px[a], px[b]);
+            if (d2 > worst) {
+                worst = d2;
+                at = p;
+            }
+        }
+        if (at == a) continue; // every point between a and b is within the tolerance of the chord a-b
+        keep[at] = true;
+        stack.push_back({a, at});
+        stack.push_back({at, b});
+    }
+}
+
+} // namespace
+
+void decimate_polyline(std::vector<double> &x, std::vector<double> &y, double px_x, double px_y, double tolerance_px) {
+    if (x.size() < 3 || !(px_x > 0) || !(px_y > 0) || !(tolerance_px > 0)) return;
+    std::vector<std::array<double, 2>> px(x.size());
+    for (std::size_t p = 0; p < x.size(); ++p) px[p] = {x[p] / px_x, y[p] / px_y};
+    // Blocks of at most `block` points with their ends kept bound Douglas-Peucker's quadratic worst case (a curve
+    // that each split shortens by one point) at `block` times the points.
+    constexpr std::size_t block = 1024;
+    std::vector<bool> keep(x.size(), false);
+    for (std::size_t first = 0; first + 1 < x.size(); first += block)
+        mark_kept(px, tolerance_px, first, std::min(first + block, x.size() - 1), keep);
+    std::size_t n = 0;
+    for (std::size_t p = 0; p < x.size(); ++p)
+        if (keep[p]) {
+            x[n] = x[p];
+            y[n] = y[p];
+            ++n;
+        }
+    x.resize(n);
+    y.resize(n);
+}
+
+void draw_polyline(const std::vector<double> &x, const std::vector<double> &y, bool closed, double px_x, double px_y) {
     std::vector<PLFLT> xs, ys;
     bool all_finite = true;
     auto flush = [&] {
+        decimate_polyline(xs, ys, px_x, px_y, decimation_tolerance_px);
         if (xs.size() >= 2) plline(static_cast<PLINT>(xs.size()), xs.data(), ys.data());
         xs.clear();
         ys.clear();

@@ -77,7 +77,7 @@ void draw_curve(const PlotCurve &curve, double px_x, double px_y) {
     if (curve.points_only)
         draw_markers(x, y, curve.marker_px, px_x, px_y);
     else
-        draw_polyline(x, y, curve.closed);
+        draw_polyline(x, y, curve.closed, px_x, px_y);
 }
 
 void draw_field(const std::filesystem::path &file, const Grid &grid, const std::vector<double> &values,

@@ -185,10 +185,21 @@ void draw_box(const AxisFormats &formats, const std::string &x_opt, const std::s
               double y_label_disp, const std::string &x_label, const std::string &y_label, const std::string &title,
               const TitlePlacement &title_place = {});
 
-// Splits a polyline (x, y arrays) at non-finite points and draws each piece; a closed curve is joined back to its
-// start only when it has no gaps (a gap means the loop is not whole).
+// A polyline's points thinned (Douglas-Peucker) to those that keep every dropped point within `tolerance_px` pixels
+// of the line drawn; `px_x`, `px_y`: world units per pixel on each axis. The kept points are original points, so
+// the thinned line also stays within `tolerance_px` of the original (each chord is covered by the projection of the
+// stretch of the original it replaces). Curves reach the pictures with far more points than pixels (W's strainlines:
+// 1.9 million), and cairo's stroking costs by the segment: the serial part of a run that a frames run overlaps.
+void decimate_polyline(std::vector<double> &x, std::vector<double> &y, double px_x, double px_y, double tolerance_px);
 
-void draw_polyline(const std::vector<double> &x, const std::vector<double> &y, bool closed);
+// A quarter of a pixel: an antialiased line of the thinned points covers the same pixels to the eye.
+constexpr double decimation_tolerance_px = 0.25;
+
+// Splits a polyline (x, y arrays) at non-finite points and draws each piece, thinned to the picture's pixels
+// (decimate_polyline, `px_x` and `px_y` world units per pixel); a closed curve is joined back to its start only
+// when it has no gaps (a gap means the loop is not whole).
+
+void draw_polyline(const std::vector<double> &x, const std::vector<double> &y, bool closed, double px_x, double px_y);
 
 // Filled discs of `diameter_px` at the finite points, in the current colour. `px_x`, `px_y`: world units per
 // pixel on each axis, so the discs are round on the page whatever the axes' scales.

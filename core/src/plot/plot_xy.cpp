@@ -202,7 +202,7 @@ void draw_xy(const std::filesystem::path &file, const XYPlot &plot, PlplotErrors
         if (s.style != PlotSeries::Style::points) {
             plwidth(s.width);
             pllsty(dash_style(s.dash));
-            draw_polyline(data[k].x, data[k].y, s.closed);
+            draw_polyline(data[k].x, data[k].y, s.closed, px_x, px_y);
             pllsty(1);
         }
         if (s.style != PlotSeries::Style::line) draw_markers(data[k].x, data[k].y, s.marker_px, px_x, px_y);

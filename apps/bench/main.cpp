@@ -6,8 +6,9 @@
 // bench.csv, bench.md and the Pareto picture (error against time); timings live here, never in tests.
 //
 // The harness (harness.hpp: a run as a whole process, best of repeats, its stages and errors; peers.cpp: the exact
-// reference and the baselines; process.hpp: launching and timing), the sections (sections/*.cpp: what each runs and
-// which ratios it reports) and the report (report.cpp, tables.cpp, pareto.cpp).
+// reference and the baselines; process.hpp: launching and timing; repeat.hpp: the least and the median of repeated,
+// interleaved runs), the sections (sections/*.cpp: what each runs and which ratios it reports) and the report
+// (report.cpp, tables.cpp, pareto.cpp). test_bench_harness checks the arithmetic on known answers.
 #include "process.hpp"
 #include "sections.hpp"
 

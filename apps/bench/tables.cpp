@@ -2,6 +2,7 @@
 #include "tables.hpp"
 
 #include "harness.hpp"
+#include "repeat.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -32,8 +33,7 @@ std::string ratio_spread(std::vector<double> ratios) {
     if (ratios.size() < 2) return "–";
     std::sort(ratios.begin(), ratios.end());
     const std::size_t n = ratios.size();
-    const double median = n % 2 ? ratios[n / 2] : 0.5 * (ratios[n / 2 - 1] + ratios[n / 2]);
-    return fixed(median, 2) + " (" + fixed(ratios.front(), 2) + "–" + fixed(ratios.back(), 2) + ") over " +
+    return fixed(median(ratios), 2) + " (" + fixed(ratios.front(), 2) + "–" + fixed(ratios.back(), 2) + ") over " +
            std::to_string(n) + " runs";
 }
 

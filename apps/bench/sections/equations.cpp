@@ -3,6 +3,7 @@
 #include "../sections.hpp"
 
 #include "../process.hpp"
+#include "../repeat.hpp"
 #include "../tables.hpp"
 
 #include <algorithm>
@@ -94,14 +95,13 @@ EquationsTiming equations_timing(const Bench &bench, std::size_t n, int repeat) 
     }
     timing.first_validate = cold.wall_seconds;
     timing.cached_validate = warm.wall_seconds;
-    const auto best = [](double a, double b) { return std::isnan(a) ? b : std::min(a, b); };
     for (int attempt = 0; attempt < timing.repeat; ++attempt) {
         std::vector<double> builtin_ftle;
         for (std::size_t v = 0; v < timing.variants.size(); ++v) {
             EquationsVariant &variant = timing.variants[v];
             const EquationsRun r = run_for_equations(bench, variant.experiment, std::to_string(v));
-            variant.flow_map = best(variant.flow_map, r.flow_map);
-            variant.user = best(variant.user, r.user);
+            variant.flow_map = least(variant.flow_map, r.flow_map);
+            variant.user = least(variant.user, r.user);
             if (v == 0) builtin_ftle = r.ftle;
             double worst = 0.0;
             for (std::size_t k = 0; k < r.ftle.size(); ++k)

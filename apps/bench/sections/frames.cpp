@@ -3,6 +3,7 @@
 #include "../sections.hpp"
 
 #include "../process.hpp"
+#include "../repeat.hpp"
 #include "../tables.hpp"
 
 #include <geobarrier/frames.hpp>
@@ -14,16 +15,6 @@
 #include <stdexcept>
 
 namespace geobarrier::bench {
-
-namespace {
-
-// Best wall and user CPU seconds of one side of the frames comparison.
-struct FramesSide {
-    double wall = HUGE_VAL, user = HUGE_VAL;
-    void keep(double w, double u) { wall = std::min(wall, w), user = std::min(user, u); }
-};
-
-} // namespace
 
 // The frames run (one `geobarrier run` of the frames experiment: the frames, their tracks and the animation) and the
 // same frames as separate runs (one process per initial time, in turn), interleaved `repeat` times so that both sides
@@ -48,7 +39,7 @@ std::string frames_section(Bench &bench, int repeat) {
             throw std::runtime_error("frames section: " + experiment_file.string() + ": " + first_line(r.output));
         return r;
     };
-    FramesSide frames, separate;
+    LeastTimes frames, separate;
     for (int attempt = 0; attempt < repeat; ++attempt) {
         std::cerr << "[frames] " << t0s.size() << " frames, attempt " << attempt + 1 << " of " << repeat << "\n";
         const ProcessResult f = run(file, scratch / "frames-run");
@@ -64,8 +55,8 @@ std::string frames_section(Bench &bench, int repeat) {
     const json manifest = json::parse(std::ifstream(scratch / "frames-run" / "manifest.json"));
     fs::remove_all(scratch);
     const std::size_t nx = experiment["grid"]["n"][0], ny = experiment["grid"]["n"][1];
-    for (const auto &[name, side] : {std::pair<const char *, FramesSide>{"frames run", frames},
-                                     std::pair<const char *, FramesSide>{"separate runs", separate}}) {
+    for (const auto &[name, side] : {std::pair<const char *, LeastTimes>{"frames run", frames},
+                                     std::pair<const char *, LeastTimes>{"separate runs", separate}}) {
         Row row;
         row.section = "frames";
         row.workload = "W, " + std::to_string(t0s.size()) + " frames";

@@ -3,6 +3,8 @@
 // colours. PLplot keeps global state, so all drawing is serialised.
 #include "plot/plot_internal.hpp"
 
+#include <png.h>
+
 namespace geobarrier {
 
 namespace plot_internal {
@@ -181,9 +183,14 @@ void check_marker(const char *where, double marker_px) {
 
 void begin_page(const std::filesystem::path &file, int width, int height, PLINT cmap0_slots, PlplotErrors &errors) {
     plsError(&errors.code, errors.message);
-    plsdev("pngcairo");
-    plsfnam(file.c_str());
+    plsdev("memcairo");
     plspage(dots_per_inch, dots_per_inch, width, height, 0, 0);
+    // memcairo draws over the page as it finds it (its begin-of-page paints nothing): white, the background.
+    PageRaster &page = current_page();
+    page.width = width;
+    page.height = height;
+    page.rgb.assign(3 * static_cast<std::size_t>(width) * static_cast<std::size_t>(height), 255);
+    plsmem(width, height, page.rgb.data());
     // Images as one raster rather than a polygon per cell: faster, and no hairline seams between cells.
     plsetopt("drvopt", "rasterize_image=1");
     plscolbg(255, 255, 255);
@@ -356,19 +363,36 @@ void split_xy(const std::vector<double> &xy, std::vector<double> &x, std::vector
     }
 }
 
-void require_pngcairo() {
+void require_memcairo() {
     std::array<const char *, 128> menus{}, names{};
     const char **menu_ptr = menus.data(), **name_ptr = names.data();
     int count = static_cast<int>(names.size());
     plgDevs(&menu_ptr, &name_ptr, &count);
     for (int i = 0; i < count && i < static_cast<int>(names.size()); ++i)
-        if (names[i] != nullptr && std::string(names[i]) == "pngcairo") return;
-    throw IoError("plot: PLplot's pngcairo driver is not installed (Debian: plplot-driver-cairo)");
+        if (names[i] != nullptr && std::string(names[i]) == "memcairo") return;
+    throw IoError("plot: PLplot's memcairo driver is not installed (Debian: plplot-driver-cairo)");
 }
 
 std::mutex &plplot_mutex() {
     static std::mutex mutex;
     return mutex;
+}
+
+PageRaster &current_page() {
+    static PageRaster page;
+    return page;
+}
+
+void write_png(const std::filesystem::path &file, const PageRaster &page) {
+    write_file_atomically(file, [&](const std::filesystem::path &temp) {
+        png_image image{};
+        image.version = PNG_IMAGE_VERSION;
+        image.width = static_cast<png_uint_32>(page.width);
+        image.height = static_cast<png_uint_32>(page.height);
+        image.format = PNG_FORMAT_RGB;
+        if (png_image_write_to_file(&image, temp.c_str(), 0, page.rgb.data(), 0, nullptr) == 0)
+            throw IoError("'" + file.string() + "': cannot write '" + temp.string() + "': " + image.message);
+    });
 }
 
 } // namespace plot_internal

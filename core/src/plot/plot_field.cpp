@@ -153,8 +153,8 @@ void draw_field(const std::filesystem::path &file, const Grid &grid, const std::
 void plot_field_png(const std::filesystem::path &file, const Grid &grid, const std::vector<double> &values,
                     const std::vector<std::uint8_t> &mask, const FieldPlot &plot) {
     check_arguments(grid, values, mask, plot);
-    write_picture(file, [&](const std::filesystem::path &temp, PlplotErrors &errors) {
-        draw_field(temp, grid, values, mask, plot, errors);
+    write_picture(file, [&](const std::filesystem::path &name, PlplotErrors &errors) {
+        draw_field(name, grid, values, mask, plot, errors);
     });
 }
 

@@ -1,6 +1,7 @@
 // Private to core/src/plot: what the three kinds of picture (plot_field.cpp, plot_xy.cpp, plot_xyz.cpp) share, defined
 // in plot.cpp: colours, the palette, tick rules and labels, page set-up, the box with its axes and title, polylines
-// and markers, argument checks, and write_picture, which serialises PLplot (global state) and writes atomically.
+// and markers, argument checks, and write_picture, which serialises PLplot (global state), drawing into memory, and
+// writes the PNG atomically outside the lock.
 #pragma once
 
 #include <geobarrier/errors.hpp>
@@ -157,7 +158,8 @@ class PlplotStream {
     PLINT m_previous = 0;
 };
 
-// Opens a page of width x height pixels on the PNG driver with the shared palette and font.
+// Opens a page of width x height pixels in memory (current_page, PLplot's memcairo driver) with the shared palette
+// and font; `file` names the picture in messages.
 
 void begin_page(const std::filesystem::path &file, int width, int height, PLINT cmap0_slots, PlplotErrors &errors);
 
@@ -213,28 +215,41 @@ void split_xy(const std::vector<double> &xy, std::vector<double> &x, std::vector
 
 // Asked for a device it does not have, PLplot prompts on stdin; check for the driver first instead.
 
-void require_pngcairo();
+void require_memcairo();
 
 std::mutex &plplot_mutex();
 
-// Draws into a temporary file beside `file` with `draw(temp, errors)` and renames it into place.
+// A picture's pixels, 8-bit RGB row by row from the top.
+struct PageRaster {
+    int width = 0, height = 0;
+    std::vector<unsigned char> rgb;
+};
+
+// The page PLplot's memcairo driver draws into: begin_page sizes it (white), plend1 fills it. One page at a time,
+// under plplot_mutex, as PLplot draws.
+PageRaster &current_page();
+
+// Writes `page` as an 8-bit RGB PNG, atomically (libpng's defaults: zlib level 6, adaptive filters).
+void write_png(const std::filesystem::path &file, const PageRaster &page);
+
+// Draws with `draw(file, errors)` (`file`: for messages) under the PLplot lock into memory, then compresses and
+// writes the PNG after releasing it: PLplot's global state allows one picture at a time, but the compression (a
+// fifth of a picture's cost) needs none of it, so two frames' pictures compress while a third draws.
 template <class Draw> void write_picture(const std::filesystem::path &file, const Draw &draw) {
-    write_file_atomically(file, [&](const std::filesystem::path &temp) {
-        // PLplot exits the process when it cannot open its output file; open it here first so that failure is
-        // an IoError instead.
-        {
-            std::ofstream probe(temp, std::ios::binary);
-            if (!probe) throw IoError("'" + file.string() + "': cannot create '" + temp.string() + "'");
-        }
+    PageRaster page;
+    {
         std::lock_guard<std::mutex> lock(plplot_mutex());
-        require_pngcairo();
+        require_memcairo();
         PlplotErrors errors;
         {
             PlplotStream stream;
-            draw(temp, errors);
-        } // plend1 writes the PNG
+            draw(file, errors);
+        } // plend1 copies the page into current_page()
+        page = std::move(current_page());
+        current_page() = PageRaster{};
         if (errors.code != 0) throw IoError("'" + file.string() + "': PLplot failed: " + errors.message);
-    });
+    }
+    write_png(file, page);
 }
 
 } // namespace geobarrier::plot_internal

@@ -220,7 +220,7 @@ void draw_xy(const std::filesystem::path &file, const XYPlot &plot, PlplotErrors
 
 void plot_xy_png(const std::filesystem::path &file, const XYPlot &plot) {
     check_xy(plot);
-    write_picture(file, [&](const std::filesystem::path &temp, PlplotErrors &errors) { draw_xy(temp, plot, errors); });
+    write_picture(file, [&](const std::filesystem::path &name, PlplotErrors &errors) { draw_xy(name, plot, errors); });
 }
 
 } // namespace geobarrier

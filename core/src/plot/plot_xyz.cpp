@@ -272,7 +272,7 @@ void draw_xyz(const std::filesystem::path &file, const XYZPlot &plot, PlplotErro
 
 void plot_xyz_png(const std::filesystem::path &file, const XYZPlot &plot) {
     check_xyz(plot);
-    write_picture(file, [&](const std::filesystem::path &temp, PlplotErrors &errors) { draw_xyz(temp, plot, errors); });
+    write_picture(file, [&](const std::filesystem::path &name, PlplotErrors &errors) { draw_xyz(name, plot, errors); });
 }
 
 } // namespace geobarrier

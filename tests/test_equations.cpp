@@ -73,8 +73,10 @@ json workload_w(const json &system, std::size_t n) {
 std::vector<double> ftle_of(const json &experiment) {
     const ResolvedExperiment r = resolve_experiment(parse_experiment(experiment));
     const Experiment &e = r.experiment;
-    const GridFlowMap map = compute_grid_flow_map(Dynamics{&r.system, &r.forcing}, e.grid, e.t0, e.t1, e.integrator,
-                                                  r.gradient, e.aux_offset, false, e.bounds);
+    const FlowMap map = compute_grid_flow_map(
+        with_grid_offset({Dynamics{&r.system, &r.forcing}, e.t0, e.t1, e.integrator, r.gradient, false, e.bounds},
+                         e.grid, e.aux_offset),
+        e.grid);
     return cauchy_green_field(e.grid, map.dF, map.mask, std::abs(e.t1 - e.t0), map.dF_exponent, map.log_det).ftle;
 }
 

@@ -280,10 +280,9 @@ TEST_CASE("an extractor plugin gets its fields, advects with the host and report
     const double x0 = barrier["points"][0][0], y0 = barrier["points"][0][1];
     const System duffing = test::make_system("duffing");
     const Forcing cosine = test::make_forcing("cosine", {{"amplitude", 0.08}});
-    const AdvectResult a =
-        advect_points({&duffing, &cosine}, {x0}, {y0}, 0.0, 2 * M_PI, r.experiment.integrator, false);
-    CHECK(barrier["points"][1][0].get<double>() == doctest::Approx(a.x[0]).epsilon(1e-7));
-    CHECK(barrier["points"][1][1].get<double>() == doctest::Approx(a.y[0]).epsilon(1e-7));
+    const FlowMap a = flow_map_at_points({{&duffing, &cosine}, 0.0, 2 * M_PI, r.experiment.integrator}, {x0}, {y0});
+    CHECK(barrier["points"][1][0].get<double>() == doctest::Approx(a.flow_x[0]).epsilon(1e-7));
+    CHECK(barrier["points"][1][1].get<double>() == doctest::Approx(a.flow_y[0]).epsilon(1e-7));
     fs::remove_all(dir);
 }
 

@@ -54,7 +54,7 @@ double steps_per_batch(const IntegratorStats &s) {
     return static_cast<double>(s.steps) / static_cast<double>(s.batches);
 }
 
-CauchyGreenPoint cg_of(const AdvectResult &r, std::size_t k, double abs_T) {
+CauchyGreenPoint cg_of(const FlowMap &r, std::size_t k, double abs_T) {
     return cauchy_green_at(r.dF[4 * k], r.dF[4 * k + 1], r.dF[4 * k + 2], r.dF[4 * k + 3], abs_T, r.dF_exponent[k],
                            r.log_det[k]);
 }
@@ -128,7 +128,8 @@ TEST_CASE("long horizon: linear saddle a = 1, T = 1000: FTLE = 1 to 1e-9 where l
     const double T = 1000.0;
     for (const auto &[method, tol] : {std::pair<std::string, double>{"dopri5", 1e-11}, {"rkf78", 1e-10}}) {
         CAPTURE(method);
-        const AdvectResult r = advect_points(dyn, x0, y0, 0.0, T, settings(method, tol), true);
+        const FlowMap r =
+            flow_map_at_points({dyn, 0.0, T, settings(method, tol), GradientMethod::variational, true}, x0, y0);
         const double bound = steps_per_batch(r.stats) * tol / T;
         MESSAGE(method << " tol " << tol << ": " << steps_per_batch(r.stats) << " steps, FTLE error bound " << bound);
         REQUIRE(bound <= 1e-9);
@@ -175,8 +176,9 @@ TEST_CASE("long horizon: Duffing at its saddle equilibrium with alpha = 4, T = 2
     for (const double delta : {0.0, 0.15}) {
         CAPTURE(delta);
         const System duffing = make_system("duffing", {{"alpha", alpha}, {"beta", 1.0}, {"delta", delta}});
-        const AdvectResult r =
-            advect_points(Dynamics{&duffing, nullptr}, {0.0}, {0.0}, 0.0, T, settings("dopri5", tol), true);
+        const FlowMap r = flow_map_at_points(
+            {Dynamics{&duffing, nullptr}, 0.0, T, settings("dopri5", tol), GradientMethod::variational, true}, {0.0},
+            {0.0});
         REQUIRE(r.mask[0] == 0);
         const double mu = (-delta + std::sqrt(delta * delta + 4 * alpha)) / 2;
         const double norm_p = std::hypot(1.0, mu) * std::hypot(alpha, mu) / (alpha + mu * mu);
@@ -210,8 +212,8 @@ TEST_CASE("long horizon: Duffing over T = 200, damped and undamped, agrees with 
         CAPTURE(c.eps);
         const System duffing = make_system("duffing", {{"alpha", 1.0}, {"beta", 1.0}, {"delta", c.delta}});
         const Forcing cosine = make_forcing("cosine", {{"amplitude", c.eps}, {"omega", 1.0}, {"phase", 0.0}});
-        const AdvectResult r =
-            advect_points(Dynamics{&duffing, &cosine}, xs, ys, 0.0, T, settings("dopri5", tol), true);
+        const FlowMap r = flow_map_at_points(
+            {Dynamics{&duffing, &cosine}, 0.0, T, settings("dopri5", tol), GradientMethod::variational, true}, xs, ys);
         const double bound = steps_per_batch(r.stats) * tol / T;
         double worst = 0.0;
         std::size_t compared = 0;
@@ -251,7 +253,8 @@ TEST_CASE("tiny horizons: below rounding C = I exactly (degenerate, FTLE 0, no N
         for (const std::string method : {"dopri5", "rkf78", "rk4", "rosenbrock4"}) {
             CAPTURE(method);
             IntegratorSettings s = settings(method, 1e-10);
-            const AdvectResult r = advect_points(dyn, {0.3, -1.2}, {0.2, 0.7}, 5.0, 5.0 + T, s, true);
+            const FlowMap r =
+                flow_map_at_points({dyn, 5.0, 5.0 + T, s, GradientMethod::variational, true}, {0.3, -1.2}, {0.2, 0.7});
             for (std::size_t k = 0; k < 2; ++k) {
                 CHECK(r.mask[k] == 0); // a last step below the progress floor is taken, not masked
                 const CauchyGreenPoint p = cg_of(r, k, T);
@@ -268,7 +271,8 @@ TEST_CASE("tiny horizons: below rounding C = I exactly (degenerate, FTLE 0, no N
     // J = [[0, 1], [1 - 3 x^2, 0]] and s = (2 - 3 x^2) / 2 = 0.865. DF's entries near 1 carry rounding ~1e-16, i.e.
     // ~1e-16 / T = 1e-8 relative in the FTLE; the O(T) term is ~|J|^2 T ~ 1e-8: 1e-6 bounds both with room.
     const double T = 1e-8;
-    const AdvectResult r = advect_points(dyn, {0.3}, {0.2}, 5.0, 5.0 + T, settings("dopri5", 1e-10), true);
+    const FlowMap r = flow_map_at_points(
+        {dyn, 5.0, 5.0 + T, settings("dopri5", 1e-10), GradientMethod::variational, true}, {0.3}, {0.2});
     const CauchyGreenPoint p = cg_of(r, 0, T);
     CHECK_FALSE(p.degenerate);
     CHECK(std::abs(p.ftle - 0.865) < 1e-6);
@@ -382,7 +386,7 @@ TEST_CASE("stiff Duffing (delta = 1000): dopri5 hits its step limit with advice,
     const std::vector<double> x0 = {0.5, -0.3, 1.5}, y0 = {0.2, 0.1, -2.0};
     const double T = 4000.0;
     // Explicit: stability caps the step near 3.3 / 1000, so T = 4000 needs ~1.2e6 steps > max_steps = 1e6.
-    const AdvectResult limited = advect_points(dyn, x0, y0, 0.0, T, IntegratorSettings{}, false);
+    const FlowMap limited = flow_map_at_points({dyn, 0.0, T, IntegratorSettings{}}, x0, y0);
     CHECK(limited.stats.masked_step_limit == 3);
     const std::string advice = describe_masking(limited.stats, IntegratorSettings{}, true);
     CHECK(advice.find("dopri5 reached its step limit") != std::string::npos);
@@ -395,7 +399,7 @@ TEST_CASE("stiff Duffing (delta = 1000): dopri5 hits its step limit with advice,
     grid.nx = grid.ny = 3;
     IntegratorSettings few = settings("rkf78", 1e-8, 9);
     few.max_steps = 10000;
-    CHECK_THROWS_WITH_AS(compute_grid_flow_map(dyn, grid, 0.0, T, few, GradientMethod::none, 1e-3, true),
+    CHECK_THROWS_WITH_AS(compute_grid_flow_map({dyn, 0.0, T, few, GradientMethod::none, true}, grid),
                          doctest::Contains("rkf78 reached its step limit (max_steps = 10000"), NumericalError);
 
     // rosenbrock4 against dopri5 allowed 1e7 steps at 1e-11 (an independent, explicit reference). Both converge to
@@ -403,19 +407,20 @@ TEST_CASE("stiff Duffing (delta = 1000): dopri5 hits its step limit with advice,
     // errors, N tol (1 + |x|) <= 2 N tol.
     IntegratorSettings reference = settings("dopri5", 1e-11);
     reference.max_steps = 10000000;
-    const AdvectResult ref = advect_points(dyn, x0, y0, 0.0, T, reference, true);
+    const FlowMap ref = flow_map_at_points({dyn, 0.0, T, reference, GradientMethod::variational, true}, x0, y0);
     const IntegratorSettings implicit = settings("rosenbrock4", 1e-8);
     for (const bool variational : {false, true}) {
         CAPTURE(variational);
-        const AdvectResult r = advect_points(dyn, x0, y0, 0.0, T, implicit, variational);
+        const FlowMap r = flow_map_at_points(
+            {dyn, 0.0, T, implicit, variational ? GradientMethod::variational : GradientMethod::none, true}, x0, y0);
         const double bound = 2 * steps_per_batch(r.stats) * 1e-8;
         MESSAGE("rosenbrock4: " << steps_per_batch(r.stats) << " steps per trajectory (dopri5 needed "
                                 << steps_per_batch(ref.stats) << "), position bound " << bound);
         CHECK(r.stats.masked == 0);
         CHECK(r.stats.batches == 3); // one trajectory per batch (lanes_per_batch)
         for (std::size_t k = 0; k < 3; ++k) {
-            CHECK(std::abs(r.x[k] - ref.x[k]) <= bound);
-            CHECK(std::abs(r.y[k] - ref.y[k]) <= bound);
+            CHECK(std::abs(r.flow_x[k] - ref.flow_x[k]) <= bound);
+            CHECK(std::abs(r.flow_y[k] - ref.flow_y[k]) <= bound);
             if (!variational) continue;
             // log det DF = -delta T by Liouville, to the integration's relative accuracy.
             CHECK(std::abs(r.log_det[k] + 1000.0 * T) <= 1e-8 * 1000.0 * T);
@@ -430,8 +435,9 @@ TEST_CASE("rosenbrock4 on non-stiff known answers: saddle, and forced Duffing wi
     // difference in t) only make the Rosenbrock matrix inexact by ~1e-8; the error estimate still bounds each step.
     const double a = 0.8, T = 5.0, tol = 1e-9;
     const System saddle = make_system("linear-saddle", {{"a", a}});
-    const AdvectResult r =
-        advect_points(Dynamics{&saddle, nullptr}, {0.3, -0.7}, {0.5, 0.2}, 0.0, T, settings("rosenbrock4", tol), true);
+    const FlowMap r = flow_map_at_points(
+        {Dynamics{&saddle, nullptr}, 0.0, T, settings("rosenbrock4", tol), GradientMethod::variational, true},
+        {0.3, -0.7}, {0.5, 0.2});
     const double n_tol = steps_per_batch(r.stats) * tol;
     for (std::size_t k = 0; k < 2; ++k) {
         CHECK(std::abs(r.dF[4 * k] - std::exp(a * T)) <= n_tol * std::exp(a * T));
@@ -444,13 +450,15 @@ TEST_CASE("rosenbrock4 on non-stiff known answers: saddle, and forced Duffing wi
     const Dynamics dyn{&duffing, &cosine};
     const std::vector<double> x0 = {0.1, -0.9, 1.3}, y0 = {0.4, 0.0, -0.5};
     const double period = 2 * std::acos(-1.0) / 1.2;
-    const AdvectResult ref = advect_points(dyn, x0, y0, 0.0, period, settings("rkf78", 1e-13), true);
-    const AdvectResult ros = advect_points(dyn, x0, y0, 0.0, period, settings("rosenbrock4", tol), true);
+    const FlowMap ref =
+        flow_map_at_points({dyn, 0.0, period, settings("rkf78", 1e-13), GradientMethod::variational, true}, x0, y0);
+    const FlowMap ros =
+        flow_map_at_points({dyn, 0.0, period, settings("rosenbrock4", tol), GradientMethod::variational, true}, x0, y0);
     // |DF| stays below ~20 over one period here; N tol |DF| with N ~ 10^3 steps.
     const double bound = steps_per_batch(ros.stats) * tol * 20;
     for (std::size_t k = 0; k < 3; ++k) {
-        CHECK(std::abs(ros.x[k] - ref.x[k]) <= bound);
-        CHECK(std::abs(ros.y[k] - ref.y[k]) <= bound);
+        CHECK(std::abs(ros.flow_x[k] - ref.flow_x[k]) <= bound);
+        CHECK(std::abs(ros.flow_y[k] - ref.flow_y[k]) <= bound);
         for (int q = 0; q < 4; ++q) CHECK(std::abs(ros.dF[4 * k + q] - ref.dF[4 * k + q]) <= bound);
     }
 }
@@ -487,14 +495,14 @@ TEST_CASE("tolerances: rtol below 1e-14 is clamped with a warning; rtol outside 
     const System saddle = make_system("linear-saddle", {{"a", 0.5}});
     IntegratorSettings tiny = settings("dopri5", 1e-300), floor = settings("dopri5", 1e-14);
     tiny.atol = floor.atol = 1e-12;
-    const AdvectResult r1 = advect_points(Dynamics{&saddle, nullptr}, {0.1}, {0.2}, 0.0, 1.0, tiny, false);
-    const AdvectResult r2 = advect_points(Dynamics{&saddle, nullptr}, {0.1}, {0.2}, 0.0, 1.0, floor, false);
+    const FlowMap r1 = flow_map_at_points({Dynamics{&saddle, nullptr}, 0.0, 1.0, tiny}, {0.1}, {0.2});
+    const FlowMap r2 = flow_map_at_points({Dynamics{&saddle, nullptr}, 0.0, 1.0, floor}, {0.1}, {0.2});
     CHECK(r1.mask[0] == 0);
-    CHECK(r1.x[0] == r2.x[0]);
+    CHECK(r1.flow_x[0] == r2.flow_x[0]);
     CHECK(r1.stats.steps == r2.stats.steps);
     IntegratorSettings bad = floor;
     bad.rtol = 1.0;
-    CHECK_THROWS_AS(advect_points(Dynamics{&saddle, nullptr}, {0.1}, {0.2}, 0.0, 1.0, bad, false), EngineSettingError);
+    CHECK_THROWS_AS(flow_map_at_points({Dynamics{&saddle, nullptr}, 0.0, 1.0, bad}, {0.1}, {0.2}), EngineSettingError);
 }
 
 // ------------------------------------------------------------------------------------------------------- grids
@@ -559,7 +567,8 @@ TEST_CASE("escaping and blowing-up trajectories on a grid are masked and counted
     for (const GradientMethod g : {GradientMethod::variational, GradientMethod::auxiliary_grid}) {
         const std::string method_name = to_string(g);
         CAPTURE(method_name);
-        const GridFlowMap fm = compute_grid_flow_map(dyn, grid, 0.0, 1.5, settings("dopri5", 1e-9), g, 1e-3, true);
+        const FlowMap fm = compute_grid_flow_map(
+            with_grid_offset({dyn, 0.0, 1.5, settings("dopri5", 1e-9), g, true}, grid, 1e-3), grid);
         std::size_t masked = 0;
         for (std::size_t p = 0; p < grid.size(); ++p) {
             if (fm.mask[p] == 0) {
@@ -580,9 +589,10 @@ TEST_CASE("escaping and blowing-up trajectories on a grid are masked and counted
     }
     // Over a longer horizon every trajectory escapes: a NumericalError naming the reason, not an empty result.
     const Forcing huge = make_forcing("cosine", {{"amplitude", 1e6}, {"omega", 1.0}, {"phase", 0.0}});
-    CHECK_THROWS_WITH_AS(compute_grid_flow_map(Dynamics{&duffing, &huge}, grid, 0.0, 20.0, IntegratorSettings{},
-                                               GradientMethod::variational, 1e-3, false),
-                         doctest::Contains("every one of the 169 grid points was masked"), NumericalError);
+    CHECK_THROWS_WITH_AS(
+        compute_grid_flow_map({Dynamics{&duffing, &huge}, 0.0, 20.0, IntegratorSettings{}, GradientMethod::variational},
+                              grid),
+        doctest::Contains("every one of the 169 grid points was masked"), NumericalError);
 }
 
 TEST_CASE("extractors see masked and degenerate points flagged in the mask") {
@@ -674,7 +684,7 @@ TEST_CASE("cancellation: a requested stop ends the integration promptly with Can
     clear_cancel();
     request_cancel(SIGINT);
     CHECK(cancel_requested() == SIGINT);
-    CHECK_THROWS_WITH_AS(advect_points(Dynamics{&saddle, nullptr}, {0.1}, {0.2}, 0.0, 1.0, IntegratorSettings{}, false),
+    CHECK_THROWS_WITH_AS(flow_map_at_points({Dynamics{&saddle, nullptr}, 0.0, 1.0, IntegratorSettings{}}, {0.1}, {0.2}),
                          "interrupted by SIGINT while integrating trajectories", Cancelled);
     clear_cancel();
     CHECK(cancel_requested() == 0);

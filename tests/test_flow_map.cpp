@@ -63,8 +63,8 @@ TEST_CASE("linear saddle: flow map = (x0 e^{aT}, y0 e^{-aT}) for every stepper, 
                 CAPTURE(batch);
                 const double t0 = 1.0, T = t1 - t0; // T = +5 forward, -5 backward
                 const IntegratorSettings s = settings_for(method, 1e-10, batch);
-                const AdvectResult r = advect_points(dyn, x0, y0, t0, t1, s, false);
-                REQUIRE(r.x.size() == x0.size());
+                const FlowMap r = flow_map_at_points({dyn, t0, t1, s}, x0, y0);
+                REQUIRE(r.flow_x.size() == x0.size());
                 CHECK(r.stats.masked == 0);
                 CHECK(r.stats.batches == (x0.size() + batch - 1) / batch);
                 CHECK(r.stats.steps > 0);
@@ -77,8 +77,8 @@ TEST_CASE("linear saddle: flow map = (x0 e^{aT}, y0 e^{-aT}) for every stepper, 
                 if (method != "rk4") CHECK(r.stats.steps <= 200 * r.stats.batches);
                 for (std::size_t k = 0; k < x0.size(); ++k) {
                     const double ex = x0[k] * std::exp(a * T), ey = y0[k] * std::exp(-a * T);
-                    CHECK(std::abs(r.x[k] - ex) <= 2e-8 * (1.0 + std::abs(ex)));
-                    CHECK(std::abs(r.y[k] - ey) <= 2e-8 * (1.0 + std::abs(ey)));
+                    CHECK(std::abs(r.flow_x[k] - ex) <= 2e-8 * (1.0 + std::abs(ex)));
+                    CHECK(std::abs(r.flow_y[k] - ey) <= 2e-8 * (1.0 + std::abs(ey)));
                 }
                 if (method == "rk4") {
                     // The fixed-step loop must take exactly 500 steps of 0.01 (the last landing on t1): then the
@@ -88,8 +88,8 @@ TEST_CASE("linear saddle: flow map = (x0 e^{aT}, y0 e^{-aT}) for every stepper, 
                     for (std::size_t k = 0; k < x0.size(); ++k) {
                         const double ex = x0[k] * std::pow(rk4_factor(a * h), 500.0);
                         const double ey = y0[k] * std::pow(rk4_factor(-a * h), 500.0);
-                        CHECK(std::abs(r.x[k] - ex) <= 1e-12 * std::abs(ex) + 1e-300);
-                        CHECK(std::abs(r.y[k] - ey) <= 1e-12 * std::abs(ey) + 1e-300);
+                        CHECK(std::abs(r.flow_x[k] - ex) <= 1e-12 * std::abs(ex) + 1e-300);
+                        CHECK(std::abs(r.flow_y[k] - ey) <= 1e-12 * std::abs(ey) + 1e-300);
                     }
                 }
             }
@@ -107,7 +107,8 @@ TEST_CASE("linear saddle: variational DF = diag(e^{aT}, e^{-aT})") {
         for (double T : {3.0, -3.0}) {
             CAPTURE(method);
             CAPTURE(T);
-            const AdvectResult r = advect_points(dyn, x0, y0, 0.0, T, settings_for(method, 1e-10, 8), true);
+            const FlowMap r = flow_map_at_points(
+                {dyn, 0.0, T, settings_for(method, 1e-10, 8), GradientMethod::variational, true}, x0, y0);
             REQUIRE(r.dF.size() == 4 * x0.size());
             // Same bound as for the positions: N tol per unit of |DF| (N <= 200 steps for the adaptive methods).
             if (method != "rk4") CHECK(r.stats.steps <= 200 * r.stats.batches);
@@ -116,7 +117,7 @@ TEST_CASE("linear saddle: variational DF = diag(e^{aT}, e^{-aT})") {
                 CHECK(r.dF[4 * k + 1] == 0.0); // the off-diagonal stays exactly zero: J is diagonal
                 CHECK(r.dF[4 * k + 2] == 0.0);
                 CHECK(std::abs(r.dF[4 * k + 3] - std::exp(-a * T)) <= 2e-8 * std::exp(a * std::abs(T)));
-                CHECK(std::abs(r.x[k] - x0[k] * std::exp(a * T)) <= 2e-8 * (1.0 + std::exp(a * std::abs(T))));
+                CHECK(std::abs(r.flow_x[k] - x0[k] * std::exp(a * T)) <= 2e-8 * (1.0 + std::exp(a * std::abs(T))));
             }
         }
     }
@@ -133,8 +134,9 @@ TEST_CASE("linear saddle on a grid: both gradient methods give DF = diag(e^{aT},
                 CAPTURE(to_string(gm));
                 CAPTURE(t1);
                 CAPTURE(positions);
-                const GridFlowMap fm =
-                    compute_grid_flow_map(dyn, grid, 0.0, t1, settings_for("dopri5", 1e-10, 16), gm, 1e-4, positions);
+                const FlowMap fm = compute_grid_flow_map(
+                    with_grid_offset({dyn, 0.0, t1, settings_for("dopri5", 1e-10, 16), gm, positions}, grid, 1e-4),
+                    grid);
                 REQUIRE(fm.dF.size() == 4 * grid.size());
                 CHECK(fm.flow_x.size() == (positions ? grid.size() : 0));
                 const double e = std::exp(a * t1), big = std::exp(a * T);
@@ -164,11 +166,12 @@ TEST_CASE("linear saddle on a grid: both gradient methods give DF = diag(e^{aT},
         }
     }
     // The auxiliary grid integrates 4 (5 with positions) lanes per grid point.
-    const GridFlowMap aux = compute_grid_flow_map(dyn, grid, 0.0, T, settings_for("dopri5", 1e-10, 16),
-                                                  GradientMethod::auxiliary_grid, 1e-4, true);
+    const FlowMap aux = compute_grid_flow_map(
+        with_grid_offset({dyn, 0.0, T, settings_for("dopri5", 1e-10, 16), GradientMethod::auxiliary_grid, true}, grid,
+                         1e-4),
+        grid);
     CHECK(aux.stats.trajectories == 5 * grid.size());
-    const GridFlowMap none =
-        compute_grid_flow_map(dyn, grid, 0.0, T, settings_for("dopri5", 1e-10, 16), GradientMethod::none, 1e-4, false);
+    const FlowMap none = compute_grid_flow_map({dyn, 0.0, T, settings_for("dopri5", 1e-10, 16)}, grid);
     CHECK(none.dF.empty());
     CHECK(none.flow_x.size() == grid.size());
     CHECK(none.stats.trajectories == grid.size());
@@ -182,8 +185,8 @@ TEST_CASE("rigid rotation: C = I, so lambda1 = lambda2 = 1, FTLE 0, degenerate")
     REQUIRE(rotation.has_jacobian());
     for (GradientMethod gm : {GradientMethod::auxiliary_grid, GradientMethod::variational}) {
         CAPTURE(to_string(gm));
-        const GridFlowMap fm =
-            compute_grid_flow_map(dyn, grid, 0.0, T, settings_for("dopri5", 1e-10, 16), gm, 1e-4, true);
+        const FlowMap fm = compute_grid_flow_map(
+            with_grid_offset({dyn, 0.0, T, settings_for("dopri5", 1e-10, 16), gm, true}, grid, 1e-4), grid);
         const CauchyGreenField cg = cauchy_green_field(grid, fm.dF, fm.mask, T);
         for (std::size_t p = 0; p < grid.size(); ++p) {
             CHECK(std::abs(cg.lambda1[p] - 1.0) <= 1e-8);
@@ -225,12 +228,12 @@ TEST_CASE("unforced undamped Duffing conserves H = y^2/2 - x^2/2 + x^4/4") {
         for (const Forcing *forcing : {&none, static_cast<const Forcing *>(nullptr)}) {
             CAPTURE(method);
             const Dynamics dyn{&duffing, forcing};
-            const AdvectResult r = advect_points(dyn, x0, y0, 0.0, 20.0, settings_for(method, 1e-10, 8), false);
+            const FlowMap r = flow_map_at_points({dyn, 0.0, 20.0, settings_for(method, 1e-10, 8)}, x0, y0);
             CHECK(r.stats.masked == 0);
             double worst = 0.0;
             for (std::size_t k = 0; k < x0.size(); ++k)
-                worst = std::max(worst,
-                                 std::abs(test::duffing_energy(r.x[k], r.y[k]) - test::duffing_energy(x0[k], y0[k])));
+                worst = std::max(worst, std::abs(test::duffing_energy(r.flow_x[k], r.flow_y[k]) -
+                                                 test::duffing_energy(x0[k], y0[k])));
             MESSAGE(method << ": max |dH| = " << worst);
             // Local errors <= 1e-10 (1 + |x|) in state give |dH| <= |grad H| 1e-10 per step, N ~ 10^2-10^3 steps.
             CHECK(worst < 1e-7);
@@ -247,10 +250,11 @@ TEST_CASE("forced Duffing: variational and auxiliary-grid gradients agree") {
     const Grid grid{-1.8, 1.8, -1.2, 1.2, 15, 11}; // x range, y range, nx, ny
     const double T = 4.0 * pi, offset = 1e-4;
     const IntegratorSettings s = settings_for("dopri5", 1e-11, 16);
-    const GridFlowMap var = compute_grid_flow_map(dyn, grid, 0.0, T, s, GradientMethod::variational, offset, true);
-    const GridFlowMap aux = compute_grid_flow_map(dyn, grid, 0.0, T, s, GradientMethod::auxiliary_grid, offset, true);
-    const GridFlowMap aux2 =
-        compute_grid_flow_map(dyn, grid, 0.0, T, s, GradientMethod::auxiliary_grid, 2.0 * offset, false);
+    const FlowMap var = compute_grid_flow_map({dyn, 0.0, T, s, GradientMethod::variational, true}, grid);
+    const FlowMap aux = compute_grid_flow_map(
+        with_grid_offset({dyn, 0.0, T, s, GradientMethod::auxiliary_grid, true}, grid, offset), grid);
+    const FlowMap aux2 = compute_grid_flow_map(
+        with_grid_offset({dyn, 0.0, T, s, GradientMethod::auxiliary_grid}, grid, 2.0 * offset), grid);
     const CauchyGreenField cv = cauchy_green_field(grid, var.dF, var.mask, T);
     const CauchyGreenField ca = cauchy_green_field(grid, aux.dF, aux.mask, T);
     // Error budget of the auxiliary grid, d = 1e-4 dx = 2.6e-5:
@@ -301,19 +305,20 @@ TEST_CASE("bounds: trajectories leaving the box are masked, the others are exact
     const Bounds box{-3.0, 3.0, -3.0, 3.0};
     for (std::size_t batch : {1, 8, 64}) {
         CAPTURE(batch);
-        const AdvectResult r = advect_points(dyn, x0, y0, 0.0, T, settings_for("dopri5", 1e-10, batch), false, box);
+        const FlowMap r = flow_map_at_points(
+            {dyn, 0.0, T, settings_for("dopri5", 1e-10, batch), GradientMethod::none, false, box}, x0, y0);
         std::uint64_t expected = 0;
         for (std::size_t k = 0; k < x0.size(); ++k) {
             CAPTURE(x0[k]);
             if (std::abs(x0[k]) > 0.45) {
                 ++expected;
                 CHECK(r.mask[k] == mask_left_bounds);
-                CHECK(std::isnan(r.x[k]));
-                CHECK(std::isnan(r.y[k]));
+                CHECK(std::isnan(r.flow_x[k]));
+                CHECK(std::isnan(r.flow_y[k]));
             } else {
                 CHECK(r.mask[k] == 0);
-                CHECK(std::abs(r.x[k] - x0[k] * std::exp(a * T)) <= 1e-8 * (1.0 + std::exp(a * T)));
-                CHECK(std::abs(r.y[k] - y0[k] * std::exp(-a * T)) <= 1e-8);
+                CHECK(std::abs(r.flow_x[k] - x0[k] * std::exp(a * T)) <= 1e-8 * (1.0 + std::exp(a * T)));
+                CHECK(std::abs(r.flow_y[k] - y0[k] * std::exp(-a * T)) <= 1e-8);
             }
         }
         CHECK(r.stats.masked_left_bounds == expected);
@@ -321,8 +326,10 @@ TEST_CASE("bounds: trajectories leaving the box are masked, the others are exact
     }
     // On a grid, a point is masked when any of its auxiliary neighbours is.
     const Grid grid{-1.0, 1.0, 0.0, 0.5, 21, 2}; // x range, y range, nx, ny
-    const GridFlowMap fm = compute_grid_flow_map(dyn, grid, 0.0, T, settings_for("dopri5", 1e-10, 16),
-                                                 GradientMethod::auxiliary_grid, 1e-4, false, box);
+    const FlowMap fm = compute_grid_flow_map(
+        with_grid_offset({dyn, 0.0, T, settings_for("dopri5", 1e-10, 16), GradientMethod::auxiliary_grid, false, box},
+                         grid, 1e-4),
+        grid);
     for (std::size_t p = 0; p < grid.size(); ++p) {
         const double x = grid.x(p % grid.nx);
         CHECK(fm.mask[p] == (std::abs(x) > 0.45 ? mask_left_bounds : 0));
@@ -345,25 +352,25 @@ TEST_CASE("blow-up: lanes of x'' = x + x^3 from large states are masked non-fini
             hx.push_back(x0[k]);
             hy.push_back(y0[k]);
         }
-    const AdvectResult ref = advect_points(dyn, hx, hy, 0.0, 1.0, settings_for("rkf78", 1e-13, 1), false);
+    const FlowMap ref = flow_map_at_points({dyn, 0.0, 1.0, settings_for("rkf78", 1e-13, 1)}, hx, hy);
     for (const std::string method : {"dopri5", "rkf78", "rk4"}) {
         for (std::size_t batch : {1, 4, 16}) {
             CAPTURE(method);
             CAPTURE(batch);
-            const AdvectResult r = advect_points(dyn, x0, y0, 0.0, 1.0, settings_for(method, 1e-10, batch), false);
+            const FlowMap r = flow_map_at_points({dyn, 0.0, 1.0, settings_for(method, 1e-10, batch)}, x0, y0);
             std::size_t h = 0;
             for (std::size_t k = 0; k < x0.size(); ++k) {
                 CAPTURE(k);
                 if (blows[k]) {
                     CHECK(r.mask[k] == mask_non_finite);
-                    CHECK(std::isnan(r.x[k]));
-                    CHECK(std::isnan(r.y[k]));
+                    CHECK(std::isnan(r.flow_x[k]));
+                    CHECK(std::isnan(r.flow_y[k]));
                 } else {
                     CHECK(r.mask[k] == 0);
                     // |x| <= 0.03 over T = 1: local error bound tol (1 + |x|) ~ 1e-10 per step, N <= ~100 steps;
                     // RK4 with h = 0.01 on this nearly linear flow: error ~ T h^4 |x| / 120 ~ 1e-12.
-                    CHECK(std::abs(r.x[k] - ref.x[h]) <= 1e-8);
-                    CHECK(std::abs(r.y[k] - ref.y[h]) <= 1e-8);
+                    CHECK(std::abs(r.flow_x[k] - ref.flow_x[h]) <= 1e-8);
+                    CHECK(std::abs(r.flow_y[k] - ref.flow_y[h]) <= 1e-8);
                     ++h;
                 }
             }
@@ -385,19 +392,19 @@ TEST_CASE("a plugin returning NaN: those lanes are masked non-finite, the others
         for (std::size_t batch : {1, 8}) {
             CAPTURE(method);
             CAPTURE(batch);
-            const AdvectResult r = advect_points(dyn, x0, y0, 0.0, T, settings_for(method, 1e-10, batch), false);
+            const FlowMap r = flow_map_at_points({dyn, 0.0, T, settings_for(method, 1e-10, batch)}, x0, y0);
             std::uint64_t expected = 0;
             for (std::size_t k = 0; k < x0.size(); ++k) {
                 CAPTURE(k);
                 if (std::hypot(x0[k], y0[k]) > 2.0) {
                     ++expected;
                     CHECK(r.mask[k] == mask_non_finite);
-                    CHECK(std::isnan(r.x[k]));
+                    CHECK(std::isnan(r.flow_x[k]));
                 } else {
                     CHECK(r.mask[k] == 0);
                     // As for the saddle: N tol (1 + |x|) with N <= 200, and RK4's h^4 error ~ T h^4 / 120 ~ 1e-10.
-                    CHECK(std::abs(r.x[k] - (x0[k] * std::cos(T) + y0[k] * std::sin(T))) <= 1e-8);
-                    CHECK(std::abs(r.y[k] - (y0[k] * std::cos(T) - x0[k] * std::sin(T))) <= 1e-8);
+                    CHECK(std::abs(r.flow_x[k] - (x0[k] * std::cos(T) + y0[k] * std::sin(T))) <= 1e-8);
+                    CHECK(std::abs(r.flow_y[k] - (y0[k] * std::cos(T) - x0[k] * std::sin(T))) <= 1e-8);
                 }
             }
             CHECK(r.stats.masked_non_finite == expected);
@@ -418,7 +425,7 @@ TEST_CASE("checked steps: a DF that turns NaN under a finite state is masked non
         CAPTURE(T);
         const IntegratorSettings checked = quality_preset("standard");
         REQUIRE(checked.step_tolerance > 0.0);
-        const AdvectResult r = advect_points(dyn, x0, y0, 0.0, T, checked, true);
+        const FlowMap r = flow_map_at_points({dyn, 0.0, T, checked, GradientMethod::variational, true}, x0, y0);
         CHECK(r.stats.rejected_steps == 0);
         std::uint64_t expected = 0;
         for (std::size_t k = 0; k < x0.size(); ++k) {
@@ -450,11 +457,13 @@ TEST_CASE("an exception inside the parallel batches reaches the caller") {
     test::sample_points(100, x0, y0);
     // The progress callback runs inside the OpenMP region, like the plugin calls; what it throws must come out
     // (the same path carries a PluginError from a failing plugin call).
-    CHECK_THROWS_WITH_AS(advect_points(dyn, x0, y0, 0.0, 1.0, settings_for("dopri5", 1e-8, 4), false, std::nullopt,
-                                       [](std::size_t done, std::size_t) {
-                                           if (done == 3) throw PluginError("plugin.so: stop at batch 3");
-                                       }),
-                         "plugin.so: stop at batch 3", PluginError);
+    CHECK_THROWS_WITH_AS(
+        flow_map_at_points({dyn, 0.0, 1.0, settings_for("dopri5", 1e-8, 4), GradientMethod::none, false, std::nullopt,
+                            [](std::size_t done, std::size_t) {
+                                if (done == 3) throw PluginError("plugin.so: stop at batch 3");
+                            }},
+                           x0, y0),
+        "plugin.so: stop at batch 3", PluginError);
 }
 
 TEST_CASE("a lockstep batch gives the batch = 1 result to within the integration tolerance") {
@@ -464,21 +473,24 @@ TEST_CASE("a lockstep batch gives the batch = 1 result to within the integration
     std::vector<double> x0, y0;
     test::sample_points(64, x0, y0);
     const double T = 2.0 * pi;
-    const AdvectResult ref = advect_points(dyn, x0, y0, 0.0, T, settings_for("rkf78", 1e-13, 1), true);
+    const FlowMap ref =
+        flow_map_at_points({dyn, 0.0, T, settings_for("rkf78", 1e-13, 1), GradientMethod::variational, true}, x0, y0);
     for (const std::string method : {"dopri5", "rkf78"}) {
-        const AdvectResult one = advect_points(dyn, x0, y0, 0.0, T, settings_for(method, 1e-9, 1), true);
+        const FlowMap one =
+            flow_map_at_points({dyn, 0.0, T, settings_for(method, 1e-9, 1), GradientMethod::variational, true}, x0, y0);
         for (std::size_t batch : {4, 16, 64}) {
             CAPTURE(method);
             CAPTURE(batch);
-            const AdvectResult many = advect_points(dyn, x0, y0, 0.0, T, settings_for(method, 1e-9, batch), true);
+            const FlowMap many = flow_map_at_points(
+                {dyn, 0.0, T, settings_for(method, 1e-9, batch), GradientMethod::variational, true}, x0, y0);
             // A lane in a batch takes the steps chosen for the batch's worst lane, typically smaller than its own,
             // so it is typically more accurate than alone (measured: 3e-8 vs 7e-8). Both lie within their global
             // error of the reference, N tol |DF| with N ~ 10^2 steps and |DF| <= ~10 over one forcing period: 1e-6.
             // Deviation = the largest over positions and DF entries.
-            const auto deviation = [&](const AdvectResult &u, const AdvectResult &v) {
+            const auto deviation = [&](const FlowMap &u, const FlowMap &v) {
                 double w = 0.0;
                 for (std::size_t k = 0; k < x0.size(); ++k) {
-                    w = std::max({w, std::abs(u.x[k] - v.x[k]), std::abs(u.y[k] - v.y[k])});
+                    w = std::max({w, std::abs(u.flow_x[k] - v.flow_x[k]), std::abs(u.flow_y[k] - v.flow_y[k])});
                     for (int q = 0; q < 4; ++q) w = std::max(w, std::abs(u.dF[4 * k + q] - v.dF[4 * k + q]));
                 }
                 return w;
@@ -506,7 +518,7 @@ TEST_CASE("statistics are consistent with the steppers' stage counts") {
         CAPTURE(method);
         IntegratorSettings s = settings_for(method, 1e-9, 10);
         s.step = 0.5; // large first trial step: forces rejections for the adaptive methods
-        const AdvectResult r = advect_points(dyn, x0, y0, 0.0, 3.0, s, false);
+        const FlowMap r = flow_map_at_points({dyn, 0.0, 3.0, s}, x0, y0);
         const IntegratorStats &st = r.stats;
         CHECK(st.trajectories == 10);
         CHECK(st.batches == 1);
@@ -550,26 +562,28 @@ TEST_CASE("step limit and progress: no hang, remaining lanes masked, progress re
     IntegratorSettings s = settings_for("dopri5", 1e-12, 8);
     s.max_steps = 5; // far too few for T = 10 at 1e-12
     std::atomic<std::size_t> calls{0}, last_total{0}, max_done{0};
-    const AdvectResult r =
-        advect_points(dyn, x0, y0, 0.0, 10.0, s, false, std::nullopt, [&](std::size_t done, std::size_t total) {
-            ++calls;
-            last_total = total;
-            std::size_t m = max_done.load();
-            while (done > m && !max_done.compare_exchange_weak(m, done)) {
-            }
-        });
+    const FlowMap r = flow_map_at_points({dyn, 0.0, 10.0, s, GradientMethod::none, false, std::nullopt,
+                                          [&](std::size_t done, std::size_t total) {
+                                              ++calls;
+                                              last_total = total;
+                                              std::size_t m = max_done.load();
+                                              while (done > m && !max_done.compare_exchange_weak(m, done)) {
+                                              }
+                                          }},
+                                         x0, y0);
     CHECK(r.stats.masked_step_limit == 50);
     CHECK(std::all_of(r.mask.begin(), r.mask.end(), [](std::uint8_t m) { return m == mask_step_limit; }));
-    CHECK(std::all_of(r.x.begin(), r.x.end(), [](double v) { return std::isnan(v); }));
+    CHECK(std::all_of(r.flow_x.begin(), r.flow_x.end(), [](double v) { return std::isnan(v); }));
     CHECK(calls == 7); // ceil(50 / 8) batches
     CHECK(last_total == 7);
     CHECK(max_done == 7);
 
     // t0 == t1: the identity, DF = I, no steps.
-    const AdvectResult id = advect_points(dyn, x0, y0, 2.0, 2.0, settings_for("dopri5", 1e-9, 8), true);
+    const FlowMap id =
+        flow_map_at_points({dyn, 2.0, 2.0, settings_for("dopri5", 1e-9, 8), GradientMethod::variational, true}, x0, y0);
     CHECK(id.stats.steps == 0);
-    CHECK(id.x == x0);
-    CHECK(id.y == y0);
+    CHECK(id.flow_x == x0);
+    CHECK(id.flow_y == y0);
     CHECK(id.dF[0] == 1.0);
     CHECK(id.dF[1] == 0.0);
     CHECK(id.dF[3] == 1.0);
@@ -582,14 +596,14 @@ TEST_CASE("the engine names a bad setting; the experiment layer maps it to its J
     IntegratorSettings s;
     s.method = "euler-maruyama";
     try {
-        advect_points(dyn, x0, y0, 0.0, 1.0, s, false);
+        flow_map_at_points({dyn, 0.0, 1.0, s}, x0, y0);
         FAIL("no error for an unknown method");
     } catch (const EngineSettingError &e) {
         CHECK(e.setting() == EngineSetting::method);
         CHECK(std::string(e.what()) == "method: " + e.message());
         // The same refusal through the experiment layer: the JSON path, then the engine's message.
         try {
-            with_json_paths([&] { advect_points(dyn, x0, y0, 0.0, 1.0, s, false); });
+            with_json_paths([&] { flow_map_at_points({dyn, 0.0, 1.0, s}, x0, y0); });
             FAIL("with_json_paths let the refusal through");
         } catch (const ConfigError &c) {
             CHECK(c.json_path() == "/integrator/method");
@@ -616,12 +630,75 @@ TEST_CASE("the engine names a bad setting; the experiment layer maps it to its J
         CHECK(e.setting() == EngineSetting::step);
         CHECK(json_path_of(e.setting()) == "/integrator/step");
     }
-    CHECK_THROWS_AS(advect_points(dyn, x0, y0, 0.0, 1.0, bad, false), EngineSettingError);
+    CHECK_THROWS_AS(flow_map_at_points({dyn, 0.0, 1.0, bad}, x0, y0), EngineSettingError);
     Grid grid;
-    CHECK_THROWS_AS(
-        compute_grid_flow_map(dyn, grid, 0.0, 1.0, IntegratorSettings{}, GradientMethod::auxiliary_grid, 0.0, false),
-        EngineSettingError);
+    CHECK_THROWS_AS(compute_grid_flow_map({dyn, 0.0, 1.0, IntegratorSettings{}, GradientMethod::auxiliary_grid}, grid),
+                    EngineSettingError);
     // Every setting has a path in the experiment file.
     for (int k = 0; k <= static_cast<int>(EngineSetting::grid); ++k)
         CHECK(json_path_of(static_cast<EngineSetting>(k)).rfind('/', 0) == 0);
+}
+
+TEST_CASE("one request, one result: the entry points give the same numbers for the same points") {
+    // The linear saddle x' = a x, y' = -a y: F = (x e^{aT}, y e^{-aT}), DF = diag(e^{aT}, e^{-aT}).
+    const double a = 0.8, T = 2.5;
+    const System saddle = make_system("linear-saddle", {{"a", a}});
+    const Grid grid{-1.0, 1.0, -0.5, 0.5, 9, 5}; // x range, y range, nx, ny
+    std::vector<double> x0, y0;
+    for (std::size_t p = 0; p < grid.size(); ++p) {
+        x0.push_back(grid.x(p % grid.nx));
+        y0.push_back(grid.y(p / grid.nx));
+    }
+    const FlowMapRequest request{{&saddle, nullptr},          0.0, T, settings_for("dopri5", 1e-10, 8),
+                                 GradientMethod::variational, true};
+    const FlowMap on_grid = compute_grid_flow_map(request, grid);
+    const FlowMap at_points = flow_map_at_points(request, x0, y0);
+    const FlowMap of_states = flow_map_of_states(request, x0.size(), [&](std::size_t k, double *state) {
+        state[0] = x0[k];
+        state[1] = y0[k];
+    });
+    CHECK(on_grid.grid.nx == grid.nx);
+    CHECK(on_grid.grid.ny == grid.ny);
+    REQUIRE(of_states.dimension == 2);
+    REQUIRE(of_states.state.size() == 2 * grid.size());
+    CHECK(of_states.flow_x.empty()); // whole states, not plane positions
+    for (std::size_t k = 0; k < grid.size(); ++k) {
+        CHECK(std::abs(on_grid.flow_x[k] - x0[k] * std::exp(a * T)) <= 1e-8 * std::exp(a * T));
+        CHECK(std::abs(on_grid.dF[4 * k] - std::exp(a * T)) <= 1e-8 * std::exp(a * T));
+        // The same lanes in the same batches: the same numbers bit for bit, whatever the entry point.
+        CHECK(at_points.flow_x[k] == on_grid.flow_x[k]);
+        CHECK(at_points.flow_y[k] == on_grid.flow_y[k]);
+        CHECK(of_states.state[2 * k] == on_grid.flow_x[k]);
+        CHECK(of_states.state[2 * k + 1] == on_grid.flow_y[k]);
+        for (std::size_t q = 0; q < 4; ++q) {
+            CHECK(at_points.dF[4 * k + q] == on_grid.dF[4 * k + q]);
+            CHECK(of_states.dF[4 * k + q] == on_grid.dF[4 * k + q]);
+        }
+        CHECK(of_states.log_det[k] == on_grid.log_det[k]);
+    }
+    // The auxiliary grid's offsets as a fraction of the grid spacing: the grid's neighbours at 1e-3 dx, 1e-3 dy.
+    const FlowMapRequest aux =
+        with_grid_offset({request.dynamics, 0.0, T, request.settings, GradientMethod::auxiliary_grid}, grid, 1e-3);
+    CHECK(aux.offset_x == 1e-3 * grid.dx());
+    CHECK(aux.offset_y == 1e-3 * grid.dy());
+    const FlowMap aux_grid = compute_grid_flow_map(aux, grid);
+    for (std::size_t k = 0; k < grid.size(); ++k)
+        CHECK(std::abs(aux_grid.dF[4 * k + 3] - std::exp(-a * T)) <= 1e-8 * std::exp(a * T));
+}
+
+TEST_CASE("the entry points refuse what their points cannot have") {
+    const System saddle = make_system("linear-saddle", {{"a", 1.0}});
+    const FlowMapRequest request{{&saddle, nullptr}, 0.0, 1.0, settings_for("dopri5", 1e-8, 4)};
+    CHECK_THROWS_WITH_AS(flow_map_at_points(request, std::vector<double>{0.1, 0.2}, std::vector<double>{0.3}),
+                         "flow_map_at_points: 2 x coordinates but 1 y coordinates", Error);
+    FlowMapRequest aux = request;
+    aux.gradient = GradientMethod::auxiliary_grid;
+    try {
+        flow_map_of_states(aux, 1, [](std::size_t, double *state) { state[0] = state[1] = 0.1; });
+        FAIL("no error for the auxiliary grid on whole states");
+    } catch (const EngineSettingError &e) {
+        CHECK(e.setting() == EngineSetting::gradient);
+    }
+    aux.offset_x = 1e-3; // offset_y still 0
+    CHECK_THROWS_AS(flow_map_at_points(aux, std::vector<double>{0.1}, std::vector<double>{0.2}), EngineSettingError);
 }

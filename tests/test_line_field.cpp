@@ -123,8 +123,7 @@ TEST_CASE("general and paper strain deviations agree on the undamped Duffing osc
     s.rtol = 1e-10;
     s.atol = 1e-12;
     const double T = 2.0;
-    const GridFlowMap fm =
-        compute_grid_flow_map(Dynamics{&duffing, &cosine}, g, 0.0, T, s, GradientMethod::variational, 0.0, false);
+    const FlowMap fm = compute_grid_flow_map({Dynamics{&duffing, &cosine}, 0.0, T, s, GradientMethod::variational}, g);
     const CauchyGreenField cg = cauchy_green_field(g, fm.dF, fm.mask, T);
     const StrainDerivatives d = strain_derivatives(cg);
     // On the grid the two forms differ only in the discrete gradients: the centred difference of lambda1 = 1/f

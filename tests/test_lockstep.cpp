@@ -63,8 +63,9 @@ TEST_CASE("lockstep kernel, linear saddle: positions and DF = diag(e^{aT}, e^{-a
             CAPTURE(c.method);
             CAPTURE(c.adaptive);
             CAPTURE(T);
-            const AdvectResult r =
-                advect_points(dyn, x0, y0, 0.0, T, lockstep(c.method, c.adaptive, c.step_or_tol), true);
+            const FlowMap r = flow_map_at_points(
+                {dyn, 0.0, T, lockstep(c.method, c.adaptive, c.step_or_tol), GradientMethod::variational, true}, x0,
+                y0);
             CHECK(r.stats.masked == 0);
             if (c.adaptive)
                 CHECK(r.stats.steps <= 200 * r.stats.batches);
@@ -72,8 +73,8 @@ TEST_CASE("lockstep kernel, linear saddle: positions and DF = diag(e^{aT}, e^{-a
                 CHECK(r.stats.steps == static_cast<std::uint64_t>(std::ceil(5.0 / c.step_or_tol - 1e-9)) * 3);
             const double ex = std::exp(a * T), ey = std::exp(-a * T), big = std::exp(a * std::abs(T));
             for (std::size_t k = 0; k < x0.size(); ++k) {
-                CHECK(std::abs(r.x[k] - x0[k] * ex) <= c.bound * (1.0 + big));
-                CHECK(std::abs(r.y[k] - y0[k] * ey) <= c.bound * (1.0 + big));
+                CHECK(std::abs(r.flow_x[k] - x0[k] * ex) <= c.bound * (1.0 + big));
+                CHECK(std::abs(r.flow_y[k] - y0[k] * ey) <= c.bound * (1.0 + big));
                 CHECK(std::abs(r.dF[4 * k] - ex) <= c.bound * big);
                 CHECK(r.dF[4 * k + 1] == 0.0); // J is diagonal: the off-diagonal stays exactly zero
                 CHECK(r.dF[4 * k + 2] == 0.0);
@@ -97,8 +98,7 @@ TEST_CASE("lockstep kernel, rigid rotation: DF is the rotation by omega T, FTLE 
         CAPTURE(settings.method);
         CAPTURE(settings.adaptive);
         const double bound = settings.adaptive ? 2e-8 : 2e-7;
-        const GridFlowMap fm =
-            compute_grid_flow_map(dyn, grid, 0.0, T, settings, GradientMethod::variational, 0.0, true);
+        const FlowMap fm = compute_grid_flow_map({dyn, 0.0, T, settings, GradientMethod::variational, true}, grid);
         const CauchyGreenField cg = cauchy_green_field(grid, fm.dF, fm.mask, T);
         for (std::size_t p = 0; p < grid.size(); ++p) {
             const double x = grid.x(p % grid.nx), y = grid.y(p / grid.nx);
@@ -132,12 +132,12 @@ TEST_CASE("lockstep kernel, unforced Duffing: H = y^2/2 - x^2/2 + x^4/4 is conse
     };
     for (const Case &c : {Case{quality_preset("standard"), 3e-5}, Case{lockstep("dop853", true, 1e-10, 8), 1e-7}}) {
         CAPTURE(c.settings.adaptive);
-        const AdvectResult r = advect_points(dyn, x0, y0, 0.0, 20.0, c.settings, false);
+        const FlowMap r = flow_map_at_points({dyn, 0.0, 20.0, c.settings}, x0, y0);
         CHECK(r.stats.masked == 0);
         double worst = 0.0;
         for (std::size_t k = 0; k < x0.size(); ++k)
-            worst =
-                std::max(worst, std::abs(test::duffing_energy(r.x[k], r.y[k]) - test::duffing_energy(x0[k], y0[k])));
+            worst = std::max(
+                worst, std::abs(test::duffing_energy(r.flow_x[k], r.flow_y[k]) - test::duffing_energy(x0[k], y0[k])));
         MESSAGE("dop853 adaptive=" << c.settings.adaptive << ": max |dH| = " << worst);
         CHECK(worst < c.bound);
     }
@@ -153,19 +153,20 @@ TEST_CASE("lockstep and Boost.Odeint engines agree; rhs counts follow the tablea
         CAPTURE(method);
         IntegratorSettings ours = lockstep(method, true, 1e-11, 8), theirs = ours;
         theirs.engine = "odeint";
-        const AdvectResult a = advect_points(dyn, x0, y0, 0.0, 10.0, ours, true);
-        const AdvectResult b = advect_points(dyn, x0, y0, 0.0, 10.0, theirs, true);
+        const FlowMap a = flow_map_at_points({dyn, 0.0, 10.0, ours, GradientMethod::variational, true}, x0, y0);
+        const FlowMap b = flow_map_at_points({dyn, 0.0, 10.0, theirs, GradientMethod::variational, true}, x0, y0);
         // Same tableau, same error norm and step control: the same accepted steps up to rounding; both within
         // N tol (1 + |DF|) of the exact flow, so within twice that of each other.
         for (std::size_t k = 0; k < x0.size(); ++k) {
-            CHECK(std::abs(a.x[k] - b.x[k]) <= 4e-8 * (1 + std::abs(a.x[k])));
+            CHECK(std::abs(a.flow_x[k] - b.flow_x[k]) <= 4e-8 * (1 + std::abs(a.flow_x[k])));
             for (int q = 0; q < 4; ++q)
                 CHECK(std::abs(a.dF[4 * k + q] - b.dF[4 * k + q]) <= 4e-8 * (1 + std::abs(a.dF[4 * k + q])));
         }
     }
     // dop853 with fixed steps: 12 evaluations per step (stage 0 of the next step is the derivative at the new state,
     // and the last step needs none): 10 / 0.36 -> 28 steps.
-    const AdvectResult f = advect_points(dyn, x0, y0, 0.0, 10.0, lockstep("dop853", false, 0.36, 8), true);
+    const FlowMap f = flow_map_at_points(
+        {dyn, 0.0, 10.0, lockstep("dop853", false, 0.36, 8), GradientMethod::variational, true}, x0, y0);
     CHECK(f.stats.steps == 28 * 3);
     CHECK(f.stats.rhs_evaluations == 12 * 28 * x0.size());
     CHECK(f.stats.rejected_steps == 0);
@@ -188,8 +189,12 @@ TEST_CASE("the plugin's fused step (ABI 1.2 advance) gives the stage-by-stage ke
                 CAPTURE(T);
                 IntegratorSettings fused = lockstep(method, false, method == "rk4" ? 0.05 : 0.36, 16), staged = fused;
                 staged.fused = false;
-                const AdvectResult a = advect_points(dyn, x0, y0, 0.0, T, fused, variational, box);
-                const AdvectResult b = advect_points(dyn, x0, y0, 0.0, T, staged, variational, box);
+                const FlowMap a = flow_map_at_points(
+                    {dyn, 0.0, T, fused, variational ? GradientMethod::variational : GradientMethod::none, true, box},
+                    x0, y0);
+                const FlowMap b = flow_map_at_points(
+                    {dyn, 0.0, T, staged, variational ? GradientMethod::variational : GradientMethod::none, true, box},
+                    x0, y0);
                 CHECK(a.stats.steps == b.stats.steps);
                 // The staged kernel also evaluates stage 0 of a next step that a batch whose lanes all stopped never
                 // takes; the fused step has no such evaluation (exact counts: the dop853 case of the test above).
@@ -203,8 +208,8 @@ TEST_CASE("the plugin's fused step (ABI 1.2 advance) gives the stage-by-stage ke
                 };
                 for (std::size_t k = 0; k < x0.size(); ++k) {
                     if (b.mask[k] != 0) continue;
-                    compare(a.x[k], b.x[k]);
-                    compare(a.y[k], b.y[k]);
+                    compare(a.flow_x[k], b.flow_x[k]);
+                    compare(a.flow_y[k], b.flow_y[k]);
                     if (!variational) continue;
                     CHECK(a.dF_exponent[k] == b.dF_exponent[k]);
                     compare(a.log_det[k], b.log_det[k]);
@@ -225,16 +230,20 @@ TEST_CASE("the plugin's fused step (ABI 1.2 advance) gives the stage-by-stage ke
         CAPTURE(variational);
         IntegratorSettings fused = lockstep("dop853", false, 0.36, 16), staged = fused;
         staged.fused = false;
-        const AdvectResult a = advect_points({&rotation, nullptr}, x0, y0, 0.0, T, fused, variational);
-        const AdvectResult b = advect_points({&rotation, nullptr}, x0, y0, 0.0, T, staged, variational);
+        const FlowMap a = flow_map_at_points({Dynamics{&rotation, nullptr}, 0.0, T, fused,
+                                              variational ? GradientMethod::variational : GradientMethod::none, true},
+                                             x0, y0);
+        const FlowMap b = flow_map_at_points({Dynamics{&rotation, nullptr}, 0.0, T, staged,
+                                              variational ? GradientMethod::variational : GradientMethod::none, true},
+                                             x0, y0);
         CHECK(a.stats.rhs_evaluations == b.stats.rhs_evaluations);
         for (std::size_t k = 0; k < x0.size(); ++k) {
             if (k == 5) continue; // the NaN start
-            CHECK(a.x[k] == b.x[k]);
-            CHECK(a.y[k] == b.y[k]);
+            CHECK(a.flow_x[k] == b.flow_x[k]);
+            CHECK(a.flow_y[k] == b.flow_y[k]);
             // dop853, h = 0.333, |omega h| = 0.57: about 1.5e-7 relative over the 9 steps (see the test above).
-            CHECK(std::abs(a.x[k] - (c * x0[k] - s * y0[k])) <= 2e-7);
-            CHECK(std::abs(a.y[k] - (s * x0[k] + c * y0[k])) <= 2e-7);
+            CHECK(std::abs(a.flow_x[k] - (c * x0[k] - s * y0[k])) <= 2e-7);
+            CHECK(std::abs(a.flow_y[k] - (s * x0[k] + c * y0[k])) <= 2e-7);
             if (!variational) continue;
             CHECK(std::abs(a.dF[4 * k] - c) <= 2e-7);
             CHECK(std::abs(a.dF[4 * k + 1] + s) <= 2e-7);
@@ -257,13 +266,12 @@ TEST_CASE("the default (standard preset) FTLE of the paper's first example match
     CHECK(e.quality == "standard");
     CHECK(e.integrator.method == "dop853");
     CHECK_FALSE(e.integrator.adaptive);
-    const GridFlowMap ours =
-        compute_grid_flow_map(dyn, grid, 0.0, T, e.integrator, GradientMethod::variational, 0.0, false);
+    const FlowMap ours = compute_grid_flow_map({dyn, 0.0, T, e.integrator, GradientMethod::variational}, grid);
     IntegratorSettings tight;
     tight.engine = "odeint";
     tight.method = "rkf78";
     tight.rtol = tight.atol = 1e-12;
-    const GridFlowMap exact = compute_grid_flow_map(dyn, grid, 0.0, T, tight, GradientMethod::variational, 0.0, false);
+    const FlowMap exact = compute_grid_flow_map({dyn, 0.0, T, tight, GradientMethod::variational}, grid);
     const CauchyGreenField a = cauchy_green_field(grid, ours.dF, ours.mask, T, ours.dF_exponent, ours.log_det);
     const CauchyGreenField b = cauchy_green_field(grid, exact.dF, exact.mask, T, exact.dF_exponent, exact.log_det);
     double mean = 0.0, worst = 0.0;
@@ -336,15 +344,15 @@ namespace {
 // FTLE of every grid point by `settings` and by a tight rkf78 reference (NaN where masked), forward from 0 to T.
 struct FtlePair {
     std::vector<double> ours, exact;
-    GridFlowMap flow;
+    FlowMap flow;
 };
 FtlePair ftle_pair(const Dynamics &dyn, const Grid &grid, double T, const IntegratorSettings &settings) {
     FtlePair r;
-    r.flow = compute_grid_flow_map(dyn, grid, 0.0, T, settings, GradientMethod::variational, 0.0, false);
+    r.flow = compute_grid_flow_map({dyn, 0.0, T, settings, GradientMethod::variational}, grid);
     IntegratorSettings tight;
     tight.method = "rkf78";
     tight.rtol = tight.atol = 1e-12;
-    const GridFlowMap exact = compute_grid_flow_map(dyn, grid, 0.0, T, tight, GradientMethod::variational, 0.0, false);
+    const FlowMap exact = compute_grid_flow_map({dyn, 0.0, T, tight, GradientMethod::variational}, grid);
     r.ours = cauchy_green_field(grid, r.flow.dF, r.flow.mask, T, r.flow.dF_exponent, r.flow.log_det).ftle;
     r.exact = cauchy_green_field(grid, exact.dF, exact.mask, T, exact.dF_exponent, exact.log_det).ftle;
     return r;
@@ -364,9 +372,8 @@ TEST_CASE("checked fixed steps: on the paper's first example every step passes, 
         checked.fused = plain.fused = fused;
         plain.step_tolerance = 0.0;
         REQUIRE(checked.step_tolerance > 0.0);
-        const GridFlowMap a =
-            compute_grid_flow_map(dyn, grid, 0.0, T, checked, GradientMethod::variational, 0.0, false);
-        const GridFlowMap b = compute_grid_flow_map(dyn, grid, 0.0, T, plain, GradientMethod::variational, 0.0, false);
+        const FlowMap a = compute_grid_flow_map({dyn, 0.0, T, checked, GradientMethod::variational}, grid);
+        const FlowMap b = compute_grid_flow_map({dyn, 0.0, T, plain, GradientMethod::variational}, grid);
         CHECK(a.stats.rejected_steps == 0);
         CHECK(a.stats.steps == a.stats.planned_steps);
         CHECK(a.stats.planned_steps == 77 * a.stats.batches); // ceil(8 pi / 0.33)
@@ -421,7 +428,7 @@ TEST_CASE("checked fixed steps: a system too stiff for the smallest sub-step is 
     std::vector<double> x0, y0;
     test::sample_points(20, x0, y0);
     const IntegratorSettings standard = quality_preset("standard");
-    const AdvectResult r = advect_points(dyn, x0, y0, 0.0, 2.0, standard, true);
+    const FlowMap r = flow_map_at_points({dyn, 0.0, 2.0, standard, GradientMethod::variational, true}, x0, y0);
     CHECK(r.stats.masked == x0.size());
     CHECK(r.stats.masked_unstable + r.stats.masked_non_finite == x0.size());
     CHECK(r.stats.masked_unstable > 0);
@@ -448,10 +455,8 @@ TEST_CASE("draft preset: the damped attractor in backward time meets draft's sta
     IntegratorSettings tight;
     tight.method = "rkf78";
     tight.rtol = tight.atol = 1e-12;
-    const GridFlowMap ours =
-        compute_grid_flow_map(dyn, grid, 0.0, T, draft, GradientMethod::variational, 0.0, false, bounds);
-    const GridFlowMap exact =
-        compute_grid_flow_map(dyn, grid, 0.0, T, tight, GradientMethod::variational, 0.0, false, bounds);
+    const FlowMap ours = compute_grid_flow_map({dyn, 0.0, T, draft, GradientMethod::variational, false, bounds}, grid);
+    const FlowMap exact = compute_grid_flow_map({dyn, 0.0, T, tight, GradientMethod::variational, false, bounds}, grid);
     const auto f_ours = cauchy_green_field(grid, ours.dF, ours.mask, -T, ours.dF_exponent, ours.log_det).ftle;
     const auto f_exact = cauchy_green_field(grid, exact.dF, exact.mask, -T, exact.dF_exponent, exact.log_det).ftle;
     double mean = 0.0, worst = 0.0;

@@ -95,7 +95,7 @@ TEST_CASE("linear n-D saddles: DF = Q diag(e^{a T}) Q^T and the Cauchy-Green eig
         for (const Path &p : paths) {
             CAPTURE(n);
             CAPTURE(p.what);
-            const StateFlowMap r = flow_map_of_states(dyn, count, start, t0, t1, p.s, true);
+            const FlowMap r = flow_map_of_states({dyn, t0, t1, p.s, GradientMethod::variational}, count, start);
             REQUIRE(r.dimension == n);
             CHECK(r.stats.masked == 0);
             // The SDK's fused step took every batch where the path says so (n-D fused steps), none elsewhere.
@@ -181,7 +181,7 @@ TEST_CASE("energy is conserved along Hamiltonian trajectories in four dimensions
             x[3] = -0.2;
         };
         const std::size_t count = 12;
-        const StateFlowMap r = flow_map_of_states(dyn, count, start, 0.0, 40.0, s, true);
+        const FlowMap r = flow_map_of_states({dyn, 0.0, 40.0, s, GradientMethod::variational}, count, start);
         CHECK(r.stats.masked == 0);
         for (std::size_t p = 0; p < count; ++p) {
             double x0[4];
@@ -207,7 +207,7 @@ TEST_CASE("energy is conserved along Hamiltonian trajectories in four dimensions
             x[3] = -0.3;
         };
         const std::size_t count = 9;
-        const StateFlowMap r = flow_map_of_states(dyn, count, start, 0.0, 30.0, s, false);
+        const FlowMap r = flow_map_of_states({dyn, 0.0, 30.0, s}, count, start);
         CHECK(r.stats.masked == 0);
         for (std::size_t p = 0; p < count; ++p) {
             double x0[4];
@@ -325,14 +325,11 @@ TEST_CASE("period-map iterates on a slice carry the whole state from period to p
     const std::vector<double> seeds = {0.3, 0.1, -0.5, 0.2};
     const Snapshots it = poincare_iterates(on_slice, s, std::nullopt, seeds, 0.0, period, 2);
     // Two periods at once from the whole initial states.
-    const StateFlowMap direct = flow_map_of_states(
-        whole, 2,
-        [&](std::size_t p, double *x) {
-            std::copy(slice.state.begin(), slice.state.end(), x);
-            x[0] = seeds[2 * p];
-            x[1] = seeds[2 * p + 1];
-        },
-        0.0, 2.0 * period, s, false);
+    const FlowMap direct = flow_map_of_states({whole, 0.0, 2.0 * period, s}, 2, [&](std::size_t p, double *x) {
+        std::copy(slice.state.begin(), slice.state.end(), x);
+        x[0] = seeds[2 * p];
+        x[1] = seeds[2 * p + 1];
+    });
     for (std::size_t p = 0; p < 2; ++p) {
         CHECK(std::abs(it.positions[2][2 * p] - direct.state[4 * p]) < 1e-8);
         CHECK(std::abs(it.positions[2][2 * p + 1] - direct.state[4 * p + 1]) < 1e-8);

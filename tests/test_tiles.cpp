@@ -75,7 +75,8 @@ TEST_CASE("tiles: the flow map and Cauchy-Green fields tile by tile are the unti
             CAPTURE(method);
             CAPTURE(positions);
             const IntegratorSettings settings = adaptive(8);
-            const GridFlowMap whole = compute_grid_flow_map(dyn, grid, 0.0, t1, settings, gradient, 1e-3, positions);
+            const FlowMap whole = compute_grid_flow_map(
+                with_grid_offset({dyn, 0.0, t1, settings, gradient, positions}, grid, 1e-3), grid);
             const CauchyGreenField exact =
                 cauchy_green_field(grid, whole.dF, whole.mask, t1, whole.dF_exponent, whole.log_det);
 
@@ -204,7 +205,10 @@ TEST_CASE("flow_map_at_points: arbitrary points, both gradient methods, against 
     for (const GradientMethod g : {GradientMethod::variational, GradientMethod::auxiliary_grid}) {
         const std::string method = to_string(g);
         CAPTURE(method);
-        const GridFlowMap f = flow_map_at_points(dyn, n, start, 0.0, t1, s, g, 1e-4, 2e-4, true);
+        FlowMapRequest request{dyn, 0.0, t1, s, g, true};
+        request.offset_x = 1e-4;
+        request.offset_y = 2e-4;
+        const FlowMap f = flow_map_at_points(request, n, start);
         REQUIRE(f.flow_x.size() == n);
         REQUIRE(f.dF.size() == 4 * n);
         for (std::size_t k = 0; k < n; ++k) {
@@ -219,8 +223,8 @@ TEST_CASE("flow_map_at_points: arbitrary points, both gradient methods, against 
         }
     }
     // Every point leaving the bounds is a result (the extractors' advection asks for such points), not an error.
-    const GridFlowMap out = flow_map_at_points(dyn, n, start, 0.0, t1, s, GradientMethod::none, 0, 0, true,
-                                               Bounds{-1e-3, 1e-3, -1e-3, 1e-3});
+    const FlowMap out =
+        flow_map_at_points({dyn, 0.0, t1, s, GradientMethod::none, true, Bounds{-1e-3, 1e-3, -1e-3, 1e-3}}, n, start);
     for (std::size_t k = 0; k < n; ++k) CHECK((out.mask[k] & mask_left_bounds) != 0);
 }
 
@@ -273,7 +277,9 @@ TEST_CASE("bounds that stop exits: the flow map stopped where the trajectory lea
         for (const GradientMethod g : {GradientMethod::variational, GradientMethod::auxiliary_grid}) {
             CAPTURE(to_string(g));
             CAPTURE(s.adaptive);
-            const GridFlowMap f = flow_map_at_points(dyn, n, start, 0.0, t1, s, g, 1e-6, 1e-6, true, stop);
+            FlowMapRequest request{dyn, 0.0, t1, s, g, true, stop};
+            request.offset_x = request.offset_y = 1e-6;
+            const FlowMap f = flow_map_at_points(request, n, start);
             REQUIRE(f.exit_time.size() == n);
             CHECK(f.stats.masked == 0);
             std::uint64_t exited = 0;
@@ -300,8 +306,8 @@ TEST_CASE("bounds that stop exits: the flow map stopped where the trajectory lea
         }
     }
     // The engine's default masks exits, as the extractors' advection needs.
-    const GridFlowMap masked =
-        flow_map_at_points(dyn, n, start, 0.0, t1, fixed, GradientMethod::variational, 0, 0, true, masking(stop));
+    const FlowMap masked =
+        flow_map_at_points({dyn, 0.0, t1, fixed, GradientMethod::variational, true, masking(stop)}, n, start);
     CHECK(masked.exit_time.empty());
     CHECK(masked.stats.masked_left_bounds == 4);
     CHECK(masked.stats.exited == 0);

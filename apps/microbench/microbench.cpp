@@ -63,9 +63,9 @@ Grid w_grid(std::size_t n) {
 }
 
 // W's flow map over 8 pi on a 301 x 301 grid (variational gradient, the engine's defaults), computed once.
-const GridFlowMap &w_flow_map() {
-    static const GridFlowMap fm = compute_grid_flow_map(workload().dynamics(), w_grid(301), 0.0, eight_pi,
-                                                        IntegratorSettings{}, GradientMethod::variational, 0.0, false);
+const FlowMap &w_flow_map() {
+    static const FlowMap fm = compute_grid_flow_map(
+        {workload().dynamics(), 0.0, eight_pi, IntegratorSettings{}, GradientMethod::variational}, w_grid(301));
     return fm;
 }
 
@@ -80,8 +80,8 @@ void flow_map_one_period(benchmark::State &state) {
     const auto n = static_cast<std::size_t>(state.range(0));
     const Grid grid = w_grid(n);
     for (auto _ : state) {
-        GridFlowMap fm = compute_grid_flow_map(workload().dynamics(), grid, 0.0, 2.0 * M_PI, IntegratorSettings{},
-                                               GradientMethod::variational, 0.0, false);
+        FlowMap fm = compute_grid_flow_map(
+            {workload().dynamics(), 0.0, 2.0 * M_PI, IntegratorSettings{}, GradientMethod::variational}, grid);
         benchmark::DoNotOptimize(fm.dF.data());
     }
     state.SetItemsProcessed(static_cast<std::int64_t>(state.iterations() * grid.size()));
@@ -90,7 +90,7 @@ BENCHMARK(flow_map_one_period)->Arg(64)->Arg(128)->UseRealTime()->Unit(benchmark
 
 // The fields: eigenvalues and eigenvectors of C = DF^T DF at every point of the 301 x 301 grid.
 void cauchy_green_eigen(benchmark::State &state) {
-    const GridFlowMap &fm = w_flow_map();
+    const FlowMap &fm = w_flow_map();
     for (auto _ : state) {
         CauchyGreenField cg = cauchy_green_field(fm.grid, fm.dF, fm.mask, eight_pi, fm.dF_exponent, fm.log_det);
         benchmark::DoNotOptimize(cg.lambda2.data());

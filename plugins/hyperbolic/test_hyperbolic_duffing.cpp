@@ -77,12 +77,13 @@ TEST_CASE("damped Duffing: the least-stretching attracting barrier lies on the c
         }
     const Dynamics dynamics{&r.system, &r.forcing};
     for (int n = 0; n < 20; ++n) {
-        const AdvectResult a = advect_points(dynamics, tx, ty, 0.0, 2 * M_PI, e.integrator, false, e.bounds);
+        const FlowMap a =
+            flow_map_at_points({dynamics, 0.0, 2 * M_PI, e.integrator, GradientMethod::none, false, e.bounds}, tx, ty);
         std::vector<double> nx, ny;
-        for (std::size_t k = 0; k < a.x.size(); ++k)
+        for (std::size_t k = 0; k < a.flow_x.size(); ++k)
             if (a.mask[k] == 0) {
-                nx.push_back(a.x[k]);
-                ny.push_back(a.y[k]);
+                nx.push_back(a.flow_x[k]);
+                ny.push_back(a.flow_y[k]);
             }
         tx = nx;
         ty = ny;

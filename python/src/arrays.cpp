@@ -206,7 +206,9 @@ py::tuple flow_map(const NativeSystem &system, const NativeForcing &forcing, con
     const double *start = points.data();
     const Dynamics dynamics{&system.system, &forcing.forcing, nullptr};
 
-    StateFlowMap result;
+    FlowMapRequest request{dynamics, t0, t1, settings};
+    request.gradient = derivative ? GradientMethod::variational : GradientMethod::none;
+    FlowMap result;
     std::exception_ptr failure;
     int interrupted = 0;
     {
@@ -217,8 +219,7 @@ py::tuple flow_map(const NativeSystem &system, const NativeForcing &forcing, con
             const std::unique_lock<std::mutex> forcing_turn = turn_of(forcing.forcing.info(), *forcing.turns);
             const ScopedThreadCount scoped(threads);
             result = flow_map_of_states(
-                dynamics, count, [&](std::size_t k, double *state) { std::memcpy(state, start + n * k, n * 8); }, t0,
-                t1, settings, derivative);
+                request, count, [&](std::size_t k, double *state) { std::memcpy(state, start + n * k, n * 8); });
         } catch (const EngineSettingError &e) {
             try {
                 throw ConfigError(argument_of(e.setting()), e.message());

@@ -31,15 +31,16 @@ TEST_CASE("shear-vortex: flow map, FTLE, det DF and the closed shearlines, as de
     tight.atol = 1e-14;
     for (double T : {5.0, -3.0}) {
         CAPTURE(T);
-        const AdvectResult res = advect_points(Dynamics{&s, &none}, x0, y0, 0.0, T, tight, true);
+        const FlowMap res =
+            flow_map_at_points({Dynamics{&s, &none}, 0.0, T, tight, GradientMethod::variational, true}, x0, y0);
         for (std::size_t k = 0; k < x0.size(); ++k) {
             CAPTURE(k);
             REQUIRE(res.mask[k] == 0);
             const double r2 = x0[k] * x0[k] + y0[k] * y0[k], r = std::sqrt(r2);
             // F rotates by theta = w(r) T; |theta| <= 4 rad here, integrated to ~1e-12 relative per step.
             const double theta = (omega + shear * r2) * T;
-            CHECK(std::fabs(res.x[k] - (x0[k] * std::cos(theta) - y0[k] * std::sin(theta))) <= 1e-9);
-            CHECK(std::fabs(res.y[k] - (x0[k] * std::sin(theta) + y0[k] * std::cos(theta))) <= 1e-9);
+            CHECK(std::fabs(res.flow_x[k] - (x0[k] * std::cos(theta) - y0[k] * std::sin(theta))) <= 1e-9);
+            CHECK(std::fabs(res.flow_y[k] - (x0[k] * std::sin(theta) + y0[k] * std::cos(theta))) <= 1e-9);
             // C = DF^T DF; in polar frames DF = [[1, 0], [gamma, 1]], gamma = 2 shear r^2 T: lambda2 =
             // (sqrt(1 + gamma^2/4) + |gamma|/2)^2, so log(lambda2) / (2|T|) = asinh(|shear| r^2 |T|) / |T|.
             const double *F = &res.dF[4 * k];
@@ -64,7 +65,8 @@ TEST_CASE("shear-vortex: shear = 0 is a rigid rotation, C = I") {
     IntegratorSettings tight;
     tight.rtol = 1e-12;
     tight.atol = 1e-14;
-    const AdvectResult r = advect_points(Dynamics{&s, &none}, {0.5, -1.0}, {0.25, 0.3}, 0.0, 3.0, tight, true);
+    const FlowMap r = flow_map_at_points({Dynamics{&s, &none}, 0.0, 3.0, tight, GradientMethod::variational, true},
+                                         {0.5, -1.0}, {0.25, 0.3});
     for (std::size_t k = 0; k < 2; ++k) {
         const double *F = &r.dF[4 * k];
         CHECK(std::fabs(F[0] - std::cos(6.0)) <= 1e-9);

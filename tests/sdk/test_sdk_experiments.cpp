@@ -37,8 +37,9 @@ TEST_CASE("experiments/shear-vortex.json: FTLE = asinh(|shear| r^2 |T|) / |T| on
     const ResolvedExperiment r = resolve_experiment(e);
     REQUIRE(r.gradient == GradientMethod::variational);
     const double T = e.t1 - e.t0;
-    const GridFlowMap flow = compute_grid_flow_map(Dynamics{&r.system, &r.forcing}, e.grid, e.t0, e.t1, e.integrator,
-                                                   r.gradient, e.aux_offset, false);
+    const FlowMap flow = compute_grid_flow_map(
+        with_grid_offset({Dynamics{&r.system, &r.forcing}, e.t0, e.t1, e.integrator, r.gradient}, e.grid, e.aux_offset),
+        e.grid);
     const CauchyGreenField cg = cauchy_green_field(e.grid, flow.dF, flow.mask, std::fabs(T));
     const double shear = e.system.params["shear"];
     for (std::size_t i = 0; i < e.grid.ny; ++i)

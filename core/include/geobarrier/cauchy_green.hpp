@@ -56,7 +56,7 @@ struct CauchyGreenField {
 CauchyGreenField cauchy_green_field(const Grid &grid, const std::vector<double> &dF,
                                     const std::vector<std::uint8_t> &mask, double abs_duration);
 
-// The same with the flow map's DF exponents and log|det DF| (GridFlowMap::dF_exponent, ::log_det); either may be
+// The same with the flow map's DF exponents and log|det DF| (FlowMap::dF_exponent, ::log_det); either may be
 // empty (exponent 0, det from the entries).
 CauchyGreenField cauchy_green_field(const Grid &grid, const std::vector<double> &dF,
                                     const std::vector<std::uint8_t> &mask, double abs_duration,

@@ -77,11 +77,11 @@ void runs_below(const double *values, std::size_t n, double threshold, std::vect
 std::vector<PointRun> runs_below(const std::vector<double> &values, double threshold);
 
 // "Advect these points": xy_in (x, y interleaved, n points) to xy_out (2n values) with mask (n MaskBits, 0 =
-// valid). The runner wraps advect_points in one; an extractor plugin wraps sdk::Host::advect.
+// valid). The runner wraps flow_map_at_points in one; an extractor plugin wraps sdk::Host::advect.
 using AdvectPointsFn =
     std::function<void(const std::vector<double> &xy_in, std::vector<double> &xy_out, std::vector<std::uint8_t> &mask)>;
 
-// An AdvectPointsFn over advect_points (positions only) for code that holds the dynamics itself.
+// An AdvectPointsFn over flow_map_at_points (positions only) for code that holds the dynamics itself.
 AdvectPointsFn make_advect_points_fn(const Dynamics &dynamics, double t_from, double t_to,
                                      const IntegratorSettings &settings, const std::optional<Bounds> &bounds = {});
 

@@ -94,11 +94,10 @@ const char *to_string(ExitRule rule);
 // curves and tracers), whatever the experiment's rule for its grid.
 std::optional<Bounds> masking(const std::optional<Bounds> &bounds);
 
-// What to integrate: the system, its forcing (may be null when unused), the
-// interval, the settings and the optional bounds.
-// Systems of dimension above 2 are seen by the planar functions below (advect_points, compute_grid_flow_map,
-// flow_map_at_points) on a slice: their (x, y) are the slice's axes, the other components start at the slice's fixed
-// values, and their DF is the slice's 2 x 2 gradient (Slice::tensor). flow_map_of_states integrates whole states.
+// The system and its forcing (may be null when unused). Systems of dimension above 2 are seen by the planar functions
+// below (compute_grid_flow_map, flow_map_at_points) on a slice: their (x, y) are the slice's axes, the other
+// components start at the slice's fixed values, and their DF is the slice's 2 x 2 gradient (Slice::tensor).
+// flow_map_of_states integrates whole states.
 struct Dynamics {
     const System *system = nullptr;
     const Forcing *forcing = nullptr;
@@ -163,9 +162,51 @@ struct IntegratorStats {
 // must be cheap and thread-safe.
 using ProgressFn = std::function<void(std::size_t done, std::size_t total)>;
 
-struct AdvectResult {
-    std::vector<double> x, y; // final positions (NaN where masked)
-    std::vector<double> dF;   // variational only: 4 per point, F11 F12 F21 F22 (row-major DF), see dF_exponent
+// How the gradient of the flow map is computed.
+enum class GradientMethod {
+    none,           // positions only
+    auxiliary_grid, // centred differences of 4 neighbours at +-offset_x, +-offset_y (planar only)
+    variational     // DF from the variational equations (needs the system's Jacobian)
+};
+GradientMethod parse_gradient_method(const std::string &name); // throws EngineSettingError (gradient)
+const char *to_string(GradientMethod method);
+
+// What every entry point of the engine integrates, and how: one aggregate with the engine's defaults, so that a
+// caller names only what it sets, in the order of need (FlowMapRequest r{dynamics, t0, t1, settings, gradient}; the
+// auxiliary grid's offsets, which no other method uses, last; in C++20, designated initialisers). What differs between
+// the entry points is only where the points start (a grid, a callback, two coordinate vectors, whole states), which is
+// why they stay separate functions below.
+struct FlowMapRequest {
+    // Every member has a default initialiser, so that brace-initialising the first few warns of none missing.
+    Dynamics dynamics = {};
+    double t0 = 0.0, t1 = 0.0; // t1 < t0 is backward time
+    IntegratorSettings settings = {};
+    GradientMethod gradient = GradientMethod::none;
+    // Integrate the positions F(x0) even where the gradient method does not produce them (the auxiliary grid, at the
+    // cost of a fifth lane per point). Gradient none always has them; the variational equations carry them anyway
+    // but keep them only when asked.
+    bool want_positions = false;
+    std::optional<Bounds> bounds = std::nullopt; // none: no box
+    ProgressFn progress = {};                    // none: no progress reports
+    // The auxiliary grid's neighbours at +-offset_x, +-offset_y, in the plane's own units (a grid's caller passes a
+    // fraction of its spacing: offset dx, offset dy). Unused by the other gradient methods.
+    double offset_x = 0.0, offset_y = 0.0;
+};
+
+// The request with the auxiliary grid's offsets a fraction of the grid's spacing (fraction dx, fraction dy): the
+// experiment's "offset" (Experiment::aux_offset) for a grid's points.
+FlowMapRequest with_grid_offset(FlowMapRequest request, const Grid &grid, double fraction);
+
+// What every entry point returns; which members are filled depends on the entry point and the request, the others are
+// empty. Points keep the order in which they were given.
+struct FlowMap {
+    Grid grid;              // compute_grid_flow_map: the grid; else default
+    unsigned dimension = 2; // the side of DF: 2 for the planar entry points, the system's for flow_map_of_states
+    // The planar entry points: final positions in the plane (the slice's axes), when asked for (or gradient none).
+    std::vector<double> flow_x, flow_y;
+    std::vector<double> state; // flow_map_of_states: final states, dimension per point (NaN where masked)
+    // With a gradient: dimension^2 per point, row-major (planar: F11 F12 F21 F22), NaN where masked; see dF_exponent.
+    std::vector<double> dF;
     // Variational only. On long horizons DF leaves the double range (|DF| ~ e^{FTLE |T|}); the engine then carries
     // it renormalised, and DF = 2^dF_exponent[k] * dF. dF_exponent is 0 wherever DF itself fits in a double.
     std::vector<std::int32_t> dF_exponent;
@@ -173,65 +214,40 @@ struct AdvectResult {
     // area-preserving systems, and accurate where det DF computed from the entries is lost to cancellation.
     std::vector<double> log_det;
     std::vector<std::uint8_t> mask; // MaskBits per point
-    IntegratorStats stats;
-};
-
-// Integrates the points (x0[k], y0[k]) from t0 to t1. With `variational`, also
-// DF (the system must provide a Jacobian). Points next to each other in the
-// input share a batch, so pass neighbours together.
-AdvectResult advect_points(const Dynamics &dynamics, const std::vector<double> &x0, const std::vector<double> &y0,
-                           double t0, double t1, const IntegratorSettings &settings, bool variational,
-                           const std::optional<Bounds> &bounds = std::nullopt, const ProgressFn &progress = {});
-
-// The flow map of whole states of a system of any dimension 2 .. max_dimension: point k starts at the state `start`
-// writes (dimension values), and the result holds every component of the final state and, with `variational`, the
-// whole n x n DF. Dynamics::slice, if any, only says which two components the bounds box limits (else 0 and 1). Points
-// next to each other share a batch. Every point masked is a result, not an error. The auxiliary grid is planar only
-// (use the variational equations).
-struct StateFlowMap {
-    unsigned dimension = 0;
-    std::vector<double> state;             // final states, dimension per point (NaN where masked)
-    std::vector<double> dF;                // variational only: dimension^2 per point, row-major; see dF_exponent
-    std::vector<std::int32_t> dF_exponent; // variational only: DF = 2^dF_exponent * dF (see AdvectResult)
-    std::vector<double> log_det;           // variational only: log|det DF| (Liouville)
-    std::vector<std::uint8_t> mask;        // MaskBits per point
-    IntegratorStats stats;
-};
-using StateStartFn = std::function<void(std::size_t k, double *state)>;
-StateFlowMap flow_map_of_states(const Dynamics &dynamics, std::size_t count, const StateStartFn &start, double t0,
-                                double t1, const IntegratorSettings &settings, bool variational,
-                                const std::optional<Bounds> &bounds = std::nullopt, const ProgressFn &progress = {});
-
-// How the gradient of the flow map is computed on the grid.
-enum class GradientMethod {
-    none,           // positions only
-    auxiliary_grid, // centred differences of 4 neighbours at +-offset*dx, +-offset*dy
-    variational     // DF from the variational equations (needs the system's Jacobian)
-};
-GradientMethod parse_gradient_method(const std::string &name); // throws EngineSettingError (gradient)
-const char *to_string(GradientMethod method);
-
-struct GridFlowMap {
-    Grid grid;
-    std::vector<double> flow_x, flow_y;    // F(x0) on the grid; empty unless requested
-    std::vector<double> dF;                // 4 per point (F11 F12 F21 F22); empty for GradientMethod::none
-    std::vector<std::int32_t> dF_exponent; // variational only: DF = 2^dF_exponent * dF (see AdvectResult)
-    std::vector<double> log_det;           // variational only: log|det DF| (Liouville)
-    std::vector<std::uint8_t> mask;
-    // With bounds whose rule is ExitRule::stop: when each point's trajectory left the box (NaN: it never did, the
-    // point is captured); empty otherwise. Auxiliary grid without positions: the earliest of its 4 neighbours.
+    // The planar entry points with bounds whose rule is ExitRule::stop: when each point's trajectory left the box
+    // (NaN: it never did, the point is captured); empty otherwise. Auxiliary grid without positions: the earliest of
+    // its 4 neighbours.
     std::vector<double> exit_time;
     IntegratorStats stats;
 };
 
-// The flow map (and its gradient) over the grid. `want_positions` forces the
-// positions F(x0) to be integrated even when the gradient method does not
-// produce them (auxiliary grid). Throws NumericalError, naming the reasons (and,
-// for a step limit, the stepper and what to try), when every grid point is masked.
-GridFlowMap compute_grid_flow_map(const Dynamics &dynamics, const Grid &grid, double t0, double t1,
-                                  const IntegratorSettings &settings, GradientMethod gradient, double aux_offset,
-                                  bool want_positions, const std::optional<Bounds> &bounds = std::nullopt,
-                                  const ProgressFn &progress = {});
+// The flow map (and its gradient) over the grid's points in row order (row = y). Throws NumericalError, naming the
+// reasons (and, for a step limit, the stepper and what to try), when every grid point is masked.
+FlowMap compute_grid_flow_map(const FlowMapRequest &request, const Grid &grid);
+
+// Where point k of a set starts: fills (x, y).
+using StartFn = std::function<void(std::size_t k, double &x, double &y)>;
+
+// The flow map and its gradient at `count` arbitrary points (memory tiles, extractors' advection): point k starts
+// where `start` says, lanes of neighbouring k share a batch, and the auxiliary-grid gradient uses the neighbours at
+// +-offset_x, +-offset_y with the difference-aware error control. compute_grid_flow_map is this function over a grid's
+// points in row order; over the points [first, first + count) of that order, with `first` a multiple of
+// points_per_batch, it gives the same numbers for those points bit for bit (the memory tiles of the runner rest on
+// this). Unlike compute_grid_flow_map, every point masked is a result here, not an error. `reuse` lends its buffers to
+// the result (a previous result, say): repeated calls then allocate, and fault in, no new memory.
+FlowMap flow_map_at_points(const FlowMapRequest &request, std::size_t count, const StartFn &start, FlowMap reuse = {});
+
+// The same at the points (x0[k], y0[k]), the two vectors of equal length (advection of given points). Points next to
+// each other share a batch, so pass neighbours together.
+FlowMap flow_map_at_points(const FlowMapRequest &request, const std::vector<double> &x0, const std::vector<double> &y0);
+
+// The flow map of whole states of a system of any dimension 2 .. max_dimension: point k starts at the state `start`
+// writes (dimension values), and the result holds every component of the final state (FlowMap::state) and, with the
+// variational gradient, the whole n x n DF. Dynamics::slice, if any, only says which two components the bounds box
+// limits (else 0 and 1). The auxiliary grid is planar only (refused: use the variational equations); want_positions
+// and the offsets are unused. Points next to each other share a batch. Every point masked is a result, not an error.
+using StateStartFn = std::function<void(std::size_t k, double *state)>;
+FlowMap flow_map_of_states(const FlowMapRequest &request, std::size_t count, const StateStartFn &start);
 
 // The checks every entry point of the engine makes before it integrates anything, for a caller that wants its
 // settings refused before it starts (the experiment layer, at resolve time): throws EngineSettingError.
@@ -249,24 +265,6 @@ std::string describe_step_refinement(const IntegratorStats &stats, const Integra
 
 // How the gradient of the flow map survives long horizons, for the manifest: the method and its details.
 nlohmann::json long_horizon_method(GradientMethod method);
-
-// --- The flow map at arbitrary points (memory tiles, extractors' advection) ---
-
-// Where point k of a set starts: fills (x, y).
-using StartFn = std::function<void(std::size_t k, double &x, double &y)>;
-
-// The flow map and its gradient at `count` arbitrary points: point k starts where `start` says, lanes of neighbouring
-// k share a batch, and the auxiliary-grid gradient uses the neighbours at +-offset_x, +-offset_y with the
-// difference-aware error control. compute_grid_flow_map is this function over a grid's points in row order with
-// offset_x = aux_offset dx and offset_y = aux_offset dy; over the points [first, first + count) of that order, with
-// `first` a multiple of points_per_batch, it gives the same numbers for those points bit for bit (the memory tiles of
-// the runner rest on this). The result's `grid` is left default; flow_x/flow_y hold the positions when asked for (or
-// gradient none). Unlike compute_grid_flow_map, every point masked is a result here, not an error. `reuse` lends its
-// buffers to the result (a previous result, say): repeated calls then allocate, and fault in, no new memory.
-GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, const StartFn &start, double t0, double t1,
-                               const IntegratorSettings &settings, GradientMethod gradient, double offset_x,
-                               double offset_y, bool want_positions, const std::optional<Bounds> &bounds = std::nullopt,
-                               const ProgressFn &progress = {}, GridFlowMap reuse = {});
 
 // Points per lockstep batch of flow_map_at_points (see there): the alignment of bit-identical tiles.
 std::size_t points_per_batch(const IntegratorSettings &settings, GradientMethod gradient, bool want_positions);

@@ -1,7 +1,7 @@
 // Validation products: the instruments the paper uses to prove its barriers right (section 3) — iterates of the
 // period map, tracer clouds, trajectories, the forcing itself and the stretching history of advected barriers
 // (eq. `rel_def`) with their tube in extended phase space. Each is computed only when the experiment's
-// "validation" object asks for it, with the project's own flow-map engine (advect_points, advect_curve).
+// "validation" object asks for it, with the project's own flow-map engine (flow_map_at_points, advect_curve).
 #ifndef GEOBARRIER_VALIDATION_HPP
 #define GEOBARRIER_VALIDATION_HPP
 

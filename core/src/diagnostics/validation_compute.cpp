@@ -143,11 +143,12 @@ Snapshots advect_snapshots(const Dynamics &dynamics, const IntegratorSettings &s
                     // The segment from t_current to t: new states of the alive points, and their masks.
                     std::vector<std::uint8_t> mask;
                     std::vector<double> moved;
+                    FlowMapRequest request{dynamics, t_current, t, settings};
+                    request.bounds = bounds;
                     if (slice) {
-                        const StateFlowMap a = flow_map_of_states( // the slice only places the bounds box
-                            dynamics, alive.size(),
-                            [&](std::size_t q, double *x) { std::copy_n(current.begin() + dim * alive[q], dim, x); },
-                            t_current, t, settings, false, bounds);
+                        const FlowMap a = flow_map_of_states( // the slice only places the bounds box
+                            request, alive.size(),
+                            [&](std::size_t q, double *x) { std::copy_n(current.begin() + dim * alive[q], dim, x); });
                         out.stats.add(a.stats);
                         mask = a.mask;
                         moved = a.state;
@@ -157,12 +158,12 @@ Snapshots advect_snapshots(const Dynamics &dynamics, const IntegratorSettings &s
                             x0.push_back(current[2 * p]);
                             y0.push_back(current[2 * p + 1]);
                         }
-                        const AdvectResult a = advect_points(dynamics, x0, y0, t_current, t, settings, false, bounds);
+                        const FlowMap a = flow_map_at_points(request, x0, y0);
                         out.stats.add(a.stats);
                         mask = a.mask;
                         for (std::size_t q = 0; q < alive.size(); ++q) {
-                            moved.push_back(a.x[q]);
-                            moved.push_back(a.y[q]);
+                            moved.push_back(a.flow_x[q]);
+                            moved.push_back(a.flow_y[q]);
                         }
                     }
                     for (std::size_t q = 0; q < alive.size(); ++q) {
@@ -221,14 +222,19 @@ SectionCrossings section_crossings(const Dynamics &dynamics, const IntegratorSet
         for (std::size_t i = 0; i < dim; ++i) s += normal[i] * v[i];
         return s;
     };
+    const auto request = [&](double from, double to) {
+        FlowMapRequest r{whole, from, to, settings};
+        r.bounds = bounds;
+        return r;
+    };
     // x(t) from the state a at time ta (one trajectory); false when masked.
     const auto advance = [&](const double *a, double ta, double t, double *x) {
         if (t == ta) {
             std::copy_n(a, dim, x);
             return true;
         }
-        const StateFlowMap r = flow_map_of_states(
-            whole, 1, [&](std::size_t, double *s) { std::copy_n(a, dim, s); }, ta, t, settings, false, bounds);
+        const FlowMap r =
+            flow_map_of_states(request(ta, t), 1, [&](std::size_t, double *s) { std::copy_n(a, dim, s); });
         out.stats.add(r.stats);
         if (r.mask[0] != 0) return false;
         std::copy_n(r.state.begin(), dim, x);
@@ -244,10 +250,9 @@ SectionCrossings section_crossings(const Dynamics &dynamics, const IntegratorSet
     std::vector<double> x(dim), a(dim);
     for (double t = t_start; t < t_end && !alive.empty() && out.times.size() < max_crossings;) {
         const double t_next = std::min(t_end, t + sample);
-        const StateFlowMap r = flow_map_of_states(
-            whole, alive.size(),
-            [&](std::size_t q, double *s) { std::copy_n(current.begin() + dim * alive[q], dim, s); }, t, t_next,
-            settings, false, bounds);
+        const FlowMap r = flow_map_of_states(request(t, t_next), alive.size(), [&](std::size_t q, double *s) {
+            std::copy_n(current.begin() + dim * alive[q], dim, s);
+        });
         out.stats.add(r.stats);
         std::vector<std::size_t> still;
         for (std::size_t q = 0; q < alive.size(); ++q) {

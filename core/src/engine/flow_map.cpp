@@ -89,16 +89,15 @@ void validate(const Dynamics &dynamics, double t0, double t1, const IntegratorSe
         throw EngineSettingError(EngineSetting::time, "t0 and t1 must be finite");
 }
 
-// The engine for the system's dimension (validate() has checked it is 2 .. max_dimension). The bounds box limits
-// the slice's axes when there is a slice, else components 0 and 1.
-IntegratorStats run_batches(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings,
-                            bool variational, const std::optional<Bounds> &bounds, std::size_t lanes, std::size_t batch,
-                            const InitFn &init, const FinishFn &finish, const ProgressFn &progress,
-                            const DifferenceControl &differences = {}) {
+// The engine for the system's dimension (validate() has checked it is 2 .. max_dimension) over `lanes` lanes in batches
+// of `batch`. The bounds box limits the slice's axes when there is a slice, else components 0 and 1.
+IntegratorStats run_batches(const FlowMapRequest &r, bool variational, std::size_t lanes, std::size_t batch,
+                            const InitFn &init, const FinishFn &finish, const DifferenceControl &differences = {}) {
     static_assert(max_dimension == 6, "specialise run_batches_for for every dimension up to max_dimension");
+    const Dynamics &dynamics = r.dynamics;
     const std::array<unsigned, 2> axes = dynamics.slice ? dynamics.slice->axes : std::array<unsigned, 2>{0, 1};
-    const BatchRequest request{dynamics, t0,   t1,     settings, variational, bounds, lanes,
-                               batch,    init, finish, progress, differences, axes};
+    const BatchRequest request{dynamics, r.t0, r.t1,   r.settings, variational, r.bounds, lanes,
+                               batch,    init, finish, r.progress, differences, axes};
     switch (dynamics.system->dimension()) {
     case 2:
         return flow_map_engine::run_batches_for<2>(request);
@@ -188,7 +187,7 @@ double earliest_exit(const double *exit_time, std::size_t count, double t0) {
 }
 
 // Every grid point masked is an error, not an empty result: say why, with what to try.
-void require_unmasked_points(const GridFlowMap &out, const IntegratorSettings &settings, const Dynamics &dynamics) {
+void require_unmasked_points(const FlowMap &out, const IntegratorSettings &settings, const Dynamics &dynamics) {
     if (out.mask.empty() || std::any_of(out.mask.begin(), out.mask.end(), [](std::uint8_t m) { return m == 0; }))
         return;
     throw NumericalError("every one of the " + std::to_string(out.mask.size()) + " grid points was masked: " +
@@ -337,49 +336,6 @@ nlohmann::json IntegratorStats::to_json() const {
                           {"wall_seconds", wall_seconds}};
 }
 
-AdvectResult advect_points(const Dynamics &dynamics, const std::vector<double> &x0, const std::vector<double> &y0,
-                           double t0, double t1, const IntegratorSettings &settings, bool variational,
-                           const std::optional<Bounds> &bounds, const ProgressFn &progress) {
-    validate(dynamics, t0, t1, settings, variational);
-    const PlaneView plane(dynamics, variational ? GradientMethod::variational : GradientMethod::none, "advect_points");
-    if (x0.size() != y0.size())
-        throw Error("advect_points: " + std::to_string(x0.size()) + " x coordinates but " + std::to_string(y0.size()) +
-                    " y coordinates");
-    const std::size_t count = x0.size();
-    AdvectResult result;
-    result.x.assign(count, nan_value);
-    result.y.assign(count, nan_value);
-    if (variational) result.dF.assign(4 * count, nan_value);
-    if (variational) {
-        result.dF_exponent.assign(count, 0);
-        result.log_det.assign(count, nan_value);
-    }
-    result.mask.assign(count, 0);
-    if (count == 0) return result;
-
-    const InitFn init = plane.init([&](std::size_t first, std::size_t n, double *xs, double *ys) {
-        std::copy(x0.begin() + first, x0.begin() + first + n, xs);
-        std::copy(y0.begin() + first, y0.begin() + first + n, ys);
-    });
-    const FinishFn finish = [&](std::size_t first, std::size_t n, const double *s, const std::uint8_t *mask,
-                                const std::int32_t *exponent, const double *) {
-        for (std::size_t k = 0; k < n; ++k) {
-            const std::size_t p = first + k;
-            result.mask[p] = mask[k];
-            if (mask[k] != 0) continue;
-            result.x[p] = plane.x(s, n, k);
-            result.y[p] = plane.y(s, n, k);
-            if (variational) {
-                plane.gradient(s, n, k, exponent[k], &result.dF[4 * p], result.log_det[p]);
-                result.dF_exponent[p] = exponent[k];
-            }
-        }
-    };
-    result.stats = run_batches(dynamics, t0, t1, settings, variational, bounds, count, lanes_per_batch(settings), init,
-                               finish, progress);
-    return result;
-}
-
 GradientMethod parse_gradient_method(const std::string &name) {
     if (name == "auxiliary-grid") return GradientMethod::auxiliary_grid;
     if (name == "variational") return GradientMethod::variational;
@@ -411,28 +367,26 @@ const char *to_string(GradientMethod method) {
     return "?";
 }
 
-GridFlowMap compute_grid_flow_map(const Dynamics &dynamics, const Grid &grid, double t0, double t1,
-                                  const IntegratorSettings &settings, GradientMethod gradient, double aux_offset,
-                                  bool want_positions, const std::optional<Bounds> &bounds,
-                                  const ProgressFn &progress) {
+FlowMapRequest with_grid_offset(FlowMapRequest request, const Grid &grid, double fraction) {
+    request.offset_x = fraction * grid.dx();
+    request.offset_y = fraction * grid.dy();
+    return request;
+}
+
+FlowMap compute_grid_flow_map(const FlowMapRequest &request, const Grid &grid) {
     if (grid.nx < 2 || grid.ny < 2)
         throw EngineSettingError(EngineSetting::grid, "the grid needs at least 2 points per direction (got " +
                                                           std::to_string(grid.nx) + " x " + std::to_string(grid.ny) +
                                                           ")");
-    if (gradient == GradientMethod::auxiliary_grid && !(aux_offset > 0.0 && std::isfinite(aux_offset)))
-        throw EngineSettingError(EngineSetting::offset, std::to_string(aux_offset) + " is not a positive offset");
-    // The grid's points row-major (row = y), so neighbours in x share a batch; the auxiliary offset is relative to the
-    // grid spacing.
+    // The grid's points row-major (row = y), so neighbours in x share a batch.
     const std::size_t nx = grid.nx;
     const StartFn start = [&](std::size_t p, double &x, double &y) {
         x = grid.x(p % nx);
         y = grid.y(p / nx);
     };
-    GridFlowMap out =
-        flow_map_at_points(dynamics, grid.size(), start, t0, t1, settings, gradient, aux_offset * grid.dx(),
-                           aux_offset * grid.dy(), want_positions, bounds, progress);
+    FlowMap out = flow_map_at_points(request, grid.size(), start);
     out.grid = grid;
-    require_unmasked_points(out, settings, dynamics);
+    require_unmasked_points(out, request.settings, request.dynamics);
     return out;
 }
 
@@ -444,75 +398,45 @@ std::size_t points_per_batch(const IntegratorSettings &settings, GradientMethod 
     return (lanes_per_batch(settings) + per_point - 1) / per_point;
 }
 
-GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, const StartFn &start, double t0, double t1,
-                               const IntegratorSettings &settings, GradientMethod gradient, double offset_x,
-                               double offset_y, bool want_positions, const std::optional<Bounds> &bounds,
-                               const ProgressFn &progress, GridFlowMap reuse) {
-    const bool variational = gradient == GradientMethod::variational;
-    validate(dynamics, t0, t1, settings, variational);
-    const PlaneView plane(dynamics, gradient, "flow_map_at_points");
-    if (gradient == GradientMethod::auxiliary_grid &&
-        !(offset_x > 0.0 && std::isfinite(offset_x) && offset_y > 0.0 && std::isfinite(offset_y)))
-        throw EngineSettingError(EngineSetting::offset, std::to_string(offset_x) + ", " + std::to_string(offset_y) +
-                                                            " are not positive offsets");
-    const bool positions = want_positions || gradient == GradientMethod::none;
-    GridFlowMap out = std::move(reuse);
-    out.grid = Grid{};
-    out.stats = IntegratorStats{};
-    // assign() and clear() keep the buffers' capacity.
-    out.mask.assign(count, 0);
-    out.flow_x.clear();
-    out.flow_y.clear();
-    out.dF.clear();
-    out.dF_exponent.clear();
-    out.log_det.clear();
-    out.exit_time.clear();
-    const bool exits = bounds && bounds->exits == ExitRule::stop;
-    if (exits) out.exit_time.assign(count, nan_value);
-    if (positions) {
-        out.flow_x.assign(count, nan_value);
-        out.flow_y.assign(count, nan_value);
-    }
-    if (gradient != GradientMethod::none) out.dF.assign(4 * count, nan_value);
-    if (variational) {
-        out.dF_exponent.assign(count, 0);
-        out.log_det.assign(count, nan_value);
-    }
-    if (count == 0) return out;
+namespace {
 
-    if (gradient != GradientMethod::auxiliary_grid) {
-        const InitFn init = plane.init([&](std::size_t first, std::size_t n, double *xs, double *ys) {
-            for (std::size_t k = 0; k < n; ++k) start(first + k, xs[k], ys[k]);
-        });
-        const FinishFn finish = [&](std::size_t first, std::size_t n, const double *s, const std::uint8_t *mask,
-                                    const std::int32_t *exponent, const double *exit_time) {
-            for (std::size_t k = 0; k < n; ++k) {
-                const std::size_t p = first + k;
-                out.mask[p] = mask[k];
-                if (exits) out.exit_time[p] = exit_time[k];
-                if (mask[k] != 0) continue;
-                if (positions) {
-                    out.flow_x[p] = plane.x(s, n, k);
-                    out.flow_y[p] = plane.y(s, n, k);
-                }
-                if (variational) {
-                    plane.gradient(s, n, k, exponent[k], &out.dF[4 * p], out.log_det[p]);
-                    out.dF_exponent[p] = exponent[k];
-                }
+// The points' own lanes, one per point (gradient none or variational), into `out` (sized by flow_map_at_points).
+IntegratorStats integrate_points(const FlowMapRequest &r, const PlaneView &plane, std::size_t count,
+                                 const StartFn &start, bool positions, bool exits, FlowMap &out) {
+    const bool variational = r.gradient == GradientMethod::variational;
+    const InitFn init = plane.init([&](std::size_t first, std::size_t n, double *xs, double *ys) {
+        for (std::size_t k = 0; k < n; ++k) start(first + k, xs[k], ys[k]);
+    });
+    const FinishFn finish = [&](std::size_t first, std::size_t n, const double *s, const std::uint8_t *mask,
+                                const std::int32_t *exponent, const double *exit_time) {
+        for (std::size_t k = 0; k < n; ++k) {
+            const std::size_t p = first + k;
+            out.mask[p] = mask[k];
+            if (exits) out.exit_time[p] = exit_time[k];
+            if (mask[k] != 0) continue;
+            if (positions) {
+                out.flow_x[p] = plane.x(s, n, k);
+                out.flow_y[p] = plane.y(s, n, k);
             }
-        };
-        out.stats = run_batches(dynamics, t0, t1, settings, variational, bounds, count, lanes_per_batch(settings), init,
-                                finish, progress);
-        return out;
-    }
+            if (variational) {
+                plane.gradient(s, n, k, exponent[k], &out.dF[4 * p], out.log_det[p]);
+                out.dF_exponent[p] = exponent[k];
+            }
+        }
+    };
+    return run_batches(r, variational, count, lanes_per_batch(r.settings), init, finish);
+}
 
-    // Auxiliary grid (Farazmand & Haller 2012): a point's 4 neighbours (and its centre when positions are wanted) are
-    // consecutive lanes of one batch. Integrated in lockstep, they take identical steps, so their integration errors
-    // are strongly correlated and largely cancel in the centred differences; the difference control bounds what is
-    // left. The batch is rounded up to a whole number of points, and DF is written per batch: no auxiliary final
-    // states are kept.
+// Auxiliary grid (Farazmand & Haller 2012): a point's 4 neighbours (and its centre when positions are wanted) are
+// consecutive lanes of one batch. Integrated in lockstep, they take identical steps, so their integration errors
+// are strongly correlated and largely cancel in the centred differences; the difference control bounds what is
+// left. The batch is rounded up to a whole number of points, and DF is written per batch: no auxiliary final
+// states are kept.
+IntegratorStats integrate_auxiliary_grid(const FlowMapRequest &r, const PlaneView &plane, std::size_t count,
+                                         const StartFn &start, bool positions, bool exits, FlowMap &out) {
+    const double offset_x = r.offset_x, offset_y = r.offset_y;
     const std::size_t per_point = positions ? 5 : 4;
-    const std::size_t batch = points_per_batch(settings, gradient, want_positions) * per_point;
+    const std::size_t batch = points_per_batch(r.settings, r.gradient, r.want_positions) * per_point;
     const double offsets_x[5] = {offset_x, -offset_x, 0.0, 0.0, 0.0};
     const double offsets_y[5] = {0.0, 0.0, offset_y, -offset_y, 0.0};
     const InitFn init = plane.init([&](std::size_t first, std::size_t n, double *xs, double *ys) {
@@ -534,7 +458,7 @@ GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, cons
             for (std::size_t q = 0; q < per_point; ++q) m |= mask[k + q];
             out.mask[p] = m;
             if (exits) // the point's own trajectory (the centre lane), else the earliest of its neighbours
-                out.exit_time[p] = positions ? exit_time[k + 4] : earliest_exit(exit_time + k, per_point, t0);
+                out.exit_time[p] = positions ? exit_time[k + 4] : earliest_exit(exit_time + k, per_point, r.t0);
             if (m != 0) continue;
             out.dF[4 * p + 0] = (xs[k] - xs[k + 1]) / (2.0 * offset_x);
             out.dF[4 * p + 1] = (xs[k + 2] - xs[k + 3]) / (2.0 * offset_y);
@@ -547,17 +471,73 @@ GridFlowMap flow_map_at_points(const Dynamics &dynamics, std::size_t count, cons
         }
     };
     const DifferenceControl differences{per_point, 1.0 / (2.0 * offset_x), 1.0 / (2.0 * offset_y)};
-    out.stats = run_batches(dynamics, t0, t1, settings, false, bounds, per_point * count, batch, init, finish, progress,
-                            differences);
+    return run_batches(r, false, per_point * count, batch, init, finish, differences);
+}
+
+} // namespace
+
+FlowMap flow_map_at_points(const FlowMapRequest &request, std::size_t count, const StartFn &start, FlowMap reuse) {
+    const GradientMethod gradient = request.gradient;
+    const bool variational = gradient == GradientMethod::variational;
+    validate(request.dynamics, request.t0, request.t1, request.settings, variational);
+    const PlaneView plane(request.dynamics, gradient, "flow_map_at_points");
+    const double offset_x = request.offset_x, offset_y = request.offset_y;
+    if (gradient == GradientMethod::auxiliary_grid &&
+        !(offset_x > 0.0 && std::isfinite(offset_x) && offset_y > 0.0 && std::isfinite(offset_y)))
+        throw EngineSettingError(EngineSetting::offset, std::to_string(offset_x) + ", " + std::to_string(offset_y) +
+                                                            " are not positive offsets");
+    const bool positions = request.want_positions || gradient == GradientMethod::none;
+    FlowMap out = std::move(reuse);
+    out.grid = Grid{};
+    out.dimension = 2;
+    out.stats = IntegratorStats{};
+    // assign() and clear() keep the buffers' capacity.
+    out.mask.assign(count, 0);
+    out.flow_x.clear();
+    out.flow_y.clear();
+    out.state.clear();
+    out.dF.clear();
+    out.dF_exponent.clear();
+    out.log_det.clear();
+    out.exit_time.clear();
+    const bool exits = request.bounds && request.bounds->exits == ExitRule::stop;
+    if (exits) out.exit_time.assign(count, nan_value);
+    if (positions) {
+        out.flow_x.assign(count, nan_value);
+        out.flow_y.assign(count, nan_value);
+    }
+    if (gradient != GradientMethod::none) out.dF.assign(4 * count, nan_value);
+    if (variational) {
+        out.dF_exponent.assign(count, 0);
+        out.log_det.assign(count, nan_value);
+    }
+    if (count == 0) return out;
+    out.stats = gradient == GradientMethod::auxiliary_grid
+                    ? integrate_auxiliary_grid(request, plane, count, start, positions, exits, out)
+                    : integrate_points(request, plane, count, start, positions, exits, out);
     return out;
 }
 
-StateFlowMap flow_map_of_states(const Dynamics &dynamics, std::size_t count, const StateStartFn &start, double t0,
-                                double t1, const IntegratorSettings &settings, bool variational,
-                                const std::optional<Bounds> &bounds, const ProgressFn &progress) {
-    validate(dynamics, t0, t1, settings, variational);
+FlowMap flow_map_at_points(const FlowMapRequest &request, const std::vector<double> &x0,
+                           const std::vector<double> &y0) {
+    if (x0.size() != y0.size())
+        throw Error("flow_map_at_points: " + std::to_string(x0.size()) + " x coordinates but " +
+                    std::to_string(y0.size()) + " y coordinates");
+    return flow_map_at_points(request, x0.size(), [&](std::size_t k, double &x, double &y) {
+        x = x0[k];
+        y = y0[k];
+    });
+}
+
+FlowMap flow_map_of_states(const FlowMapRequest &request, std::size_t count, const StateStartFn &start) {
+    if (request.gradient == GradientMethod::auxiliary_grid)
+        throw EngineSettingError(EngineSetting::gradient, "the auxiliary grid is planar only; the flow map of whole "
+                                                          "states takes \"variational\" or \"none\"");
+    const bool variational = request.gradient == GradientMethod::variational;
+    const Dynamics &dynamics = request.dynamics;
+    validate(dynamics, request.t0, request.t1, request.settings, variational);
     const std::size_t N = dynamics.system->dimension(), NN = N * N;
-    StateFlowMap out;
+    FlowMap out;
     out.dimension = static_cast<unsigned>(N);
     out.state.assign(N * count, nan_value);
     out.mask.assign(count, 0);
@@ -588,8 +568,7 @@ StateFlowMap flow_map_of_states(const Dynamics &dynamics, std::size_t count, con
             }
         }
     };
-    out.stats = run_batches(dynamics, t0, t1, settings, variational, bounds, count, lanes_per_batch(settings), init,
-                            finish, progress);
+    out.stats = run_batches(request, variational, count, lanes_per_batch(request.settings), init, finish);
     return out;
 }
 

@@ -90,21 +90,17 @@ namespace {
 
 // What every tile of one grid computation shares.
 struct TileJob {
-    const Dynamics &dynamics;
+    FlowMapRequest request; // the whole grid's; each tile adds its progress
     const Grid &grid;
-    double t0, t1;
-    const IntegratorSettings &settings;
-    const std::optional<Bounds> &bounds;
     const FieldPlan &plan;
-    GradientMethod gradient;
-    double offset_x, offset_y, abs_duration;
+    double abs_duration;
 };
 
 // Integrates the `rows` grid rows from `row` and writes their flow map and kept Cauchy–Green fields into `flow` and
 // `cg` from point `at` on (their vectors already hold those points): the whole grid's fields at the tile's own place,
 // or an MPI rank's buffer of its tiles. `buffers` is reused from tile to tile.
-void compute_tile(const TileJob &job, std::size_t row, std::size_t rows, std::size_t at, GridFlowMap &buffers,
-                  GridFlowMap &flow, CauchyGreenField &cg, const ProgressFn &progress) {
+void compute_tile(const TileJob &job, std::size_t row, std::size_t rows, std::size_t at, FlowMap &buffers,
+                  FlowMap &flow, CauchyGreenField &cg, const ProgressFn &progress) {
     const Grid &grid = job.grid;
     const std::size_t nx = grid.nx, first = row * nx, points = rows * nx, count = grid.size();
     // The full grid's coordinates, so that a tile's points start exactly where they do untiled.
@@ -118,8 +114,9 @@ void compute_tile(const TileJob &job, std::size_t row, std::size_t rows, std::si
         tile_progress = [&](std::size_t done, std::size_t total) {
             progress(first + (total > 0 ? points * done / total : points), count);
         };
-    buffers = flow_map_at_points(job.dynamics, points, start, job.t0, job.t1, job.settings, job.gradient, job.offset_x,
-                                 job.offset_y, job.plan.positions, job.bounds, tile_progress, std::move(buffers));
+    FlowMapRequest request = job.request;
+    request.progress = tile_progress;
+    buffers = flow_map_at_points(request, points, start, std::move(buffers));
     const auto to = static_cast<std::ptrdiff_t>(at);
     flow.stats.add(buffers.stats);
     std::copy(buffers.mask.begin(), buffers.mask.end(), flow.mask.begin() + to);
@@ -138,7 +135,7 @@ void compute_tile(const TileJob &job, std::size_t row, std::size_t rows, std::si
 }
 
 // `flow` and `cg` sized for `count` points with the plan's fields (NaN until computed).
-void allocate_fields(const FieldPlan &plan, std::size_t count, GridFlowMap &flow, CauchyGreenField &cg) {
+void allocate_fields(const FieldPlan &plan, std::size_t count, FlowMap &flow, CauchyGreenField &cg) {
     constexpr double nan = std::numeric_limits<double>::quiet_NaN();
     flow.mask.resize(count, 0);
     if (plan.positions) {
@@ -154,7 +151,7 @@ void allocate_fields(const FieldPlan &plan, std::size_t count, GridFlowMap &flow
 
 // The whole-grid arrays a rank sends rank 0 for its tiles, in this order (tiles in the order computed).
 template <class Visit>
-void for_each_shared_array(const FieldPlan &plan, GridFlowMap &flow, CauchyGreenField &cg, Visit visit) {
+void for_each_shared_array(const FieldPlan &plan, FlowMap &flow, CauchyGreenField &cg, Visit visit) {
     visit(flow.mask);
     if (plan.positions) {
         visit(flow.flow_x);
@@ -176,11 +173,11 @@ void share_tiles(const TileJob &job, GridFields &out, const ProgressFn &progress
     const bool root = mpi::rank() == 0;
     const std::size_t tiles = (grid.ny + out.rows_per_tile - 1) / out.rows_per_tile;
     if (root) allocate_fields(job.plan, count, out.flow, out.cg);
-    GridFlowMap mine; // a worker's tiles, one after the other
+    FlowMap mine; // a worker's tiles, one after the other
     CauchyGreenField mine_cg;
     std::vector<std::uint64_t> my_tiles;
     std::size_t my_points = 0;
-    GridFlowMap buffers;
+    FlowMap buffers;
     {
         mpi::WorkQueue queue(tiles);
         while (const auto tile = queue.next()) {
@@ -244,17 +241,9 @@ GridFields compute_grid_fields(const Dynamics &dynamics, const Grid &grid, doubl
     if (gradient == GradientMethod::auxiliary_grid && !(plan.aux_offset > 0.0 && std::isfinite(plan.aux_offset)))
         throw EngineSettingError(EngineSetting::offset, std::to_string(plan.aux_offset) + " is not a positive offset");
     const std::size_t count = grid.size();
-    const TileJob job{dynamics,
-                      grid,
-                      t0,
-                      t1,
-                      settings,
-                      bounds,
-                      plan,
-                      gradient,
-                      plan.aux_offset * grid.dx(),
-                      plan.aux_offset * grid.dy(),
-                      std::abs(t1 - t0)};
+    const TileJob job{
+        with_grid_offset({dynamics, t0, t1, settings, gradient, plan.positions, bounds}, grid, plan.aux_offset), grid,
+        plan, std::abs(t1 - t0)};
 
     GridFields out;
     out.flow.grid = grid;
@@ -272,7 +261,7 @@ GridFields compute_grid_fields(const Dynamics &dynamics, const Grid &grid, doubl
         allocate_fields(plan, count, out.flow, out.cg);
         out.rows_per_tile = tile_rows(grid, settings, plan);
         // One tile's buffers, reused by the next tile: fresh ones would cost page faults, serially, at every tile.
-        GridFlowMap buffers;
+        FlowMap buffers;
         for (std::size_t row = 0; row < grid.ny; row += out.rows_per_tile, ++out.tiles)
             compute_tile(job, row, std::min(out.rows_per_tile, grid.ny - row), row * grid.nx, buffers, out.flow, out.cg,
                          progress);

@@ -49,7 +49,7 @@ FieldPlan plan_fields(const ResolvedExperiment &experiment);
 std::size_t tile_rows(const Grid &grid, const IntegratorSettings &settings, const FieldPlan &plan);
 
 struct GridFields {
-    GridFlowMap flow;    // flow_x, flow_y (when plan.positions), mask (trajectory bits), stats; dF is never kept
+    FlowMap flow;        // flow_x, flow_y (when plan.positions), mask (trajectory bits), stats; dF is never kept
     CauchyGreenField cg; // the kept variables only (the others empty), mask with mask_degenerate, degenerate_count
     std::size_t tiles = 0, rows_per_tile = 0;
 };

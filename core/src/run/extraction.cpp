@@ -18,9 +18,10 @@ ExtractServices advection_services(const ResolvedExperiment &r) {
                                       : r.system.has_jacobian() && r.gradient != GradientMethod::auxiliary_grid
                                           ? GradientMethod::variational
                                           : GradientMethod::auxiliary_grid;
-        const GridFlowMap a = flow_map_at_points(
-            dynamics, n, [xy](std::size_t k, double &x, double &y) { x = xy[2 * k], y = xy[2 * k + 1]; }, t_from, t_to,
-            e.integrator, method, e.aux_offset * e.grid.dx(), e.aux_offset * e.grid.dy(), true, masking(e.bounds));
+        const FlowMapRequest request = with_grid_offset(
+            {dynamics, t_from, t_to, e.integrator, method, true, masking(e.bounds)}, e.grid, e.aux_offset);
+        const FlowMap a = flow_map_at_points(
+            request, n, [xy](std::size_t k, double &x, double &y) { x = xy[2 * k], y = xy[2 * k + 1]; });
         for (std::size_t k = 0; k < n; ++k) {
             const std::uint8_t m = a.mask[k];
             mask_out[k] = m;

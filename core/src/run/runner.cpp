@@ -338,7 +338,7 @@ json start_manifest(const ResolvedExperiment &r, const RunOptions &options) {
 
 // The fields of the grid stages, and the names extractors and products read them by (pointers into the members).
 struct GridStages {
-    GridFlowMap flow;
+    FlowMap flow;
     CauchyGreenField cg;
     std::vector<double> strain_deviation;
     ShearFields shear;
@@ -358,7 +358,7 @@ template <class Matches> bool field_wanted(const ResolvedExperiment &r, const st
 
 // The safe basin of an open system (bounds with ExitRule::stop): the grid points whose trajectories stay within the
 // bounds over the whole horizon, as a count, a share of the grid and an area (the share of the grid's rectangle).
-json describe_escape(const Grid &g, const GridFlowMap &flow) {
+json describe_escape(const Grid &g, const FlowMap &flow) {
     std::uint64_t captured = 0, exited = 0;
     for (std::size_t k = 0; k < flow.exit_time.size(); ++k) {
         if (flow.mask[k] & mask_trajectory_bits) continue;
@@ -375,7 +375,7 @@ json describe_escape(const Grid &g, const GridFlowMap &flow) {
 // The barriers that bound the safe basin: each barrier's share of points within two grid spacings of the boundary
 // between captured points (no exit over the horizon) and escaping ones, as "basin_boundary_share" in its item, and the
 // indices of those with at least half their points there as the manifest's escape "bounding_barriers".
-void mark_basin_boundary(const Grid &g, const GridFlowMap &flow, json &items, json &escape) {
+void mark_basin_boundary(const Grid &g, const FlowMap &flow, json &items, json &escape) {
     const auto state = [&](std::size_t i, std::size_t j) { // 0 masked, 1 captured, 2 escaped
         const std::size_t k = j * g.nx + i;
         return (flow.mask[k] & mask_trajectory_bits) ? 0 : std::isnan(flow.exit_time[k]) ? 1 : 2;

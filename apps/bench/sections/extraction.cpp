@@ -1,3 +1,5 @@
+// Section "extraction": the paper's extraction experiments and W with each extractor. Reports every stage's time
+// against the flow-map stage of the same run, and the extractor's ratio over all of a row's runs (median and range).
 #include "../sections.hpp"
 
 #include "../tables.hpp"

@@ -1,3 +1,4 @@
+// Section "gyre" (full mode): the double gyre's default and paper-like settings against its exact field.
 #include "../sections.hpp"
 
 namespace geobarrier::bench {

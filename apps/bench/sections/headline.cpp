@@ -1,3 +1,6 @@
+// Section "headline" (always run: the sections of W take its baseline and exact field): W at N, the naive Boost.Odeint
+// baseline beside the defaults, the quality presets, the paper's settings and any --try patch. Reports the trade
+// table: wall, flow-map stage, × baseline (baseline wall / this wall), errors against the exact field.
 #include "../sections.hpp"
 
 #include "../tables.hpp"

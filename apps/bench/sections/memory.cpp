@@ -1,3 +1,4 @@
+// Section "memory": W on a large grid with the defaults. Reports the peak resident memory (GNU time).
 #include "../sections.hpp"
 
 namespace geobarrier::bench {

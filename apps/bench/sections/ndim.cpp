@@ -1,3 +1,5 @@
+// Section "ndim": W's grid on a four-component system's slice beside planar W. Reports core-microseconds per
+// trajectory and the ratio to planar W.
 #include "../sections.hpp"
 
 #include "../tables.hpp"

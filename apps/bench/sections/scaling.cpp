@@ -1,3 +1,5 @@
+// Section "scaling": the default from N = 200 to 2000. Reports microseconds per point (wall and flow-map stage) and
+// the flow-map time per point against N = 1000's.
 #include "../sections.hpp"
 
 #include "../tables.hpp"

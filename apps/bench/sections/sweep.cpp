@@ -1,3 +1,5 @@
+// Section "sweep" (full mode): W at N over tolerance × stepper × gradient method, auxiliary-grid offsets, fixed rk4
+// steps and block sizes. Reports its rows under the trade table, × baseline as there.
 #include "../sections.hpp"
 
 namespace geobarrier::bench {

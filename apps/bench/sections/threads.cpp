@@ -1,3 +1,5 @@
+// Section "threads": the default on 1 and 2 threads. Reports the speed-up of the whole process and of the flow-map
+// stage (1-thread time / 2-thread time).
 #include "../sections.hpp"
 
 #include "../tables.hpp"

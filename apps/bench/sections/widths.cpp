@@ -1,3 +1,5 @@
+// Section "widths": W's default on the native build and on an AVX2-only build of the same source. Reports lane-steps
+// per core-second against the floor set by the machine's measured peak multiply-add rate (peak_rate.cpp).
 #include "../sections.hpp"
 
 #include "../peak_rate.hpp"

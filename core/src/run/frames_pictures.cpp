@@ -9,7 +9,9 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <deque>
 #include <fstream>
+#include <future>
 #include <iterator>
 #include <string>
 #include <vector>
@@ -168,7 +170,14 @@ void plot_frames_animation(const fs::path &file, const fs::path &scratch, const 
             for (const json &b : f.at("barriers"))
                 track_of[f.at("frame").get<std::size_t>()][b.at("barrier").get<std::size_t>()] = t.at("id");
     std::vector<fs::path> pictures;
+    // Two pictures at a time: PLplot draws one while the other's PNG is compressed (plot_field_png draws under
+    // PLplot's lock and compresses after it). A future's destructor waits, so none outlives a throw.
+    std::deque<std::future<void>> drawing;
     for (std::size_t k = 0; k < fields.size(); ++k) {
+        if (drawing.size() >= 2) {
+            drawing.front().get();
+            drawing.pop_front();
+        }
         FieldPlot plot;
         plot.title = fmt::format("{}: frame {} of {}, t0 = {:.4g}", title, k + 1, fields.size(), fields[k].t0);
         plot.colorbar_label = "FTLE";
@@ -182,8 +191,12 @@ void plot_frames_animation(const fs::path &file, const fs::path &scratch, const 
             plot.curves.push_back(std::move(c));
         }
         pictures.push_back(scratch / fmt::format("frame-{:03d}.png", k));
-        plot_field_png(pictures.back(), grid, fields[k].ftle, fields[k].mask, plot);
+        drawing.push_back(
+            std::async(std::launch::async, [&field = fields[k], &grid, file = pictures.back(), plot = std::move(plot)] {
+                plot_field_png(file, grid, field.ftle, field.mask, plot);
+            }));
     }
+    for (; !drawing.empty(); drawing.pop_front()) drawing.front().get();
     write_animated_png(file, pictures, 400);
     std::error_code ec;
     for (const fs::path &p : pictures) fs::remove(p, ec);

@@ -423,7 +423,14 @@ py::tuple extract_barriers(const std::string &experiment_text,
                                                 ", " + std::to_string(nx) + ")");
             const Extractor &x = r.extractors.front();
             std::vector<gb_field> inputs;
+            // exit_time may be left out: as in a run without bounds, nothing exits (all NaN; abi.h).
+            std::vector<double> no_exit;
             for (const auto &name : x.required_fields()) {
+                if (name == "exit_time" && fields.find(name) == fields.end()) {
+                    no_exit.assign(e.grid.size(), std::numeric_limits<double>::quiet_NaN());
+                    inputs.push_back({"exit_time", no_exit.data()});
+                    continue;
+                }
                 const auto it = fields.find(name);
                 if (it == fields.end())
                     throw ConfigError("fields", "extractor '" + x.info().name + "' needs the field \"" + name +

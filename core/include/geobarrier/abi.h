@@ -216,7 +216,13 @@ typedef struct gb_forcing_vtable {
 /* -------------------------------------------------------------- extractors */
 
 /* A named scalar field on the grid, row-major (ny rows of nx), row index = y.
- * Masked points hold NaN and mask[] != 0. */
+ * Masked points hold NaN and mask[] != 0. The names an extractor may ask for are the grid variables of the
+ * products (docs/experiment-format.md: "ftle", "lambda1", "xi1_x", "strain_deviation", ...) and "exit_time":
+ * the time t at which each point's trajectory left the experiment's `bounds` (bounds whose exits stop, the
+ * default), NaN where it stayed within them up to t1 (the captured set) or could not leave: every run hands it
+ * over, all NaN when the experiment has no such bounds (an extractor needs no bounds to run). A core that predates
+ * "exit_time" (within ABI 1.4) refuses an extractor asking for it when the experiment is read, with a one-line
+ * error, rather than handing over nothing. */
 typedef struct gb_field {
     const char *name;
     const double *data;

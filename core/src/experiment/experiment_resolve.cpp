@@ -37,8 +37,10 @@ json resolve_path_params(const PluginInfo &info, const json &params, const fs::p
     return out;
 }
 
-// Field names extractors may ask for, and what produces them.
+// Field names extractors may ask for, and what produces them: the products' grid fields, and exit_time (every run
+// supplies it, all NaN when nothing can exit: abi.h).
 bool is_cauchy_green_field(const std::string &name) {
+    if (name == "exit_time") return true;
     for (const auto &p : known_products())
         if (std::string(p.name) != "flow_map")
             for (const char *v : p.variables)

@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <limits>
 #include <map>
 #include <string>
 #include <vector>
@@ -67,6 +68,8 @@ ConformanceCheck check_extractor_behaviour(const Extractor &extractor) {
     for (const std::string &variable : cauchy_green_variables()) fields[variable] = &cauchy_green_member(cg, variable);
     fields["flow_x"] = &flow_x;
     fields["flow_y"] = &flow_y;
+    const std::vector<double> no_exit(grid.size(), std::numeric_limits<double>::quiet_NaN()); // no bounds: abi.h
+    fields["exit_time"] = &no_exit;
     std::vector<double> strain_deviation;
     ShearFields shear;
     std::vector<gb_field> inputs;

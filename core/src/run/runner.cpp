@@ -31,6 +31,7 @@
 #include <cstring>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <optional>
 #include <random>
@@ -342,6 +343,7 @@ struct GridStages {
     CauchyGreenField cg;
     std::vector<double> strain_deviation;
     ShearFields shear;
+    std::vector<double> no_exit; // exit_time for extractors when nothing can exit (no bounds that stop): all NaN
     std::map<std::string, const std::vector<double> *> fields;
     const std::vector<std::uint8_t> *mask = nullptr; // the Cauchy–Green mask when computed, else the flow map's
     GradientMethod gradient = GradientMethod::none;
@@ -451,6 +453,14 @@ void compute_flow_and_cauchy_green(const ResolvedExperiment &r, const RunOptions
     if (!grid.flow.exit_time.empty()) {
         grid.fields["exit_time"] = &grid.flow.exit_time;
         record.manifest["escape"] = describe_escape(e.grid, grid.flow);
+    } else if (std::any_of(r.extractors.begin(), r.extractors.end(), [](const Extractor &x) {
+                   const auto &names = x.required_fields();
+                   return std::find(names.begin(), names.end(), "exit_time") != names.end();
+               })) {
+        // An extractor reads exit_time in every run (abi.h): without bounds that stop trajectories nothing exits.
+        // Not written to fields.nc (field_variables), which stays as it was.
+        grid.no_exit.assign(e.grid.size(), std::numeric_limits<double>::quiet_NaN());
+        grid.fields["exit_time"] = &grid.no_exit;
     }
     grid.mask = r.need_cauchy_green ? &grid.cg.mask : &grid.flow.mask;
 }
@@ -534,7 +544,8 @@ std::vector<FieldVariable> field_variables(const Experiment &e, const GridStages
         }
     }
     // Bounds that stop trajectories: when each left them, with the fields it qualifies.
-    if (const auto exit = grid.fields.find("exit_time"); !variables.empty() && exit != grid.fields.end()) {
+    if (const auto exit = grid.fields.find("exit_time");
+        !variables.empty() && !grid.flow.exit_time.empty() && exit != grid.fields.end()) {
         const FieldDoc doc = field_doc("exit_time");
         variables.push_back(FieldVariable{"exit_time", doc.long_name, doc.units, exit->second, mask_trajectory_bits});
     }

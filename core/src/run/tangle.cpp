@@ -3,6 +3,7 @@
 #include <geobarrier/errors.hpp>
 #include <geobarrier/extraction.hpp>
 #include <geobarrier/output.hpp>
+#include <geobarrier/segment_index.hpp>
 #include <geobarrier/tangle.hpp>
 
 #include <fmt/format.h>
@@ -26,12 +27,7 @@ namespace {
 constexpr double min_crossing_angle = 10.0;  // degrees (transverse_crossings)
 constexpr std::size_t shooting_segments = 8; // saddle_orbits_near
 
-struct Segment {
-    double ax, ay, bx, by;
-    std::size_t barrier;
-};
-
-// The segments of every barrier of a list, closed curves closed.
+// The segments of every barrier of a list, closed curves closed; a segment's id is its barrier's position.
 std::vector<Segment> segments_of(const json &barriers) {
     std::vector<Segment> out;
     for (std::size_t b = 0; b < barriers.size(); ++b) {
@@ -45,50 +41,6 @@ std::vector<Segment> segments_of(const json &barriers) {
     return out;
 }
 
-// Cells of a uniform grid over the segments' bounding box, a segment listed in every cell its own box touches.
-class SegmentIndex {
-  public:
-    explicit SegmentIndex(const std::vector<Segment> &segments) {
-        double x0 = inf, x1 = -inf, y0 = inf, y1 = -inf, length = 0.0;
-        for (const Segment &s : segments) {
-            x0 = std::min({x0, s.ax, s.bx}), x1 = std::max({x1, s.ax, s.bx});
-            y0 = std::min({y0, s.ay, s.by}), y1 = std::max({y1, s.ay, s.by});
-            length += std::hypot(s.bx - s.ax, s.by - s.ay);
-        }
-        if (segments.empty()) return;
-        m_x0 = x0, m_y0 = y0;
-        // Cells of about two mean segment lengths, at most 1024 per side.
-        const double span = std::max(x1 - x0, y1 - y0);
-        m_h = std::max({2.0 * length / static_cast<double>(segments.size()), span / 1024.0, 1e-300});
-        for (std::size_t i = 0; i < segments.size(); ++i)
-            for_cells(segments[i], [&](long long cell) { m_entries.emplace_back(cell, i); });
-        std::sort(m_entries.begin(), m_entries.end());
-    }
-    // Calls visit(i) for every indexed segment sharing a cell with s (a segment may come more than once).
-    template <class Visit> void candidates(const Segment &s, Visit visit) const {
-        if (m_entries.empty()) return;
-        for_cells(s, [&](long long cell) {
-            auto it = std::lower_bound(m_entries.begin(), m_entries.end(), std::make_pair(cell, std::size_t{0}));
-            for (; it != m_entries.end() && it->first == cell; ++it) visit(it->second);
-        });
-    }
-
-  private:
-    static constexpr double inf = std::numeric_limits<double>::infinity();
-    static constexpr long long side = 1 << 20;
-    template <class Visit> void for_cells(const Segment &s, Visit visit) const {
-        const auto cell = [&](double v, double origin) {
-            return static_cast<long long>(std::clamp(std::floor((v - origin) / m_h), -1.0, double(side - 2)));
-        };
-        const long long i0 = cell(std::min(s.ax, s.bx), m_x0), i1 = cell(std::max(s.ax, s.bx), m_x0);
-        const long long j0 = cell(std::min(s.ay, s.by), m_y0), j1 = cell(std::max(s.ay, s.by), m_y0);
-        for (long long j = j0; j <= j1; ++j)
-            for (long long i = i0; i <= i1; ++i) visit((j + 1) * side + (i + 1));
-    }
-    double m_x0 = 0.0, m_y0 = 0.0, m_h = 1.0;
-    std::vector<std::pair<long long, std::size_t>> m_entries;
-};
-
 // Where segment a crosses segment b: the parameters along a and b, each in [0, 1) (half-open, so that a crossing
 // at a shared vertex is counted once), or nothing (parallel, or apart).
 bool crossing(const Segment &a, const Segment &b, double &s, double &t) {
@@ -101,18 +53,11 @@ bool crossing(const Segment &a, const Segment &b, double &s, double &t) {
     return s >= 0.0 && s < 1.0 && t >= 0.0 && t < 1.0;
 }
 
-// The distance from (x, y) to the segment from (ax, ay) to (bx, by).
-double distance_to_segment(double x, double y, double ax, double ay, double bx, double by) {
-    const double dx = bx - ax, dy = by - ay, length2 = dx * dx + dy * dy;
-    const double s = length2 > 0.0 ? std::clamp(((x - ax) * dx + (y - ay) * dy) / length2, 0.0, 1.0) : 0.0;
-    return std::hypot(x - ax - s * dx, y - ay - s * dy);
-}
-
 // Whether a barrier (barriers.json item) passes within `within` of (x, y).
 bool passes_within(const json &barrier, double x, double y, double within) {
     const json &points = barrier.at("points");
     for (std::size_t k = 0; k + 1 < points.size(); ++k)
-        if (distance_to_segment(x, y, points[k][0], points[k][1], points[k + 1][0], points[k + 1][1]) <= within)
+        if (distance_to_segment(x, y, {points[k][0], points[k][1], points[k + 1][0], points[k + 1][1], 0}) <= within)
             return true;
     return points.size() == 1 && std::hypot(double(points[0][0]) - x, double(points[0][1]) - y) <= within;
 }
@@ -237,15 +182,18 @@ json grown_tangle(const ResolvedExperiment &r, const RunSummary &forward, const 
 
 std::vector<BarrierCrossing> transverse_crossings(const json &forward, const json &backward, double min_angle_degrees,
                                                   double merge_distance) {
-    const std::vector<Segment> fs_ = segments_of(forward), bs = segments_of(backward);
-    const SegmentIndex index(bs);
+    const std::vector<Segment> fs_ = segments_of(forward);
+    std::vector<Segment> backward_segments = segments_of(backward);
+    const double cell = SegmentIndex::two_mean_lengths(backward_segments);
+    const SegmentIndex index(std::move(backward_segments), cell);
+    const std::vector<Segment> &bs = index.segments();
     const double pi = std::acos(-1.0);
     std::vector<std::pair<double, BarrierCrossing>> found; // (position along the forward barriers, crossing)
     std::vector<std::size_t> seen;
     for (std::size_t i = 0; i < fs_.size(); ++i) {
         const Segment &a = fs_[i];
         seen.clear();
-        index.candidates(a, [&](std::size_t j) {
+        index.sharing_cells(a, [&](std::size_t j) {
             if (std::find(seen.begin(), seen.end(), j) != seen.end()) return;
             seen.push_back(j);
             const Segment &b = bs[j];
@@ -255,8 +203,8 @@ std::vector<BarrierCrossing> transverse_crossings(const json &forward, const jso
             const double cos_angle = std::abs(dax * dbx + day * dby) / (std::hypot(dax, day) * std::hypot(dbx, dby));
             const double angle = std::acos(std::min(cos_angle, 1.0)) * 180.0 / pi;
             if (!(angle > min_angle_degrees)) return;
-            found.push_back({static_cast<double>(i) + s,
-                             BarrierCrossing{a.ax + s * dax, a.ay + s * day, a.barrier, b.barrier, angle}});
+            found.push_back(
+                {static_cast<double>(i) + s, BarrierCrossing{a.ax + s * dax, a.ay + s * day, a.id, b.id, angle}});
         });
     }
     std::sort(found.begin(), found.end(), [](const auto &p, const auto &q) { return p.first < q.first; });

@@ -4,6 +4,7 @@
 #include <geobarrier/flow_map.hpp>
 #include <geobarrier/frames.hpp>
 #include <geobarrier/output.hpp>
+#include <geobarrier/segment_index.hpp>
 
 #include "engine/tiles.hpp"
 #include "experiment/resources.hpp"
@@ -98,59 +99,15 @@ std::vector<double> frame_initial_times(const json &t0, const std::string &path)
     return times;
 }
 
-namespace {
-
-// The segments of a polyline binned into square cells of side `cell`: the distance from a point to the polyline,
-// capped at `cell`, looks at the 3 x 3 cells around the point only.
-class SegmentIndex {
-  public:
-    SegmentIndex(const std::vector<double> &xy, bool closed, double cell) : m_xy(xy), m_cell(cell) {
-        const std::size_t n = xy.size() / 2, segments = n < 2 ? 0 : (closed ? n : n - 1);
-        for (std::size_t s = 0; s < segments; ++s) {
-            const std::size_t a = s, b = (s + 1) % n;
-            // (std::minmax of temporaries would return references to them.)
-            const long long ia = key(xy[2 * a]), ib = key(xy[2 * b]), ja = key(xy[2 * a + 1]), jb = key(xy[2 * b + 1]);
-            const long long i0 = std::min(ia, ib), i1 = std::max(ia, ib), j0 = std::min(ja, jb), j1 = std::max(ja, jb);
-            for (long long i = i0; i <= i1; ++i)
-                for (long long j = j0; j <= j1; ++j) m_cells[pack(i, j)].push_back({a, b});
-        }
-    }
-    // The distance from (x, y) to the polyline, or `cell` when it is farther.
-    double distance(double x, double y) const {
-        double best = m_cell;
-        const long long i = key(x), j = key(y);
-        for (long long di = -1; di <= 1; ++di)
-            for (long long dj = -1; dj <= 1; ++dj) {
-                const auto it = m_cells.find(pack(i + di, j + dj));
-                if (it == m_cells.end()) continue;
-                for (const auto &[a, b] : it->second) best = std::min(best, to_segment(x, y, a, b));
-            }
-        return best;
-    }
-
-  private:
-    long long key(double v) const { return static_cast<long long>(std::floor(v / m_cell)); }
-    static long long pack(long long i, long long j) { return i * 2000003LL + j; }
-    double to_segment(double x, double y, std::size_t a, std::size_t b) const {
-        const double ax = m_xy[2 * a], ay = m_xy[2 * a + 1], bx = m_xy[2 * b], by = m_xy[2 * b + 1];
-        const double dx = bx - ax, dy = by - ay, len2 = dx * dx + dy * dy;
-        const double s = len2 > 0 ? std::clamp(((x - ax) * dx + (y - ay) * dy) / len2, 0.0, 1.0) : 0.0;
-        return std::hypot(x - ax - s * dx, y - ay - s * dy);
-    }
-
-    const std::vector<double> &m_xy;
-    double m_cell;
-    std::unordered_map<long long, std::vector<std::pair<std::size_t, std::size_t>>> m_cells;
-};
-
-} // namespace
-
 double mean_distance_to_polyline(const std::vector<double> &from, const std::vector<double> &to, bool to_closed,
                                  double cutoff) {
     if (from.size() < 2 || to.size() < 4 || !(cutoff > 0)) return std::numeric_limits<double>::quiet_NaN();
-    const SegmentIndex index(to, to_closed, cutoff);
+    // Cells of side `cutoff`: a distance capped at the cutoff looks at the 3 x 3 cells around the point at most.
+    std::vector<Segment> segments;
+    append_polyline_segments(to.data(), to.size() / 2, to_closed, 0, segments);
+    const SegmentIndex index(std::move(segments), cutoff);
     double sum = 0.0;
-    for (std::size_t k = 0; k + 1 < from.size(); k += 2) sum += index.distance(from[k], from[k + 1]);
+    for (std::size_t k = 0; k + 1 < from.size(); k += 2) sum += index.distance(from[k], from[k + 1], cutoff);
     return sum / static_cast<double>(from.size() / 2);
 }
 

@@ -14,6 +14,7 @@
 #include <geobarrier/output.hpp>
 #include <geobarrier/sdk.hpp>
 #include <geobarrier/sdk_plot.hpp>
+#include <geobarrier/segment_index.hpp>
 #include <geobarrier/shear.hpp>
 #include <geobarrier/tensor_lines.hpp>
 
@@ -42,13 +43,12 @@ using geobarrier::sdk::string_param;
 constexpr double unresolved_ftle = 1e-12;
 
 // A compact shearline segment with d_g^eta < max_deviation at every point: a barrier candidate.
-struct Segment {
+struct Candidate {
     int family = 1; // +1: eta+, -1: eta-
     std::vector<double> xy;
     double length = 0.0;
     double mean_deviation = 0.0, max_deviation = 0.0;
-    double mid_x = 0.0, mid_y = 0.0;                           // the point at half its arc length
-    double x_min = 0.0, x_max = 0.0, y_min = 0.0, y_max = 0.0; // bounding box, for neighbour queries
+    double mid_x = 0.0, mid_y = 0.0; // the point at half its arc length
 };
 
 std::string format(double v) {
@@ -65,19 +65,19 @@ std::vector<std::uint8_t> ftle_mask(const CauchyGreenField &cg) {
     return mask;
 }
 
-// Does the polyline of `s` pass within r of (x, y)? (Its points are at most half a grid cell apart, so testing the
-// points is enough for radii of a few cells.)
-bool passes_near(const Segment &s, double x, double y, double r) {
-    if (x < s.x_min - r || x > s.x_max + r || y < s.y_min - r || y > s.y_max + r) return false;
-    for (std::size_t k = 0; k + 1 < s.xy.size(); k += 2)
-        if (std::hypot(s.xy[k] - x, s.xy[k + 1] - y) <= r) return true;
-    return false;
+// The candidates' points, indexed by candidate: "which candidates pass within r of (x, y)". Their points are at
+// most half a grid cell apart, so testing the points is enough for radii of a few cells.
+SegmentIndex candidate_points(const std::vector<Candidate> &candidates, double radius) {
+    std::vector<Segment> points;
+    for (std::size_t c = 0; c < candidates.size(); ++c)
+        append_points(candidates[c].xy.data(), candidates[c].xy.size() / 2, c, points);
+    return SegmentIndex(std::move(points), radius);
 }
 
 // The shearlines found so far (both families) and their candidate segments.
 struct Shearlines {
     std::vector<std::vector<double>> open_lines; // for the picture
-    std::vector<Segment> candidates;
+    std::vector<Candidate> candidates;
     std::size_t closed_lines = 0;   // closed shearlines: elliptic, left to the elliptic extractor
     std::size_t short_segments = 0; // segments with d_g < epsilon shorter than min_length
 };
@@ -268,8 +268,8 @@ std::vector<TwoWayLine> Parabolic::distinct_shearlines(const Grid &g, const Line
 }
 
 // A segment of a shearline with its figures: mean and max d_g^eta (eq. `dg_shr`), midpoint, bounding box.
-Segment measured_segment(int family, std::vector<double> xy, double length, const std::vector<double> &deviation) {
-    Segment s;
+Candidate measured_segment(int family, std::vector<double> xy, double length, const std::vector<double> &deviation) {
+    Candidate s;
     s.family = family;
     s.xy = std::move(xy);
     s.length = length;
@@ -281,14 +281,6 @@ Segment measured_segment(int family, std::vector<double> xy, double length, cons
         c.size() - 1, static_cast<std::size_t>(std::lower_bound(c.begin(), c.end(), 0.5 * s.length) - c.begin()));
     s.mid_x = s.xy[2 * mid];
     s.mid_y = s.xy[2 * mid + 1];
-    s.x_min = s.x_max = s.xy[0];
-    s.y_min = s.y_max = s.xy[1];
-    for (std::size_t p = 0; p + 1 < s.xy.size(); p += 2) {
-        s.x_min = std::min(s.x_min, s.xy[p]);
-        s.x_max = std::max(s.x_max, s.xy[p]);
-        s.y_min = std::min(s.y_min, s.xy[p + 1]);
-        s.y_max = std::max(s.y_max, s.xy[p + 1]);
-    }
     return s;
 }
 
@@ -304,8 +296,8 @@ void Parabolic::add_segments(const Grid &g, const std::vector<double> &line, con
             ++out.short_segments;
             continue;
         }
-        Segment s = measured_segment(family, std::move(xy), length,
-                                     std::vector<double>(dev.begin() + first, dev.begin() + end));
+        Candidate s = measured_segment(family, std::move(xy), length,
+                                       std::vector<double>(dev.begin() + first, dev.begin() + end));
         if (std::isfinite(s.mean_deviation)) out.candidates.push_back(std::move(s));
     }
 }
@@ -334,14 +326,14 @@ Shearlines Parabolic::shearlines(const sdk::Host &host, const CauchyGreenField &
 
 // Step 2a: the segments whose mean deviation is a local minimum among their neighbours (the segments passing within
 // `radius` of their midpoint, either family).
-std::vector<std::size_t> minima_of_mean_deviation(const std::vector<Segment> &candidates, double radius) {
+std::vector<std::size_t> minima_of_mean_deviation(const std::vector<Candidate> &candidates, const SegmentIndex &points,
+                                                  double radius) {
     std::vector<std::size_t> minima;
     for (std::size_t c = 0; c < candidates.size(); ++c) {
-        bool minimal = true;
-        for (std::size_t d = 0; d < candidates.size() && minimal; ++d)
-            if (d != c && candidates[d].mean_deviation < candidates[c].mean_deviation &&
-                passes_near(candidates[d], candidates[c].mid_x, candidates[c].mid_y, radius))
-                minimal = false;
+        const std::vector<std::size_t> near = points.ids_within(candidates[c].mid_x, candidates[c].mid_y, radius);
+        const bool minimal = std::none_of(near.begin(), near.end(), [&](std::size_t d) {
+            return d != c && candidates[d].mean_deviation < candidates[c].mean_deviation;
+        });
         if (minimal) minima.push_back(c);
     }
     return minima;
@@ -350,8 +342,8 @@ std::vector<std::size_t> minima_of_mean_deviation(const std::vector<Segment> &ca
 // Step 2b: the minima thinned so that one barrier stands for all the copies found from seeds along it: visited from
 // the least mean deviation up (ties: the longer first), those passing within `radius` of a kept barrier's midpoint or
 // whose midpoint a kept one passes near are dropped; at most max_barriers (0: all) kept.
-std::vector<std::size_t> disjoint_minima(const std::vector<Segment> &candidates, std::vector<std::size_t> minima,
-                                         double radius, std::size_t max_barriers) {
+std::vector<std::size_t> disjoint_minima(const std::vector<Candidate> &candidates, const SegmentIndex &points,
+                                         std::vector<std::size_t> minima, double radius, std::size_t max_barriers) {
     std::sort(minima.begin(), minima.end(), [&](std::size_t a, std::size_t b) {
         if (candidates[a].mean_deviation != candidates[b].mean_deviation)
             return candidates[a].mean_deviation < candidates[b].mean_deviation;
@@ -361,8 +353,8 @@ std::vector<std::size_t> disjoint_minima(const std::vector<Segment> &candidates,
     for (std::size_t c : minima) {
         bool taken = false;
         for (std::size_t b : barriers)
-            taken = taken || passes_near(candidates[b], candidates[c].mid_x, candidates[c].mid_y, radius) ||
-                    passes_near(candidates[c], candidates[b].mid_x, candidates[b].mid_y, radius);
+            taken = taken || points.id_within(b, candidates[c].mid_x, candidates[c].mid_y, radius) ||
+                    points.id_within(c, candidates[b].mid_x, candidates[b].mid_y, radius);
         if (taken) continue;
         barriers.push_back(c);
         if (max_barriers > 0 && barriers.size() >= max_barriers) break;
@@ -381,7 +373,7 @@ void Parabolic::draw_shearlines(const sdk::Host &host, const gb_extract_input &i
     const std::size_t stride = std::max<std::size_t>(1, found.open_lines.size() / 150);
     for (std::size_t l = 0; l < found.open_lines.size(); l += stride)
         plot.curves.push_back({found.open_lines[l], "#b0b0b0", 0.6, false});
-    for (const Segment &s : found.candidates) plot.curves.push_back({s.xy, "black", 0.8, false});
+    for (const Candidate &s : found.candidates) plot.curves.push_back({s.xy, "black", 0.8, false});
     for (std::size_t b : barriers) plot.curves.push_back({found.candidates[b].xy, "red", 2.5, false});
     sdk::draw_field_png(host, std::filesystem::path(in.output_dir) / "parabolic.png", cg.grid, cg.ftle, ftle_mask(cg),
                         plot);
@@ -403,20 +395,21 @@ void Parabolic::extract(const sdk::Host &host, const gb_extract_input &in) const
     const double radius = m_neighbour_distance > 0 ? m_neighbour_distance : 3.0 * spacing;
 
     const Shearlines found = shearlines(host, cg, shear, max_length, min_length);
-    const std::vector<Segment> &candidates = found.candidates;
+    const std::vector<Candidate> &candidates = found.candidates;
     host.info("" + std::to_string(found.open_lines.size()) + " open shearlines (" + std::to_string(found.closed_lines) +
               " closed ones left to the elliptic extractor), " + std::to_string(candidates.size()) +
               " segments with d_g < " + format(m_epsilon) + " at least " + format(min_length) + " long (" +
               std::to_string(found.short_segments) + " shorter)");
-    const std::vector<std::size_t> minima = minima_of_mean_deviation(candidates, radius);
-    const std::vector<std::size_t> barriers = disjoint_minima(candidates, minima, radius, m_max_barriers);
+    const SegmentIndex points = candidate_points(candidates, radius);
+    const std::vector<std::size_t> minima = minima_of_mean_deviation(candidates, points, radius);
+    const std::vector<std::size_t> barriers = disjoint_minima(candidates, points, minima, radius, m_max_barriers);
     const double elapsed = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
     host.info("" + std::to_string(minima.size()) + " local minima of the mean deviation, " +
               std::to_string(barriers.size()) + " parabolic barriers (neighbour distance " + format(radius) + ") in " +
               format(elapsed) + " s");
 
     for (std::size_t b = 0; b < barriers.size(); ++b) {
-        const Segment &s = candidates[barriers[b]];
+        const Candidate &s = candidates[barriers[b]];
         host.add_barrier("parabolic", false, s.xy,
                          {{"length", s.length},
                           {"mean_geodesic_deviation", s.mean_deviation},

@@ -81,7 +81,10 @@ std::string format(double v) {
 
 // Buckets (squares of side r) for "which polylines pass within r of this point" queries. A bucket holds runs of
 // consecutive points of one polyline (a pointer into its points, not a copy), which keeps the index small where
-// thousands of strainlines crowd onto an attractor.
+// thousands of strainlines crowd onto an attractor. Not the kit's SegmentIndex (segment_index.hpp), which the other
+// extractors and the core share: that one copies every point into an immutable index, where this one points into
+// the ~18 million points of W's strainlines, grows as barriers are kept (chunk by chunk in the selection), and
+// answers "a point of a polyline of smaller key" from buckets sorted by that key, stopping at the first hit.
 class RunIndex {
   public:
     RunIndex(const Grid &box, double r) : m_r(r), m_x0(box.x_min), m_y0(box.y_min) {

@@ -12,6 +12,7 @@
 #include <geobarrier/sdk_plot.hpp>
 #include <geobarrier/tensor_lines.hpp>
 
+#include "exit_edges.hpp"
 #include "whole_curves.hpp"
 
 #include <algorithm>
@@ -46,6 +47,7 @@ constexpr double max_condition = 100.0;
 // doubled what the strainlines hold, 290 MB more written and read again).
 struct Strainline {
     std::vector<double> xy, xy_t1;
+    bool exit_seeded = false; // seeded where the exit time jumps (exit_seeds)
 };
 
 // A compact strainline segment with d_g^xi1 < max_deviation at every point: a barrier candidate.
@@ -456,6 +458,7 @@ struct Selected {
     bool remainder = false;    // a part only: the rest of the candidate lies along barriers of smaller q
     std::size_t probes = 0;    // probe points along the piece, about a neighbour distance apart
     std::size_t dominated = 0; // probes with a segment of smaller q within the neighbour distance
+    bool exit_edge = false;    // chosen along the exit time's jumps (exit_edge_barriers), not as a local minimum
 };
 
 // The lengths and distances of Alg. 1 in state units, from the parameters or the box.
@@ -482,6 +485,7 @@ struct ReportedCurve {
     std::size_t probes = 0, dominated = 0;
     double transverse_ratio = nan_value; // transverse_q_ratio (whole_curves.hpp)
     double strength = nan_value;         // log q / log q_best (whole_curves)
+    bool exit_edge = false;              // at least half its length chosen along the exit time's jumps: significant
     bool significant = false;
 };
 
@@ -490,8 +494,9 @@ struct Hyperbolic {
     static constexpr const char *version = "1.0.0";
     static constexpr const char *doc = "hyperbolic barriers (paper Alg. 1): least-stretching strainline segments; "
                                        "repelling for forward time, attracting for backward time";
-    static constexpr const char *required_fields[] = {"lambda1", "lambda2",          "xi1_x", "xi1_y",
-                                                      "ftle",    "strain_deviation", nullptr};
+    // exit_time: all NaN unless trajectories can leave the experiment's bounds (exit_edges.hpp).
+    static constexpr const char *required_fields[] = {"lambda1", "lambda2",          "xi1_x",     "xi1_y",
+                                                      "ftle",    "strain_deviation", "exit_time", nullptr};
     static constexpr gb_param_spec params[] = {
         real_param("max_deviation", 1e-3, 0.0, HUGE_VAL, "1/state",
                    "epsilon: strainlines are truncated where d_g^xi1 >= this (paper: 1e-3, 1e-5)"),
@@ -524,6 +529,10 @@ struct Hyperbolic {
         real_param("min_transverse_ratio", 1.0, 0.0, HUGE_VAL, "",
                    "a barrier is a local minimum of q among its parallel curves: the least q of those 2 grid cells "
                    "to neighbour_distance away over the least within 2 cells is at least this (transverse_q_ratio)"),
+        real_param("exit_jump", 0.1, 0.0, HUGE_VAL, "",
+                   "open systems (bounds): strainlines are also seeded on the grid edges across which the time to "
+                   "leave the bounds jumps by more than this fraction of |t1 - t0| (or from leaving to staying), "
+                   "and their runs along those edges are barriers (selection exit-time); 0 = off; direct route only"),
         real_param("min_strength", 0.9, 0.0, 1.0, "",
                    "a barrier contracts at least this power of the best barrier's contraction: log q / log q_best "
                    ">= this (relative_strength); curves failing either test are reported as candidates"),
@@ -537,7 +546,8 @@ struct Hyperbolic {
           m_route(p.string("route")), m_validate(p.flag("validate")), m_max_gap_fraction(p.real("max_gap_fraction")),
           m_walls(Walls::parse(p.string("invariant_walls"))),
           m_line_method(tensor_line_method(p.string("line_method"))), m_line_step(p.real("line_step")),
-          m_min_transverse_ratio(p.real("min_transverse_ratio")), m_min_strength(p.real("min_strength")) {}
+          m_min_transverse_ratio(p.real("min_transverse_ratio")), m_min_strength(p.real("min_strength")),
+          m_exit_jump(p.real("exit_jump")) {}
 
     void extract(const sdk::Host &host, const gb_extract_input &in) const;
 
@@ -554,16 +564,21 @@ struct Hyperbolic {
     TensorLineMethod m_line_method;
     double m_line_step;
     double m_min_transverse_ratio, m_min_strength;
+    double m_exit_jump;
 
   private:
     std::vector<double> seeds(const Grid &g, const LineField &field, const std::vector<double> *deviation) const;
     double seed_distance(const Grid &g) const {
         return m_seed_distance > 0 ? m_seed_distance : std::max(g.x_max - g.x_min, g.y_max - g.y_min) / 50.0;
     }
+    std::vector<double> exit_seeds(const sdk::Host &host, const gb_extract_input &in, const Grid &g) const;
+    void exit_edge_barriers(const sdk::Host &host, const gb_extract_input &in, const std::vector<Strainline> &lines,
+                            const Candidates &found, const SegmentMeter &meter, const Scales &scale,
+                            std::vector<Selected> &selected) const;
     std::vector<Strainline> direct_strainlines(const sdk::Host &host, const CauchyGreenField &cg,
                                                const std::vector<double> &deviation, const Scales &scale,
                                                const SegmentMeter &meter, const WallFilter &walls,
-                                               Truncation &truncation) const;
+                                               const std::vector<double> &more_seeds, Truncation &truncation) const;
     std::vector<Strainline> opposite_time_strainlines(const sdk::Host &host, const gb_extract_input &in,
                                                       double max_length) const;
     Scales scales(const Grid &g) const;
@@ -632,13 +647,32 @@ std::vector<double> deviation_and_log_lambda1(const CauchyGreenField &cg, const 
     return fields;
 }
 
-// Alg. 1, step 1 (and step 2 batch by batch, truncation): strainlines integrated both ways from the seed lattice.
+// Open systems: seeds on the grid edges where the exit time jumps (exit_edges.hpp), seed_distance apart.
+std::vector<double> Hyperbolic::exit_seeds(const sdk::Host &host, const gb_extract_input &in, const Grid &g) const {
+    const double *exit_time = find_field(in, "exit_time");
+    if (!exit_time || !(m_exit_jump > 0) || m_route != "direct") return {};
+    const double jump = m_exit_jump * std::fabs(in.t1 - in.t0);
+    std::vector<double> seeds =
+        hyperbolic::exit_jump_seeds(g, exit_time, in.mask, in.t0, std::fabs(in.t1 - in.t0), jump, seed_distance(g));
+    if (!seeds.empty())
+        host.info("" + std::to_string(seeds.size() / 2) + " strainline seeds where the exit time jumps by more than " +
+                  format(jump) + " (exit_jump " + format(m_exit_jump) + " of |t1 - t0|)");
+    return seeds;
+}
+
+// Alg. 1, step 1 (and step 2 batch by batch, truncation): strainlines integrated both ways from the seed lattice and
+// `more_seeds` (those of exit_seeds, where xi1 is defined).
 std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, const CauchyGreenField &cg,
                                                        const std::vector<double> &deviation, const Scales &scale,
                                                        const SegmentMeter &meter, const WallFilter &walls,
+                                                       const std::vector<double> &more_seeds,
                                                        Truncation &truncation) const {
     const LineField xi1 = LineField::from_cauchy_green(cg, 1, m_singular_gap);
-    const std::vector<double> seed = seeds(cg.grid, xi1, &deviation);
+    std::vector<double> seed = seeds(cg.grid, xi1, &deviation);
+    const std::size_t lattice = seed.size() / 2;
+    for (std::size_t k = 0; k + 1 < more_seeds.size(); k += 2)
+        if (xi1.status_at(more_seeds[k], more_seeds[k + 1]) == LineStatus::ok)
+            seed.insert(seed.end(), {more_seeds[k], more_seeds[k + 1]});
     const std::size_t n = seed.size() / 2;
     host.info("" + std::to_string(n) + " strainline seeds (lattice " +
               (m_seed_spacing > 0 ? std::to_string(m_seed_spacing) + " cells" : format(seed_distance(cg.grid))) +
@@ -680,6 +714,7 @@ std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, co
             at_max_length += (batch[k].stop_forward == StopReason::max_length ? 1 : 0) +
                              (batch[k].stop_backward == StopReason::max_length ? 1 : 0);
             lines[start + k].xy = std::move(batch[k].xy);
+            lines[start + k].exit_seeded = start + k >= lattice;
         }
         // Truncated now, batch by batch, rather than after all of them: the fields sampled along a line live only in
         // its thread's buffers, and a batch's points are read again soon after they were written.
@@ -1091,6 +1126,74 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
     return selected;
 }
 
+// Open systems (exit_edges.hpp): the strainlines seeded where the exit time jumps give barriers where they run along
+// the jumps, whether or not they are local minima of q. Such a curve separates trajectories that leave the bounds a
+// loop apart, or leave from those that stay: a material curve, on the stable (forward) or unstable (backward)
+// manifold of what the escaping trajectories pass, even where it contracts less than the best barrier (the far part
+// of an escape oscillator's unstable manifold, whose strands the local-minimum rule drops: the strainlines beside
+// them drift off and are cut by d_g). Visited by increasing q, their runs of points within two grid cells of a jump
+// and not within two cells of a barrier kept (the selection's, then these), at least min_length long, are barriers
+// (`selection` "exit-time").
+void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_input &in,
+                                    const std::vector<Strainline> &lines, const Candidates &found,
+                                    const SegmentMeter &meter, const Scales &scale,
+                                    std::vector<Selected> &selected) const {
+    const double *exit_time = find_field(in, "exit_time");
+    const std::vector<Segment> &candidates = found.segments;
+    std::vector<std::size_t> order;
+    for (std::size_t c = 0; c < candidates.size(); ++c)
+        if (lines[candidates[c].line].exit_seeded && !found.along_wall[c]) order.push_back(c);
+    if (!exit_time || order.empty()) return;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return candidates[a].q < candidates[b].q; });
+    const Grid g = grid_of(in);
+    const std::vector<std::uint8_t> near = hyperbolic::near_exit_jumps(
+        g, exit_time, in.mask, in.t0, std::fabs(in.t1 - in.t0), m_exit_jump * std::fabs(in.t1 - in.t0), 1);
+    const auto near_jump = [&](const double *p) {
+        const auto j = static_cast<std::size_t>(
+            std::clamp(std::lround((p[0] - g.x_min) / g.dx()), 0L, static_cast<long>(g.nx) - 1));
+        const auto i = static_cast<std::size_t>(
+            std::clamp(std::lround((p[1] - g.y_min) / g.dy()), 0L, static_cast<long>(g.ny) - 1));
+        return near[i * g.nx + j] != 0;
+    };
+    const double cover = cover_distance(g, scale.radius);
+    RunIndex kept(g, cover);
+    const auto keep = [&](std::size_t b) {
+        kept.add(first_point(lines, selected[b].piece), selected[b].piece.last - selected[b].piece.first + 1, b);
+    };
+    for (std::size_t b = 0; b < selected.size(); ++b) keep(b);
+    const std::size_t before = selected.size();
+    for (const std::size_t c : order) {
+        const Segment &cand = candidates[c];
+        const double *xy = first_point(lines, cand);
+        const std::size_t n = cand.last - cand.first + 1;
+        const std::vector<char> covered = covered_points(kept, xy, n, cand.longest_step, cover, scale.min_length);
+        // The runs of points not covered and within two cells of a jump.
+        const auto free = [&](std::size_t k) { return !covered[k] && near_jump(xy + 2 * k); };
+        for (std::size_t k = 0; k < covered.size();) {
+            while (k < n && !free(k)) ++k;
+            const std::size_t begin = k;
+            while (k < n && free(k)) ++k;
+            if (k - begin < 2) continue;
+            Selected pick;
+            pick.candidate = c;
+            pick.piece = cand;
+            pick.piece.first = cand.first + begin;
+            pick.piece.last = cand.first + k - 1;
+            pick.remainder = begin > 0 || k < n;
+            pick.exit_edge = true;
+            if (pick.remainder) {
+                pick.piece.length = polyline_length(points_of(lines, pick.piece));
+                if (pick.piece.length < scale.min_length || !meter.measure(lines, pick.piece)) continue;
+            }
+            selected.push_back(pick);
+            keep(selected.size() - 1);
+        }
+    }
+    host.info("" + std::to_string(selected.size() - before) + " barriers along the exit time's jumps (of " +
+              std::to_string(order.size()) + " segments seeded there)");
+}
+
 // Alg. 1 after step 3, the barriers as wholes (whole_curves.hpp; docs/extractors.md, step 8): the pieces the
 // selection chose, joined where one runs on into another (ends within four grid cells); then each whole is a barrier
 // when it is a local minimum of q among its parallel copies out to the neighbour distance (transverse_q_ratio at
@@ -1115,7 +1218,7 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
         ReportedCurve &rc = curves[c];
         rc.parts = chains[c];
         rc.xy = hyperbolic::chain_points(pieces, chains[c]);
-        double weighted_deviation = 0.0;
+        double weighted_deviation = 0.0, exit_edge_length = 0.0;
         rc.least_q_part = chains[c].front().index;
         for (const hyperbolic::JoinedPart &part : chains[c]) {
             const Selected &s = selected[part.index];
@@ -1126,13 +1229,15 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
             rc.probes += s.probes;
             rc.dominated += s.dominated;
             if (s.piece.q < selected[rc.least_q_part].piece.q) rc.least_q_part = part.index;
+            exit_edge_length += s.exit_edge ? s.piece.length : 0.0;
         }
         rc.q = rc.stretched_length / rc.length;
         rc.mean_deviation = weighted_deviation / rc.length;
+        rc.exit_edge = 2.0 * exit_edge_length >= rc.length; // mostly along the exit time's jumps
         rc.transverse_ratio =
             hyperbolic::transverse_q_ratio(g, root, cg.mask, rc.xy, cell, 2.0 * cell, std::max(radius, 3.0 * cell));
-        rc.significant =
-            std::isnan(rc.transverse_ratio) || rc.transverse_ratio >= m_min_transverse_ratio * (1.0 - 1e-9);
+        rc.significant = rc.exit_edge || std::isnan(rc.transverse_ratio) ||
+                         rc.transverse_ratio >= m_min_transverse_ratio * (1.0 - 1e-9);
     }
     // The contraction test against the best local minimum: a hyperbolic barrier contracts exponentially in the
     // horizon (q ~ exp(-lambda T)), a curve shaped by shear only algebraically (q ~ 1 / (s T)), so its log q is a
@@ -1142,7 +1247,7 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
         if (rc.significant) q_best = std::min(q_best, rc.q);
     for (ReportedCurve &rc : curves) {
         rc.strength = q_best < 1.0 ? std::log(rc.q) / std::log(q_best) : nan_value;
-        rc.significant = rc.significant && rc.strength >= m_min_strength;
+        rc.significant = rc.significant && (rc.exit_edge || rc.strength >= m_min_strength);
     }
     std::stable_sort(curves.begin(), curves.end(), [](const ReportedCurve &a, const ReportedCurve &b) {
         if (a.significant != b.significant) return a.significant;
@@ -1214,6 +1319,7 @@ AdvectionCheck Hyperbolic::advect_barriers(const sdk::Host &host, const gb_extra
 // The selection attribute of a reported curve: how it came out of the selection.
 std::string selection_of(const ReportedCurve &rc, const std::vector<Selected> &selected) {
     if (rc.parts.size() > 1) return "\"joined\"";
+    if (rc.exit_edge) return "\"exit-time\"";
     return selected[rc.parts.front().index].remainder ? "\"remainder\"" : "\"local-minimum\"";
 }
 
@@ -1384,7 +1490,7 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     // advecting them.
     const std::vector<Strainline> lines =
         opposite ? opposite_time_strainlines(host, in, scale.max_length)
-                 : direct_strainlines(host, cg, deviation, scale, meter, walls, truncation);
+                 : direct_strainlines(host, cg, deviation, scale, meter, walls, exit_seeds(host, in, g), truncation);
     if (opposite) {
         truncation = Truncation(lines.size());
         truncate(lines, 0, lines.size(), meter, walls, scale, truncation);
@@ -1393,7 +1499,8 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     const Candidates found = gathered_candidates(host, truncation, scale.min_length);
     const std::vector<Segment> &candidates = found.segments;
     if (host.progress(0.7)) throw std::runtime_error("stopped by the user");
-    const std::vector<Selected> selected = local_minima(host, g, lines, found, meter, scale);
+    std::vector<Selected> selected = local_minima(host, g, lines, found, meter, scale);
+    exit_edge_barriers(host, in, lines, found, meter, scale, selected);
     lap("selection");
     const std::vector<ReportedCurve> curves = whole_curves(host, cg, lines, selected);
     lap("whole curves");

@@ -1,0 +1,36 @@
+// Strainline seeds where the exit time jumps: the attracting barriers of open systems in backward time.
+//
+// In an open system (bounds whose exits stop trajectories) run backward, an attracting barrier is where the time to
+// leave the bounds jumps: van der Pol's limit cycle is the edge of the captured set (inside, backward trajectories
+// never leave; outside they leave within the horizon), and the far part of an escape oscillator's unstable manifold
+// spirals into that edge in strands across which trajectories leave one loop apart. There the backward FTLE ridge is
+// one-sided and d_g^xi1 < max_deviation only in a band about a grid cell wide, so strainlines from the seed lattice,
+// started a cell or more off, drift away and are cut; a strainline started on the curve follows it. The grid edges
+// across which the exit time jumps lie within half a cell of the curve: seeds there (docs/extractors.md, step 1).
+// A pure function of grid fields, so that tests build it without the plugin.
+#pragma once
+
+#include <geobarrier/grid.hpp>
+
+#include <cstdint>
+#include <vector>
+
+namespace geobarrier::hyperbolic {
+
+// The midpoints (x, y interleaved) of the grid edges between two neighbouring unmasked points (mask 0) across which
+// the time to exit |exit_time - t0| changes by more than `jump`, counting a point that stays (exit_time NaN) as
+// exiting at the `horizon` |t1 - t0|, the least it can take: between a captured point and one that leaves shortly
+// before the horizon there is no jump, only the horizon's cut through a smooth exit time (in a dissipative system
+// run backward, the points that have not left yet), while one that leaves well before the horizon next to one that
+// stays is the edge of a captured set, whose exit time diverges there (van der Pol's cycle). Thinned, in grid order
+// (row by row, the edge along x before the edge along y), to seeds at least `separation` apart. Empty when nothing
+// exits (exit_time all NaN: a run without bounds). `mask` may be null (no point masked).
+std::vector<double> exit_jump_seeds(const Grid &g, const double *exit_time, const std::uint8_t *mask, double t0,
+                                    double horizon, double jump, double separation);
+
+// Which grid points lie within `reach` grid points (along x and along y) of an end of such an edge: one byte a point,
+// 1 near a jump. The extractor keeps of the strainlines from those seeds what runs along the jumps.
+std::vector<std::uint8_t> near_exit_jumps(const Grid &g, const double *exit_time, const std::uint8_t *mask, double t0,
+                                          double horizon, double jump, std::size_t reach);
+
+} // namespace geobarrier::hyperbolic

@@ -1,0 +1,123 @@
+// Seeds where the exit time jumps (exit_edges.hpp), on exit-time fields whose jump lines are known by construction:
+// the edge of a captured disc and a line across which trajectories leave a fixed time apart.
+#include "exit_edges.hpp"
+
+#include <doctest/doctest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <vector>
+
+using geobarrier::Grid;
+using geobarrier::hyperbolic::exit_jump_seeds;
+
+namespace {
+
+constexpr double nan_value = std::numeric_limits<double>::quiet_NaN();
+constexpr double radius = 0.3, cx = 0.5, cy = 0.5, line_x = 0.8, step = 5.0, horizon = 10.0;
+
+Grid unit_grid(std::size_t n) {
+    Grid g;
+    g.nx = g.ny = n;
+    return g;
+}
+
+// Backward time from t0 = 2 over a horizon of 10: points within `radius` of the centre never leave (NaN); the others
+// leave at t = 2 - (1 + r), the time to exit growing smoothly with the distance r from the centre (by 1 across the
+// box, far below any threshold below; at the disc's edge 1.3, far below the horizon), and `step` later right of
+// x = line_x.
+std::vector<double> disc_and_line(const Grid &g) {
+    std::vector<double> exit(g.size());
+    for (std::size_t i = 0; i < g.ny; ++i)
+        for (std::size_t j = 0; j < g.nx; ++j) {
+            const double r = std::hypot(g.x(j) - cx, g.y(i) - cy);
+            exit[i * g.nx + j] = r < radius ? nan_value : 2.0 - (1.0 + r + (g.x(j) > line_x ? step : 0.0));
+        }
+    return exit;
+}
+
+double distance_to_circle(double x, double y) { return std::fabs(std::hypot(x - cx, y - cy) - radius); }
+
+} // namespace
+
+TEST_CASE("exit-time seeds lie on the captured disc's edge and the jump line, the given distance apart") {
+    const Grid g = unit_grid(101);
+    const std::vector<double> exit = disc_and_line(g);
+    const double separation = 0.05;
+    const std::vector<double> seeds = exit_jump_seeds(g, exit.data(), nullptr, 2.0, horizon, 2.0, separation);
+    REQUIRE(seeds.size() % 2 == 0);
+    std::size_t on_circle = 0, on_line = 0;
+    for (std::size_t k = 0; k < seeds.size(); k += 2) {
+        const double x = seeds[k], y = seeds[k + 1];
+        // An edge's midpoint lies within half a cell of the curve it crosses.
+        const bool circle = distance_to_circle(x, y) <= 0.5 * g.dx() + 1e-12;
+        const bool line = std::fabs(x - line_x) <= 0.5 * g.dx() + 1e-12;
+        CHECK((circle || line));
+        on_circle += circle;
+        on_line += line;
+        for (std::size_t m = 0; m < k; m += 2) CHECK(std::hypot(seeds[m] - x, seeds[m + 1] - y) >= separation);
+    }
+    // Covered: every edge that jumps lies within the separation of a seed, so every point of the circle and of the
+    // line within the separation and a cell.
+    const auto covered = [&](double x, double y) {
+        for (std::size_t k = 0; k < seeds.size(); k += 2)
+            if (std::hypot(seeds[k] - x, seeds[k + 1] - y) <= separation + g.dx()) return true;
+        return false;
+    };
+    for (int a = 0; a < 360; a += 5) {
+        const double t = a * M_PI / 180.0;
+        CHECK(covered(cx + radius * std::cos(t), cy + radius * std::sin(t)));
+    }
+    for (double y = 0.0; y <= 1.0; y += 0.02) CHECK(covered(line_x, y));
+    // The circle (length 1.88) and the line (length 1) hold a seed about every separation at most.
+    CHECK(on_circle >= 19);
+    CHECK(on_circle <= 40);
+    CHECK(on_line >= 10);
+    CHECK(on_line <= 21);
+}
+
+TEST_CASE("exit-time seeds: a jump below the threshold, masked points and a run where nothing exits give none there") {
+    const Grid g = unit_grid(101);
+    std::vector<double> exit = disc_and_line(g);
+    // A threshold above the line's step: only the disc's edge (captured against leaving) is left.
+    std::vector<double> seeds = exit_jump_seeds(g, exit.data(), nullptr, 2.0, horizon, step + 0.5, 0.05);
+    REQUIRE(!seeds.empty());
+    for (std::size_t k = 0; k < seeds.size(); k += 2)
+        CHECK(distance_to_circle(seeds[k], seeds[k + 1]) <= 0.5 * g.dx() + 1e-12);
+    // Masked points take part in no edge: masking the right part of the box removes the line's seeds, and masking
+    // the disc (masked points hold NaN, as captured ones do) removes its edge's.
+    std::vector<std::uint8_t> mask(g.size(), 0);
+    for (std::size_t i = 0; i < g.ny; ++i)
+        for (std::size_t j = 0; j < g.nx; ++j) {
+            const std::size_t p = i * g.nx + j;
+            if (g.x(j) > 0.7 || std::isnan(exit[p])) mask[p] = 1;
+        }
+    CHECK(exit_jump_seeds(g, exit.data(), mask.data(), 2.0, horizon, 2.0, 0.05).empty());
+    // Nothing exits (a run without bounds): no seed.
+    const std::vector<double> never(g.size(), nan_value);
+    CHECK(exit_jump_seeds(g, never.data(), nullptr, 2.0, horizon, 2.0, 0.05).empty());
+}
+
+TEST_CASE("exit-time seeds: the horizon's cut through a smooth exit time is no jump") {
+    // A dissipative system run backward: every point leaves, the later the nearer the centre, and those that would
+    // leave after the horizon (10) are captured, left of x = 5/9. The time to exit changes by 0.09 from one point to
+    // the next; where the captured set begins it is 9.91 or more next to 10 (the horizon, the least a captured
+    // point can take).
+    const Grid g = unit_grid(101);
+    std::vector<double> exit(g.size());
+    for (std::size_t i = 0; i < g.ny; ++i)
+        for (std::size_t j = 0; j < g.nx; ++j) {
+            const double time_to_exit = 15.0 - 9.0 * g.x(j); // from 15 at x = 0 to 6 at x = 1
+            exit[i * g.nx + j] = time_to_exit >= horizon ? nan_value : -time_to_exit;
+        }
+    REQUIRE(std::isnan(exit[0]));
+    REQUIRE(!std::isnan(exit[g.nx - 2]));
+    CHECK(exit_jump_seeds(g, exit.data(), nullptr, 0.0, horizon, 1.0, 0.05).empty());
+    // The same captured set with every other point leaving at once: its edge is a jump.
+    for (double &e : exit)
+        if (!std::isnan(e)) e = -0.5;
+    const std::vector<double> seeds = exit_jump_seeds(g, exit.data(), nullptr, 0.0, horizon, 1.0, 0.05);
+    REQUIRE(!seeds.empty());
+    for (std::size_t k = 0; k < seeds.size(); k += 2) CHECK(std::fabs(seeds[k] - 5.0 / 9.0) <= 0.5 * g.dx());
+}

@@ -767,9 +767,11 @@ _add(Case(
     {"start": [2.0, 0.0]}, expected_to_pass=False,
     reason="open system in backward time: with bounds that stop exits (the default) nothing is masked; the cycle is "
     "the edge of the captured set (inside it backward trajectories converge to the origin and never leave), so the "
-    "backward FTLE ridge on it is one-sided and d_g < 1e-3 only in a band about a cell wide; the hyperbolic "
-    "extractor's strainlines run 0.05-0.1 outside it and its rank-1 barrier lies elsewhere (precision 0). The exit "
-    "time jumps exactly there (exit_time_edges: 1.0 on the cycle, covering 1.0 of it): a barrier source to build"))
+    "backward FTLE ridge on it is one-sided and d_g < 1e-3 only in a band about a cell wide; the lattice's "
+    "strainlines run 0.05-0.1 outside it. The exit time jumps exactly there (exit_time_edges: 1.0 on the cycle, "
+    "covering 1.0 of it), and the extractor's exit-time seeds and barriers (exit_jump) recover part of it: precision "
+    "0.55, recall 0.21, rank-1 barrier off the cycle on 181 x 181 (0.94, 0.54, rank 1 on it on 361 x 361; 0 and 0 "
+    "without): the strainlines seeded on the cycle leave its band of small d_g after a part of it"))
 _add(Case(
     "double-gyre-forward", "double gyre (experiments/double-gyre.json), forward T = 15: a repelling barrier on the "
     "stable manifold of the periodic orbit on the bottom wall near x = 1",
@@ -795,7 +797,8 @@ def escape_experiment(amplitude, t1):
 ESCAPE_BOX = ((-1.2, 1.6), (-1.2, 1.2))
 # Measured on 281 x 241 (AMD EPYC, 2026-11-28): below-forward passes (precision 0.974, recall 0.975, one piece).
 ESCAPE_EXPECTED = {
-    ("below", "backward"): dict(expected_to_pass=False, reason="precision 0.98 but recall 0.61 (0.995 for the truth "
+    ("below", "backward"): dict(expected_to_pass=False, reason="without exit-time seeds precision 0.98 but recall "
+                                "0.61 (0.995 for the truth "
                                 "grown |T|/2): the barrier follows the unstable manifold up to where it folds into a "
                                 "tongue (points leaving the saddle about 12 of the 25 time units before t0), then "
                                 "leaves it; the far part spirals into the captured set's edge in strands 0.014-0.02 "
@@ -803,7 +806,11 @@ ESCAPE_EXPECTED = {
                                 "d_g < 1e-3 but those started a cell off drift away and are cut, so none covers it "
                                 "(also with 6x denser seeds, a 5x smaller neighbour distance, no significance test, "
                                 "or a 4x finer grid: recall 0.56-0.66). The exit time jumps there (exit_time_edges: "
-                                "0.975 on the truth, covering 0.977 of it): a barrier source to build"),
+                                "0.975 on the truth, covering 0.977 of it); with the extractor's exit-time seeds and "
+                                "barriers (exit_jump) precision 0.98, recall 0.87, 2 pieces, rank 1 on the truth "
+                                "(561 x 481: 1.00, 0.83): the strands next to the captured set's edge where the "
+                                "points leave shortly before the horizon are no jump by its rule (counted as jumps, "
+                                "recall 0.95 / 0.97 but 3 barriers off the damped attractor's truth)"),
     ("above", "forward"): dict(expected_to_pass=False, reason="not scored yet: the truth used to grow from a wrong "
                                "saddle orbit (undamped Newton, fixed in TRUTH_VERSION 2); grown right, the stable "
                                "manifold above the threshold is a tangle whose growth for |T| took over 25 minutes "

@@ -490,7 +490,8 @@ def barriers(fields, extractor="hyperbolic", *, system=None, forcing=None, t0=No
     one, points where a field is NaN are masked.
 
     The fields must hold the extractor's required fields, by the names of fields.nc: lambda1, lambda2, xi1_x, xi1_y,
-    ftle (the products "eigenvalues", "eigenvectors", "ftle"), and for the hyperbolic extractor strain_deviation."""
+    ftle (the products "eigenvalues", "eigenvectors", "ftle"), and for the hyperbolic extractor strain_deviation, with
+    exit_time where trajectories could leave bounds (without it nothing exits; its NaN, "stays", masks nothing)."""
     from ._barriers import Barrier, Barriers
 
     attrs, arrays, mask, x, y = _field_arrays(fields)
@@ -506,8 +507,9 @@ def barriers(fields, extractor="hyperbolic", *, system=None, forcing=None, t0=No
     if mask is None:
         shape = next(iter(arrays.values())).shape if arrays else (0, 0)
         mask = np.zeros(shape, dtype=np.uint8)
-        for value in arrays.values():
-            if value.shape == shape:
+        for name, value in arrays.items():
+            # exit_time is NaN where a trajectory stayed within the bounds: data, not a failure.
+            if value.shape == shape and name != "exit_time":
                 mask[~np.isfinite(value)] |= 2  # mask_non_finite (fields.nc's flag_masks)
     handle_interrupt = (threading.current_thread() is threading.main_thread()
                         and signal.getsignal(signal.SIGINT) is signal.default_int_handler)

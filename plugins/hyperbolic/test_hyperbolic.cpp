@@ -315,3 +315,29 @@ TEST_CASE("unforced double wells, forward 8 pi: repelling barriers cover both ho
         fs::remove_all(r.dir);
     }
 }
+
+TEST_CASE("linear saddle, backward time with bounds: exit-time barriers on the unstable manifold; none without") {
+    // Backward in time y grows as e^{a|t|}: a point leaves |y| <= 1.2 after |t| = 2 ln(1.2 / |y0|), and the x axis
+    // (the unstable manifold) never. Over |T| = 8 the grid's row y = 0 stays and the rows next to it leave at 6.4:
+    // a jump of 1.6, above exit_jump 0.1 of |T|, so the exit time's jumps lie on the manifold (the exit time
+    // diverges logarithmically there: the jumps 2 ln 2 between rows y and 2y run on to a few cells from it).
+    json j = saddle_experiment(-8.0);
+    j["bounds"] = {{"x", {-3.0, 3.0}}, {"y", {-1.2, 1.2}}};
+    const Run r = run(j, "saddle-exit");
+    int exit_time = 0;
+    for (const auto &b : r.barriers) {
+        if (b["selection"] != "exit-time") continue;
+        ++exit_time;
+        CHECK(spread(b, 1) < 1e-9); // along the unstable direction (1, 0)
+        CHECK(std::fabs(b["points"][0][1].get<double>()) < 0.2);
+    }
+    CHECK(exit_time >= 1);
+    fs::remove_all(r.dir);
+    // The same run without bounds: no exit time, no exit-time barrier, the barriers of exit_jump 0.
+    json closed = saddle_experiment(-8.0), off = saddle_experiment(-8.0, {{"exit_jump", 0.0}});
+    const Run a = run(closed, "saddle-no-bounds"), b = run(off, "saddle-exit-off");
+    CHECK(a.barriers == b.barriers);
+    for (const auto &barrier : a.barriers) CHECK(barrier["selection"] != "exit-time");
+    fs::remove_all(a.dir);
+    fs::remove_all(b.dir);
+}

@@ -1014,6 +1014,27 @@ std::vector<char> covered_points(const RunIndex &kept, const double *xy, std::si
     return covered;
 }
 
+// The runs of at least two points of candidate c's first n points where in_run(k) holds, in order, as picks: the
+// piece each covers, and whether it is a remainder (less than the whole candidate).
+template <class InRun>
+std::vector<Selected> picks_of_runs(std::size_t c, const Segment &cand, std::size_t n, const InRun &in_run) {
+    std::vector<Selected> picks;
+    for (std::size_t k = 0; k < n;) {
+        while (k < n && !in_run(k)) ++k;
+        const std::size_t begin = k;
+        while (k < n && in_run(k)) ++k;
+        if (k - begin < 2) continue;
+        Selected pick;
+        pick.candidate = c;
+        pick.piece = cand;
+        pick.piece.first = cand.first + begin;
+        pick.piece.last = cand.first + k - 1;
+        pick.remainder = begin > 0 || k < n;
+        picks.push_back(pick);
+    }
+    return picks;
+}
+
 // The runs of candidate c's points not covered by a barrier of smaller q (at least two points) that pass the
 // selection rule of local_minima, in order along the candidate; a remainder's own q is not measured yet (the caller
 // does, for the few that are kept). `index` holds the segments that are no pieces, its buckets sorted by q.
@@ -1023,19 +1044,7 @@ std::vector<Selected> uncovered_minima(const std::vector<Strainline> &lines, con
     const std::vector<Segment> &candidates = found.segments;
     const auto q_of = [&](std::size_t d) { return candidates[d].q; };
     const Segment &cand = candidates[c];
-    const std::size_t n = covered.size();
-    std::size_t k = 0;
-    while (k < n) {
-        while (k < n && covered[k]) ++k;
-        const std::size_t begin = k;
-        while (k < n && !covered[k]) ++k;
-        if (k - begin < 2) continue;
-        Selected pick;
-        pick.candidate = c;
-        pick.piece = cand;
-        pick.piece.first = cand.first + begin;
-        pick.piece.last = cand.first + k - 1;
-        pick.remainder = begin > 0 || k < n;
+    for (Selected pick : picks_of_runs(c, cand, covered.size(), [&](std::size_t k) { return !covered[k]; })) {
         // The whole candidate (the usual case away from the barriers kept) has its length and probes already.
         std::vector<double> piece_probes;
         if (pick.remainder) {
@@ -1175,17 +1184,7 @@ void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_inpu
         const std::vector<char> covered = covered_points(kept, xy, n, cand.longest_step, cover, scale.min_length);
         // The runs of points not covered and within two cells of a jump.
         const auto free = [&](std::size_t k) { return !covered[k] && near_jump(xy + 2 * k); };
-        for (std::size_t k = 0; k < covered.size();) {
-            while (k < n && !free(k)) ++k;
-            const std::size_t begin = k;
-            while (k < n && free(k)) ++k;
-            if (k - begin < 2) continue;
-            Selected pick;
-            pick.candidate = c;
-            pick.piece = cand;
-            pick.piece.first = cand.first + begin;
-            pick.piece.last = cand.first + k - 1;
-            pick.remainder = begin > 0 || k < n;
+        for (Selected pick : picks_of_runs(c, cand, covered.size(), free)) {
             pick.exit_edge = true;
             if (pick.remainder) {
                 pick.piece.length = polyline_length(points_of(lines, pick.piece));

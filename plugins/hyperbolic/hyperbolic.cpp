@@ -1182,7 +1182,7 @@ void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_inpu
         const double *xy = first_point(lines, cand);
         const std::size_t n = cand.last - cand.first + 1;
         const std::vector<char> covered = covered_points(kept, xy, n, cand.longest_step, cover, scale.min_length);
-        // The runs of points not covered and within two cells of a jump.
+        // The runs of points not covered whose nearest grid point is within a cell of a jump edge's end.
         const auto free = [&](std::size_t k) { return !covered[k] && near_jump(xy + 2 * k); };
         for (Selected pick : picks_of_runs(c, cand, covered.size(), free)) {
             pick.exit_edge = true;

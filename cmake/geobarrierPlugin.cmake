@@ -16,7 +16,8 @@
 #
 # Fast by default: the plugin is compiled with the code-generation flags of geobarrier's own built-in plugins
 # (GEOBARRIER_PLUGIN_COMPILE_OPTIONS, recorded by the install: -march=native -ffp-contract=off when geobarrier was
-# built with GEOBARRIER_NATIVE, the default). The SDK's fused Runge-Kutta step then uses the machine's widest vectors
+# built with GEOBARRIER_NATIVE, the default; -march=<level> -ffp-contract=off for a build with GEOBARRIER_MARCH=<level>,
+# e.g. x86-64-v3; none for a baseline build). The SDK's fused Runge-Kutta step then uses the machine's widest vectors
 # and its FMA instructions, like the built-ins: without them an out-of-tree plugin runs the flow map slower than the
 # same code built in the tree (scripts/bench-plugin-template times the two). A plugin package meant for other
 # machines opts out with PORTABLE, or for

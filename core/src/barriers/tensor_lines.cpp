@@ -318,6 +318,12 @@ template <class Tab> class LaneGroup {
         }
         double next_h = adaptive ? h : std::min(2.0 * h, m_r.max_step); // fixed: back to max_step after a stop
         if constexpr (adaptive) {
+            // Boost.Odeint's step adjuster (controlled_runge_kutta), not the engine's step_factor (error_control.hpp):
+            // a different rule, on purpose. It shrinks by err^(-1 / (q - 1)) (q: Tab::error_order), grows only below
+            // half the tolerance, by err^(-1 / p) (p: Tab::order) at most 4.5-fold, and keeps the step for err in
+            // [1/2, 1]; the engine's rule scales the step after every trial, by err^(-1 / (q + 1)) within [1/5, 5].
+            // The lines follow Odeint's error checker above as well: together they are the controlled stepper the
+            // tensor lines were written against, one line at a time, before they ran in lanes.
             const double err = m_err[l];
             if (err > 1.0) {
                 const double shorter =

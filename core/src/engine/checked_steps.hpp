@@ -127,7 +127,7 @@ bool run_checked(BatchState<N> &batch, ErrorControl<N> &errors, LockstepStages<N
         if (err > 1.0 && !at_floor) {
             ++batch.rejected;
             batch.ctx.clear_invalid();
-            dt = std::max(h_min, std::abs(h) * std::clamp(0.9 * std::pow(err, exponent), 0.2, 0.9));
+            dt = std::max(h_min, std::abs(h) * step_factor(err, exponent)); // err > 1: a factor <= 0.9
             continue;
         }
         if (err > 1.0)
@@ -149,9 +149,7 @@ bool run_checked(BatchState<N> &batch, ErrorControl<N> &errors, LockstepStages<N
         if (!in_plugin && Tab::fsal)
             for (std::size_t k : batch.ctx.frozen) batch.zero_lane(stages.k, k);
         batch.after_step(in_plugin ? nullptr : &stages.k, t);
-        dt = whole ? h_full
-                   : std::min(h_full,
-                              std::abs(h) * std::clamp(err > 0.0 ? 0.9 * std::pow(err, exponent) : 5.0, 0.2, 5.0));
+        dt = whole ? h_full : std::min(h_full, std::abs(h) * step_factor(err, exponent));
     }
     if (batch.ctx.variational)
         batch.rescaling.renormalise(batch, nullptr, true); // DF of the last steps: NaN or Inf is masked

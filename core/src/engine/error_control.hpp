@@ -20,6 +20,24 @@ namespace geobarrier::flow_map_engine {
 // Internal linkage in each flow_map_dim<N>.cpp (batch_integrator.hpp).
 namespace {
 
+// The factor from one step h to the next, h * step_factor(err, exponent): the step-size rule of every adaptive stepper
+// of the engine (the lockstep kernel's, Boost.Odeint's, the checked fixed steps' sub-steps), after an accepted step and
+// after a rejected one. err: the trial step's error over its tolerance (accepted at err <= 1), never NaN (the norms
+// skip or screen NaN: error_norm, batch_error); exponent: -1 / (q + 1) for an estimate of order q, since err grows as
+// h^(q+1), so that h err^exponent is the step that would just have met the tolerance. The limits are the textbook ones
+// (Hairer, Norsett & Wanner, Solving ODEs I, II.4, who advise a largest growth between 1.5 and 5; Boost.Odeint's step
+// adjuster has the same 0.9 and 1/5, and grows at most 4.5-fold):
+// - 0.9, a safety factor: aim a little under that step, so that the next trial is seldom rejected;
+// - at least 0.2 (5 times shorter): far over the tolerance the estimate has left its asymptotic range and predicts
+//   the passing step poorly, so a retry shrinks by at most 5 and the next estimate decides again;
+// - at most 5 (5 times longer): one step's estimate says little about steps much longer than itself; an error of
+//   exactly 0 (every lane of the batch frozen, or a step with no error) takes the largest growth.
+// After a rejected step (err > 1) the factor is at most 0.9, so a retry is always shorter. Keep the operations in this
+// order: the fields are bit-identical across releases only while every step rounds as it did.
+inline double step_factor(double err, double exponent) {
+    return std::clamp(err > 0.0 ? 0.9 * std::pow(err, exponent) : 5.0, 0.2, 5.0);
+}
+
 // The tolerances of one integrator's steps and the error measures built on them. N: the system's dimension.
 template <unsigned N> class ErrorControl {
     static constexpr std::size_t position_components = LaneLayout<N>::position_components;

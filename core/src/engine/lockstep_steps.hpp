@@ -106,13 +106,13 @@ void run_lockstep(BatchState<N> &batch, const ErrorControl<N> &errors, LockstepS
             ++batch.steps;
             ++i;
             batch.after_step(&stages.k, t);
-            if (adaptive) dt = h * std::clamp(err > 0.0 ? 0.9 * std::pow(err, exponent) : 5.0, 0.2, 5.0);
+            if (adaptive) dt = h * step_factor(err, exponent);
         } else {
             ++batch.rejected;
             // The newly frozen lanes' derivative at the step's start must not move them in the retry.
             for (std::size_t f = frozen_before; f < batch.ctx.frozen.size(); ++f)
                 batch.zero_lane(stages.k, batch.ctx.frozen[f]);
-            dt = h * std::clamp(0.9 * std::pow(err, exponent), 0.2, 5.0);
+            dt = h * step_factor(err, exponent);
         }
     }
 }

@@ -74,11 +74,10 @@ void run_odeint_adaptive(BatchState<N> &batch, const ErrorControl<N> &errors, in
             }
             ++batch.steps;
             batch.after_step(&batch.dxdt, t);
-            const double factor = err > 0.0 ? 0.9 * std::pow(err, exponent) : 5.0;
-            dt = h * std::clamp(factor, 0.2, 5.0);
+            dt = h * step_factor(err, exponent);
         } else {
             ++batch.rejected;
-            dt = h * std::clamp(0.9 * std::pow(err, exponent), 0.2, 5.0);
+            dt = h * step_factor(err, exponent);
         }
     }
 }

@@ -1,4 +1,5 @@
 // The geobarrier command-line program: run and validate experiments, list plugins.
+#include "openmp_wait.hpp"
 #include "run/mpi.hpp"
 #include "sweep/sweep.hpp"
 
@@ -458,6 +459,8 @@ std::string one_line(std::string text) {
 } // namespace
 
 int main(int argc, char **argv) {
+    // Idle OpenMP threads sleep rather than spin (openmp_wait.cpp says why); before MPI or any thread starts.
+    geobarrier::prefer_passive_openmp_wait(argv);
     // MPI only when launched by mpirun (docs/cluster.md); started directly, the program is one process as ever.
     mpi::Session mpi_session(argc, argv);
     CLI::App app{"geobarrier: invariant manifolds, attractors and generalized KAM tori of forced mechanical systems\n"

@@ -769,9 +769,11 @@ _add(Case(
     "the edge of the captured set (inside it backward trajectories converge to the origin and never leave), so the "
     "backward FTLE ridge on it is one-sided and d_g < 1e-3 only in a band about a cell wide; the lattice's "
     "strainlines run 0.05-0.1 outside it. The exit time jumps exactly there (exit_time_edges: 1.0 on the cycle, "
-    "covering 1.0 of it), and the extractor's exit-time seeds and barriers (exit_jump) recover part of it: precision "
-    "0.55, recall 0.21, rank-1 barrier off the cycle on 181 x 181 (0.94, 0.54, rank 1 on it on 361 x 361; 0 and 0 "
-    "without): the strainlines seeded on the cycle leave its band of small d_g after a part of it"))
+    "covering 1.0 of it), and the extractor's exit-time seeds and barriers (exit_jump, exit_stay_jump, and runs "
+    "along the captured set's edge whatever d_g) recover it on 361 x 361 (precision 0.976, recall 0.968, rank 1 on "
+    "it, but in 11 pieces; 0 and 0 without) and not on 181 x 181 (0.365, 0.455, rank-1 barrier off the cycle, 3 "
+    "pieces), where the jumps between points that both leave (trajectories grazing the bounds) give strainline "
+    "segments off the cycle"))
 _add(Case(
     "double-gyre-forward", "double gyre (experiments/double-gyre.json), forward T = 15: a repelling barrier on the "
     "stable manifold of the periodic orbit on the bottom wall near x = 1",
@@ -797,20 +799,19 @@ def escape_experiment(amplitude, t1):
 ESCAPE_BOX = ((-1.2, 1.6), (-1.2, 1.2))
 # Measured on 281 x 241 (AMD EPYC, 2026-11-28): below-forward passes (precision 0.974, recall 0.975, one piece).
 ESCAPE_EXPECTED = {
-    ("below", "backward"): dict(expected_to_pass=False, reason="without exit-time seeds precision 0.98 but recall "
-                                "0.61 (0.995 for the truth "
+    ("below", "backward"): dict(expected_to_pass=False, reason="3 pieces of the unstable manifold's branch "
+                                "(precision 0.983, recall 0.917, rank 1 on the truth; 561 x 481: 1.000, 0.911, 3 "
+                                "pieces); without exit-time seeds precision 0.98 but recall 0.61 (0.995 for the truth "
                                 "grown |T|/2): the barrier follows the unstable manifold up to where it folds into a "
                                 "tongue (points leaving the saddle about 12 of the 25 time units before t0), then "
                                 "leaves it; the far part spirals into the captured set's edge in strands 0.014-0.02 "
                                 "apart, where a strainline started on the manifold follows it within 0.001 with "
-                                "d_g < 1e-3 but those started a cell off drift away and are cut, so none covers it "
-                                "(also with 6x denser seeds, a 5x smaller neighbour distance, no significance test, "
-                                "or a 4x finer grid: recall 0.56-0.66). The exit time jumps there (exit_time_edges: "
-                                "0.975 on the truth, covering 0.977 of it); with the extractor's exit-time seeds and "
-                                "barriers (exit_jump) precision 0.98, recall 0.87, 2 pieces, rank 1 on the truth "
-                                "(561 x 481: 1.00, 0.83): the strands next to the captured set's edge where the "
-                                "points leave shortly before the horizon are no jump by its rule (counted as jumps, "
-                                "recall 0.95 / 0.97 but 3 barriers off the damped attractor's truth)"),
+                                "d_g < 1e-3 but those started a cell off drift away and are cut, so none covers it. "
+                                "The exit time jumps there, and the exit-time seeds and barriers (exit_jump, "
+                                "exit_stay_jump, and runs along the captured set's edge whatever d_g) cover it up to "
+                                "the manifold's innermost turn inside the captured set, where both sides stay over "
+                                "the horizon; the strands 1.4-2 cells apart come as separate barriers, each within "
+                                "tol of the branch"),
     ("above", "forward"): dict(expected_to_pass=False, reason="not scored yet: the truth used to grow from a wrong "
                                "saddle orbit (undamped Newton, fixed in TRUTH_VERSION 2); grown right, the stable "
                                "manifold above the threshold is a tangle whose growth for |T| took over 25 minutes "

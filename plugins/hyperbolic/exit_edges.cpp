@@ -41,33 +41,44 @@ class Thinning {
     std::vector<std::vector<std::size_t>> m_buckets;
 };
 
-// Calls visit(p, horizontal) for every grid edge across which the exit time jumps (exit_jump_seeds says when): the
-// edge from point p to p + 1 (horizontal) or to p + nx, in grid order.
+// Calls visit(p, horizontal, captured) for every grid edge across which the exit time jumps (ExitJumps says when): the
+// edge from point p to p + 1 (horizontal) or to p + nx, in grid order; `captured` when one of its points stays.
 template <class Visit>
-void for_each_jump_edge(const Grid &g, const double *exit_time, const std::uint8_t *mask, double t0, double horizon,
-                        double jump, Visit &&visit) {
-    // The time to exit, the horizon for a point that stays; NaN for a masked point, which takes part in no edge.
+void for_each_jump_edge(const Grid &g, const double *exit_time, const std::uint8_t *mask, const ExitJumps &rule,
+                        Visit &&visit) {
+    constexpr double masked = -1.0, stays = std::numeric_limits<double>::infinity();
+    // The time to exit; +inf for a point that stays, -1 for a masked point, which takes part in no edge.
     const auto time_to_exit = [&](std::size_t p) {
-        if (mask && mask[p]) return std::numeric_limits<double>::quiet_NaN();
-        return std::isnan(exit_time[p]) ? horizon : std::fabs(exit_time[p] - t0);
+        if (mask && mask[p]) return masked;
+        return std::isnan(exit_time[p]) ? stays : std::fabs(exit_time[p] - rule.t0);
     };
-    const auto jumps = [&](double a, double b) { return std::fabs(a - b) > jump; }; // false with a NaN
+    const auto jumps = [&](double a, double b) {
+        if (a == masked || b == masked || (a == stays && b == stays)) return false;
+        if (a == stays || b == stays) return rule.horizon - std::min(a, b) > rule.stay_jump;
+        return std::fabs(a - b) > rule.jump;
+    };
     for (std::size_t i = 0; i < g.ny; ++i)
         for (std::size_t j = 0; j < g.nx; ++j) {
             const std::size_t p = i * g.nx + j;
             const double here = time_to_exit(p);
-            if (j + 1 < g.nx && jumps(here, time_to_exit(p + 1))) visit(p, true);
-            if (i + 1 < g.ny && jumps(here, time_to_exit(p + g.nx))) visit(p, false);
+            if (j + 1 < g.nx) {
+                const double right = time_to_exit(p + 1);
+                if (jumps(here, right)) visit(p, true, here == stays || right == stays);
+            }
+            if (i + 1 < g.ny) {
+                const double above = time_to_exit(p + g.nx);
+                if (jumps(here, above)) visit(p, false, here == stays || above == stays);
+            }
         }
 }
 
 } // namespace
 
-std::vector<double> exit_jump_seeds(const Grid &g, const double *exit_time, const std::uint8_t *mask, double t0,
-                                    double horizon, double jump, double separation) {
+std::vector<double> exit_jump_seeds(const Grid &g, const double *exit_time, const std::uint8_t *mask,
+                                    const ExitJumps &rule, double separation) {
     std::vector<double> seeds;
     Thinning thinning(g, separation > 0 ? separation : std::min(g.dx(), g.dy()));
-    for_each_jump_edge(g, exit_time, mask, t0, horizon, jump, [&](std::size_t p, bool horizontal) {
+    for_each_jump_edge(g, exit_time, mask, rule, [&](std::size_t p, bool horizontal, bool) {
         const double x = g.x(p % g.nx), y = g.y(p / g.nx);
         if (horizontal)
             thinning.offer(x + 0.5 * g.dx(), y, seeds);
@@ -77,18 +88,19 @@ std::vector<double> exit_jump_seeds(const Grid &g, const double *exit_time, cons
     return seeds;
 }
 
-std::vector<std::uint8_t> near_exit_jumps(const Grid &g, const double *exit_time, const std::uint8_t *mask, double t0,
-                                          double horizon, double jump, std::size_t reach) {
+std::vector<std::uint8_t> near_exit_jumps(const Grid &g, const double *exit_time, const std::uint8_t *mask,
+                                          const ExitJumps &rule, std::size_t reach) {
     std::vector<std::uint8_t> near(g.size(), 0);
-    const auto mark = [&](std::size_t p) {
+    const auto mark = [&](std::size_t p, std::uint8_t kind) {
         const std::size_t i = p / g.nx, j = p % g.nx;
         for (std::size_t a = i > reach ? i - reach : 0; a <= std::min(g.ny - 1, i + reach); ++a)
             for (std::size_t b = j > reach ? j - reach : 0; b <= std::min(g.nx - 1, j + reach); ++b)
-                near[a * g.nx + b] = 1;
+                near[a * g.nx + b] |= kind;
     };
-    for_each_jump_edge(g, exit_time, mask, t0, horizon, jump, [&](std::size_t p, bool horizontal) {
-        mark(p);
-        mark(horizontal ? p + 1 : p + g.nx);
+    for_each_jump_edge(g, exit_time, mask, rule, [&](std::size_t p, bool horizontal, bool captured) {
+        const std::uint8_t kind = captured ? near_captured_jump : near_leaving_jump;
+        mark(p, kind);
+        mark(horizontal ? p + 1 : p + g.nx, kind);
     });
     return near;
 }

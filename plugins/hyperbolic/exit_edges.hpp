@@ -17,20 +17,35 @@
 
 namespace geobarrier::hyperbolic {
 
-// The midpoints (x, y interleaved) of the grid edges between two neighbouring unmasked points (mask 0) across which
-// the time to exit |exit_time - t0| changes by more than `jump`, counting a point that stays (exit_time NaN) as
-// exiting at the `horizon` |t1 - t0|, the least it can take: between a captured point and one that leaves shortly
-// before the horizon there is no jump, only the horizon's cut through a smooth exit time (in a dissipative system
-// run backward, the points that have not left yet), while one that leaves well before the horizon next to one that
-// stays is the edge of a captured set, whose exit time diverges there (van der Pol's cycle). Thinned, in grid order
-// (row by row, the edge along x before the edge along y), to seeds at least `separation` apart. Empty when nothing
-// exits (exit_time all NaN: a run without bounds). `mask` may be null (no point masked).
-std::vector<double> exit_jump_seeds(const Grid &g, const double *exit_time, const std::uint8_t *mask, double t0,
-                                    double horizon, double jump, double separation);
+// When the time to exit |exit_time - t0| jumps across a grid edge between two neighbouring unmasked points (mask 0).
+// Between two points that leave: when their times differ by more than `jump`. Between one that stays (exit_time NaN)
+// and one that leaves: its time is unknown, later than the `horizon` |t1 - t0|, so the jump is at least the horizon
+// less the leaving one's time; it counts when that exceeds `stay_jump`. Smaller, the edge is taken for the horizon's
+// cut through a smooth exit time (in a dissipative system run backward, the points that have not left yet: on the
+// damped attractor's suite case the leaving side of such edges leaves within 0.018 |t1 - t0| of the horizon), while
+// one that leaves well before the horizon next to one that stays lies on the edge of a captured set, whose exit time
+// diverges there (van der Pol's cycle), or on a strand of a manifold whose far side leaves after the horizon (the
+// escape oscillator's, next to its captured set). stay_jump below jump: a loop's duration, the jump across a strand,
+// is a lower bound only once one side is cut off by the horizon.
+struct ExitJumps {
+    double t0;
+    double horizon;
+    double jump;
+    double stay_jump;
+};
+
+// The midpoints (x, y interleaved) of the grid edges across which the exit time jumps (ExitJumps), thinned, in grid
+// order (row by row, the edge along x before the edge along y), to seeds at least `separation` apart. Empty when
+// nothing exits (exit_time all NaN: a run without bounds). `mask` may be null (no point masked).
+std::vector<double> exit_jump_seeds(const Grid &g, const double *exit_time, const std::uint8_t *mask,
+                                    const ExitJumps &rule, double separation);
 
 // Which grid points lie within `reach` grid points (along x and along y) of an end of such an edge: one byte a point,
-// 1 near a jump. The extractor keeps of the strainlines from those seeds what runs along the jumps.
-std::vector<std::uint8_t> near_exit_jumps(const Grid &g, const double *exit_time, const std::uint8_t *mask, double t0,
-                                          double horizon, double jump, std::size_t reach);
+// 0 far from every jump, else near_leaving_jump where both points of the edge leave, or-ed with near_captured_jump
+// where one of them stays (the captured set's edge). The extractor keeps of the strainlines from those seeds what
+// runs along the jumps.
+constexpr std::uint8_t near_leaving_jump = 1, near_captured_jump = 2;
+std::vector<std::uint8_t> near_exit_jumps(const Grid &g, const double *exit_time, const std::uint8_t *mask,
+                                          const ExitJumps &rule, std::size_t reach);
 
 } // namespace geobarrier::hyperbolic

@@ -534,6 +534,10 @@ struct Hyperbolic {
                    "the time to "
                    "leave the bounds jumps by more than this fraction of |t1 - t0| (or from leaving to staying), "
                    "and their runs along those edges are barriers (selection exit-time); 0 = off; direct route only"),
+        real_param("exit_stay_jump", 0.02, 0.0, HUGE_VAL, "",
+                   "open systems, backward time: an edge between a point that stays and one that leaves is a jump "
+                   "when the latter leaves more than this fraction of |t1 - t0| before the horizon (nearer, it is "
+                   "taken for the horizon's cut through a smooth exit time)"),
         real_param("min_strength", 0.9, 0.0, 1.0, "",
                    "a barrier contracts at least this power of the best barrier's contraction: log q / log q_best "
                    ">= this (relative_strength); curves failing either test are reported as candidates"),
@@ -548,7 +552,7 @@ struct Hyperbolic {
           m_walls(Walls::parse(p.string("invariant_walls"))),
           m_line_method(tensor_line_method(p.string("line_method"))), m_line_step(p.real("line_step")),
           m_min_transverse_ratio(p.real("min_transverse_ratio")), m_min_strength(p.real("min_strength")),
-          m_exit_jump(p.real("exit_jump")) {}
+          m_exit_jump(p.real("exit_jump")), m_exit_stay_jump(p.real("exit_stay_jump")) {}
 
     void extract(const sdk::Host &host, const gb_extract_input &in) const;
 
@@ -565,17 +569,22 @@ struct Hyperbolic {
     TensorLineMethod m_line_method;
     double m_line_step;
     double m_min_transverse_ratio, m_min_strength;
-    double m_exit_jump;
+    double m_exit_jump, m_exit_stay_jump;
 
   private:
+    // When the exit time jumps (exit_edges.hpp), from exit_jump and exit_stay_jump, fractions of |t1 - t0|.
+    hyperbolic::ExitJumps exit_jumps(const gb_extract_input &in) const {
+        const double horizon = std::fabs(in.t1 - in.t0);
+        return {in.t0, horizon, m_exit_jump * horizon, m_exit_stay_jump * horizon};
+    }
     std::vector<double> seeds(const Grid &g, const LineField &field, const std::vector<double> *deviation) const;
     double seed_distance(const Grid &g) const {
         return m_seed_distance > 0 ? m_seed_distance : std::max(g.x_max - g.x_min, g.y_max - g.y_min) / 50.0;
     }
     std::vector<double> exit_seeds(const sdk::Host &host, const gb_extract_input &in, const Grid &g) const;
     void exit_edge_barriers(const sdk::Host &host, const gb_extract_input &in, const std::vector<Strainline> &lines,
-                            const Candidates &found, const SegmentMeter &meter, const Scales &scale,
-                            std::vector<Selected> &selected) const;
+                            const Candidates &found, const SegmentMeter &meter, const WallFilter &walls,
+                            const Scales &scale, std::vector<Selected> &selected) const;
     std::vector<Strainline> direct_strainlines(const sdk::Host &host, const CauchyGreenField &cg,
                                                const std::vector<double> &deviation, const Scales &scale,
                                                const SegmentMeter &meter, const WallFilter &walls,
@@ -657,12 +666,13 @@ std::vector<double> deviation_and_log_lambda1(const CauchyGreenField &cg, const 
 std::vector<double> Hyperbolic::exit_seeds(const sdk::Host &host, const gb_extract_input &in, const Grid &g) const {
     const double *exit_time = find_field(in, "exit_time");
     if (!exit_time || !(m_exit_jump > 0) || m_route != "direct" || !(in.t1 < in.t0)) return {};
-    const double jump = m_exit_jump * std::fabs(in.t1 - in.t0);
-    std::vector<double> seeds =
-        hyperbolic::exit_jump_seeds(g, exit_time, in.mask, in.t0, std::fabs(in.t1 - in.t0), jump, seed_distance(g));
+    const hyperbolic::ExitJumps rule = exit_jumps(in);
+    std::vector<double> seeds = hyperbolic::exit_jump_seeds(g, exit_time, in.mask, rule, seed_distance(g));
     if (!seeds.empty())
         host.info("" + std::to_string(seeds.size() / 2) + " strainline seeds where the exit time jumps by more than " +
-                  format(jump) + " (exit_jump " + format(m_exit_jump) + " of |t1 - t0|)");
+                  format(rule.jump) + " (exit_jump " + format(m_exit_jump) + " of |t1 - t0|), or from staying to " +
+                  "leaving more than " + format(rule.stay_jump) + " before the horizon (exit_stay_jump " +
+                  format(m_exit_stay_jump) + ")");
     return seeds;
 }
 
@@ -1141,36 +1151,83 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
     return selected;
 }
 
+// The picks of exit_edge_barriers, which come from no candidate segment.
+constexpr std::size_t no_candidate = static_cast<std::size_t>(-1);
+
+// The runs of the exit-seeded strainlines' points that lie near a jump (near_jump(point)), at least min_length long
+// and not along a wall, measured (q, d_g, midpoint). Not cut where d_g^xi1 >= max_deviation, as the candidates are:
+// along the captured set's edge the exit time itself says the curve is material, and there, where the attracting
+// barrier is a one-sided ridge, d_g exceeds max_deviation along parts of it (the escape oscillator's strands next to
+// its captured set: docs/extractor-measurements.md, "Open systems").
+template <class NearJump>
+std::vector<Segment> jump_runs(const std::vector<Strainline> &lines, const NearJump &near_jump,
+                               const SegmentMeter &meter, const WallFilter &walls, const Scales &scale) {
+    std::vector<Segment> runs;
+    std::vector<double> steps, near_wall;
+    for (std::size_t l = 0; l < lines.size(); ++l) {
+        if (!lines[l].exit_seeded) continue;
+        const double *xy = lines[l].xy.data();
+        const std::size_t n = lines[l].xy.size() / 2;
+        steps.resize(n);
+        for (std::size_t k = 0; k < n;) {
+            while (k < n && !near_jump(xy + 2 * k)) ++k;
+            const std::size_t begin = k;
+            while (k < n && near_jump(xy + 2 * k)) ++k;
+            if (k - begin < 2) continue;
+            Segment s;
+            s.line = l;
+            s.first = begin;
+            s.last = k - 1;
+            segment_lengths(xy, s.first, s.last, steps.data());
+            s.length = length_from_steps(steps, s.first, s.last);
+            if (s.length < scale.min_length ||
+                walls.along(xy + 2 * begin, k - begin, steps.data() + begin, near_wall) || !meter.measure(lines, s))
+                continue;
+            for (std::size_t j = s.first; j < s.last; ++j) s.longest_step = std::max(s.longest_step, steps[j]);
+            runs.push_back(s);
+        }
+    }
+    return runs;
+}
+
 // Open systems (exit_edges.hpp): the strainlines seeded where the exit time jumps give barriers where they run along
 // the jumps, whether or not they are local minima of q. Such a curve separates trajectories that leave the bounds a
 // loop apart, or leave from those that stay: a material curve, on the stable (forward) or unstable (backward)
 // manifold of what the escaping trajectories pass, even where it contracts less than the best barrier (the far part
 // of an escape oscillator's unstable manifold, whose strands the local-minimum rule drops: the strainlines beside
-// them drift off and are cut by d_g). Visited by increasing q, their runs of points within two grid cells of a jump
-// and not within two cells of a barrier kept (the selection's, then these), at least min_length long, are barriers
-// (`selection` "exit-time").
+// them drift off and are cut by d_g). Their candidate segments' runs of points within a cell of a jump edge's end and
+// their runs along the captured set's edge whatever d_g (jump_runs) give their parts not within two cells of a
+// barrier kept (the selection's, then these), at least min_length long, as barriers (`selection` "exit-time").
 void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_input &in,
                                     const std::vector<Strainline> &lines, const Candidates &found,
-                                    const SegmentMeter &meter, const Scales &scale,
+                                    const SegmentMeter &meter, const WallFilter &walls, const Scales &scale,
                                     std::vector<Selected> &selected) const {
     const double *exit_time = find_field(in, "exit_time");
-    const std::vector<Segment> &candidates = found.segments;
-    std::vector<std::size_t> order;
-    for (std::size_t c = 0; c < candidates.size(); ++c)
-        if (lines[candidates[c].line].exit_seeded && !found.along_wall[c]) order.push_back(c);
-    if (!exit_time || order.empty()) return;
-    std::stable_sort(order.begin(), order.end(),
-                     [&](std::size_t a, std::size_t b) { return candidates[a].q < candidates[b].q; });
+    if (!exit_time) return;
     const Grid g = grid_of(in);
-    const std::vector<std::uint8_t> near = hyperbolic::near_exit_jumps(
-        g, exit_time, in.mask, in.t0, std::fabs(in.t1 - in.t0), m_exit_jump * std::fabs(in.t1 - in.t0), 1);
-    const auto near_jump = [&](const double *p) {
+    const std::vector<std::uint8_t> near = hyperbolic::near_exit_jumps(g, exit_time, in.mask, exit_jumps(in), 1);
+    const auto near_kind = [&](const double *p) {
         const auto j = static_cast<std::size_t>(
             std::clamp(std::lround((p[0] - g.x_min) / g.dx()), 0L, static_cast<long>(g.nx) - 1));
         const auto i = static_cast<std::size_t>(
             std::clamp(std::lround((p[1] - g.y_min) / g.dy()), 0L, static_cast<long>(g.ny) - 1));
-        return near[i * g.nx + j] != 0;
+        return near[i * g.nx + j];
     };
+    // First the candidates seeded there (d_g < max_deviation), by increasing q; then, by increasing q, the runs along
+    // the captured set's edge whatever d_g (jump_runs). Along jumps between points that both leave, runs with larger
+    // d_g added off-truth barriers on van der Pol (precision 0.55 -> 0.27 on 181 x 181), where trajectories that
+    // graze the bounds leave a loop later than their neighbours.
+    const std::vector<Segment> &candidates = found.segments;
+    std::vector<std::size_t> order;
+    for (std::size_t c = 0; c < candidates.size(); ++c)
+        if (lines[candidates[c].line].exit_seeded && !found.along_wall[c]) order.push_back(c);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t a, std::size_t b) { return candidates[a].q < candidates[b].q; });
+    std::vector<Segment> runs = jump_runs(
+        lines, [&](const double *p) { return (near_kind(p) & hyperbolic::near_captured_jump) != 0; }, meter, walls,
+        scale);
+    std::stable_sort(runs.begin(), runs.end(), [](const Segment &a, const Segment &b) { return a.q < b.q; });
+    if (order.empty() && runs.empty()) return;
     const double cover = cover_distance(g, scale.radius);
     RunIndex kept(g, cover);
     const auto keep = [&](std::size_t b) {
@@ -1178,25 +1235,41 @@ void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_inpu
     };
     for (std::size_t b = 0; b < selected.size(); ++b) keep(b);
     const std::size_t before = selected.size();
+    const auto take = [&](Selected pick) {
+        pick.exit_edge = true;
+        if (pick.remainder) {
+            pick.piece.length = polyline_length(points_of(lines, pick.piece));
+            if (pick.piece.length < scale.min_length || !meter.measure(lines, pick.piece)) return;
+        }
+        selected.push_back(pick);
+        keep(selected.size() - 1);
+    };
     for (const std::size_t c : order) {
         const Segment &cand = candidates[c];
         const double *xy = first_point(lines, cand);
-        const std::size_t n = cand.last - cand.first + 1;
-        const std::vector<char> covered = covered_points(kept, xy, n, cand.longest_step, cover, scale.min_length);
+        const std::vector<char> covered =
+            covered_points(kept, xy, cand.last - cand.first + 1, cand.longest_step, cover, scale.min_length);
         // The runs of points not covered whose nearest grid point is within a cell of a jump edge's end.
-        const auto free = [&](std::size_t k) { return !covered[k] && near_jump(xy + 2 * k); };
-        for (Selected pick : picks_of_runs(c, cand, covered.size(), free)) {
-            pick.exit_edge = true;
+        const auto free = [&](std::size_t k) { return !covered[k] && near_kind(xy + 2 * k) != 0; };
+        for (const Selected &pick : picks_of_runs(c, cand, covered.size(), free)) take(pick);
+    }
+    for (const Segment &run : runs) {
+        const std::vector<char> covered = covered_points(kept, first_point(lines, run), run.last - run.first + 1,
+                                                         run.longest_step, cover, scale.min_length);
+        // No candidate segment behind these: a part of a run is measured as a whole of its own, no remainder.
+        for (Selected pick :
+             picks_of_runs(no_candidate, run, covered.size(), [&](std::size_t k) { return !covered[k]; })) {
             if (pick.remainder) {
                 pick.piece.length = polyline_length(points_of(lines, pick.piece));
                 if (pick.piece.length < scale.min_length || !meter.measure(lines, pick.piece)) continue;
+                pick.remainder = false;
             }
-            selected.push_back(pick);
-            keep(selected.size() - 1);
+            take(pick);
         }
     }
     host.info("" + std::to_string(selected.size() - before) + " barriers along the exit time's jumps (of " +
-              std::to_string(order.size()) + " segments seeded there)");
+              std::to_string(order.size()) + " segments seeded there, and " + std::to_string(runs.size()) +
+              " runs of those strainlines along the captured set's edge)");
 }
 
 // Alg. 1 after step 3, the barriers as wholes (whole_curves.hpp; docs/extractors.md, step 8): the pieces the
@@ -1349,7 +1422,7 @@ void report_barriers(const sdk::Host &host, const std::vector<Segment> &candidat
         if (std::isfinite(rc.transverse_ratio)) metrics.push_back({"transverse_q_ratio", rc.transverse_ratio});
         if (std::isfinite(rc.strength)) metrics.push_back({"relative_strength", rc.strength});
         const Selected &single = selected[rc.parts.front().index];
-        if (rc.parts.size() == 1 && single.remainder)
+        if (rc.parts.size() == 1 && single.remainder && single.candidate != no_candidate)
             metrics.push_back({"segment_relative_stretching", candidates[single.candidate].q});
         if (std::isfinite(check.condition[b])) metrics.push_back({"stretching_condition", check.condition[b]});
         if (check.was_advected[b]) {
@@ -1505,7 +1578,7 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     const std::vector<Segment> &candidates = found.segments;
     if (host.progress(0.7)) throw std::runtime_error("stopped by the user");
     std::vector<Selected> selected = local_minima(host, g, lines, found, meter, scale);
-    exit_edge_barriers(host, in, lines, found, meter, scale, selected);
+    exit_edge_barriers(host, in, lines, found, meter, walls, scale, selected);
     lap("selection");
     const std::vector<ReportedCurve> curves = whole_curves(host, cg, lines, selected);
     lap("whole curves");

@@ -45,7 +45,7 @@ TEST_CASE("exit-time seeds lie on the captured disc's edge and the jump line, th
     const Grid g = unit_grid(101);
     const std::vector<double> exit = disc_and_line(g);
     const double separation = 0.05;
-    const std::vector<double> seeds = exit_jump_seeds(g, exit.data(), nullptr, 2.0, horizon, 2.0, separation);
+    const std::vector<double> seeds = exit_jump_seeds(g, exit.data(), nullptr, {2.0, horizon, 2.0, 2.0}, separation);
     REQUIRE(seeds.size() % 2 == 0);
     std::size_t on_circle = 0, on_line = 0;
     for (std::size_t k = 0; k < seeds.size(); k += 2) {
@@ -81,7 +81,7 @@ TEST_CASE("exit-time seeds: a jump below the threshold, masked points and a run 
     const Grid g = unit_grid(101);
     std::vector<double> exit = disc_and_line(g);
     // A threshold above the line's step: only the disc's edge (captured against leaving) is left.
-    std::vector<double> seeds = exit_jump_seeds(g, exit.data(), nullptr, 2.0, horizon, step + 0.5, 0.05);
+    std::vector<double> seeds = exit_jump_seeds(g, exit.data(), nullptr, {2.0, horizon, step + 0.5, step + 0.5}, 0.05);
     REQUIRE(!seeds.empty());
     for (std::size_t k = 0; k < seeds.size(); k += 2)
         CHECK(distance_to_circle(seeds[k], seeds[k + 1]) <= 0.5 * g.dx() + 1e-12);
@@ -93,10 +93,10 @@ TEST_CASE("exit-time seeds: a jump below the threshold, masked points and a run 
             const std::size_t p = i * g.nx + j;
             if (g.x(j) > 0.7 || std::isnan(exit[p])) mask[p] = 1;
         }
-    CHECK(exit_jump_seeds(g, exit.data(), mask.data(), 2.0, horizon, 2.0, 0.05).empty());
+    CHECK(exit_jump_seeds(g, exit.data(), mask.data(), {2.0, horizon, 2.0, 2.0}, 0.05).empty());
     // Nothing exits (a run without bounds): no seed.
     const std::vector<double> never(g.size(), nan_value);
-    CHECK(exit_jump_seeds(g, never.data(), nullptr, 2.0, horizon, 2.0, 0.05).empty());
+    CHECK(exit_jump_seeds(g, never.data(), nullptr, {2.0, horizon, 2.0, 2.0}, 0.05).empty());
 }
 
 TEST_CASE("exit-time seeds: the horizon's cut through a smooth exit time is no jump") {
@@ -113,11 +113,43 @@ TEST_CASE("exit-time seeds: the horizon's cut through a smooth exit time is no j
         }
     REQUIRE(std::isnan(exit[0]));
     REQUIRE(!std::isnan(exit[g.nx - 2]));
-    CHECK(exit_jump_seeds(g, exit.data(), nullptr, 0.0, horizon, 1.0, 0.05).empty());
+    CHECK(exit_jump_seeds(g, exit.data(), nullptr, {0.0, horizon, 1.0, 1.0}, 0.05).empty());
     // The same captured set with every other point leaving at once: its edge is a jump.
     for (double &e : exit)
         if (!std::isnan(e)) e = -0.5;
-    const std::vector<double> seeds = exit_jump_seeds(g, exit.data(), nullptr, 0.0, horizon, 1.0, 0.05);
+    const std::vector<double> seeds = exit_jump_seeds(g, exit.data(), nullptr, {0.0, horizon, 1.0, 1.0}, 0.05);
     REQUIRE(!seeds.empty());
     for (std::size_t k = 0; k < seeds.size(); k += 2) CHECK(std::fabs(seeds[k] - 5.0 / 9.0) <= 0.5 * g.dx());
+}
+
+TEST_CASE("exit-time seeds: next to a captured point, one leaving more than stay_jump before the horizon is a jump") {
+    // A strand across which trajectories leave a loop apart, next to the captured set: the time to exit falls
+    // smoothly with y, by 0.09 a point (the test above's ramp, now along y), and right of x = 0.5 the points below
+    // y = 5/9, which would leave after the horizon (10), stay; left of x = 0.5 they leave 0.5 before the horizon,
+    // a loop (here the rest of the ramp) before their neighbours. The jump is seen only as 0.5: less than `jump` (1),
+    // more than `stay_jump` (0.2). Between the left points the time to exit never jumps, nor across x = 0.5 above
+    // y = 5/9 (by 0.5 at most), nor across the horizon's cut right of x = 0.5 (by 0.09 at most).
+    const Grid g = unit_grid(101);
+    std::vector<double> exit(g.size());
+    for (std::size_t i = 0; i < g.ny; ++i)
+        for (std::size_t j = 0; j < g.nx; ++j) {
+            const double ramp = 15.0 - 9.0 * g.y(i);
+            const double time_to_exit = g.x(j) < 0.5 ? std::min(ramp, horizon - 0.5) : ramp;
+            exit[i * g.nx + j] = time_to_exit >= horizon ? nan_value : -time_to_exit;
+        }
+    const std::vector<double> seeds = exit_jump_seeds(g, exit.data(), nullptr, {0.0, horizon, 1.0, 0.2}, 0.05);
+    REQUIRE(!seeds.empty());
+    for (std::size_t k = 0; k < seeds.size(); k += 2) { // on the strand's edges, midway between x = 0.49 and 0.5
+        CHECK(std::fabs(seeds[k] - 0.495) <= 1e-12);
+        CHECK(seeds[k + 1] <= 5.0 / 9.0);
+    }
+    // Every point of the strand beside the captured set (y from 0 to 5/9) lies within a seed's separation.
+    for (double y = 0.0; y <= 5.0 / 9.0; y += 0.02) {
+        bool covered = false;
+        for (std::size_t k = 0; k < seeds.size(); k += 2)
+            covered = covered || std::hypot(seeds[k] - 0.495, seeds[k + 1] - y) <= 0.05 + g.dx();
+        CHECK(covered);
+    }
+    // With stay_jump at the jump (1), as with a point that stays counted as leaving at the horizon: no seed.
+    CHECK(exit_jump_seeds(g, exit.data(), nullptr, {0.0, horizon, 1.0, 1.0}, 0.05).empty());
 }

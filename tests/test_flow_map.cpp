@@ -624,7 +624,7 @@ TEST_CASE("the engine names a bad setting; the experiment layer maps it to its J
     IntegratorSettings bad;
     bad.step = 0.0;
     try {
-        check_flow_map_settings(dyn, 0.0, 1.0, bad, GradientMethod::none);
+        check_flow_map_settings({dyn, 0.0, 1.0, bad, GradientMethod::none});
         FAIL("no error for a zero step");
     } catch (const EngineSettingError &e) {
         CHECK(e.setting() == EngineSetting::step);

@@ -92,7 +92,8 @@ TEST_CASE("tiles: the flow map and Cauchy-Green fields tile by tile are the unti
                 const std::size_t rows = tile_rows(grid, settings, plan);
                 // Whole batches per tile: 8 points per batch (variational) or 2 (auxiliary grid, 4 or 5 lanes per
                 // point, batches rounded up to whole points), and nx = 23 is prime to both.
-                if (rows < grid.ny) CHECK((rows * grid.nx) % points_per_batch(settings, gradient, positions) == 0);
+                if (rows < grid.ny)
+                    CHECK((rows * grid.nx) % points_per_batch({dyn, 0.0, t1, settings, gradient, positions}) == 0);
                 const GridFields tiled = compute_grid_fields(dyn, grid, 0.0, t1, settings, std::nullopt, plan);
                 CHECK(tiled.rows_per_tile == rows);
                 CHECK(tiled.tiles == (grid.ny + rows - 1) / rows);

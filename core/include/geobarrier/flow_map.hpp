@@ -250,9 +250,10 @@ using StateStartFn = std::function<void(std::size_t k, double *state)>;
 FlowMap flow_map_of_states(const FlowMapRequest &request, std::size_t count, const StateStartFn &start);
 
 // The checks every entry point of the engine makes before it integrates anything, for a caller that wants its
-// settings refused before it starts (the experiment layer, at resolve time): throws EngineSettingError.
-void check_flow_map_settings(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings,
-                             GradientMethod gradient);
+// settings refused before it starts (the experiment layer, at resolve time): the request's dynamics, times, settings
+// and gradient (each entry point adds its own: the auxiliary grid's offsets, the grid's size, planar-only gradients).
+// Throws EngineSettingError (Error when there is no system).
+void check_flow_map_settings(const FlowMapRequest &request);
 
 // One line on why trajectories were masked, with the counts per reason; when the step limit is among them, it names
 // the stepper and suggests rosenbrock4 (stiff systems) or a larger max_steps. Empty when nothing was masked.
@@ -266,8 +267,9 @@ std::string describe_step_refinement(const IntegratorStats &stats, const Integra
 // How the gradient of the flow map survives long horizons, for the manifest: the method and its details.
 nlohmann::json long_horizon_method(GradientMethod method);
 
-// Points per lockstep batch of flow_map_at_points (see there): the alignment of bit-identical tiles.
-std::size_t points_per_batch(const IntegratorSettings &settings, GradientMethod gradient, bool want_positions);
+// Points per lockstep batch of flow_map_at_points for this request (see there): the alignment of bit-identical tiles.
+// Reads the request's settings (batch), gradient and want_positions (the auxiliary grid's lanes per point).
+std::size_t points_per_batch(const FlowMapRequest &request);
 
 } // namespace geobarrier
 

@@ -53,7 +53,11 @@ using flow_map_engine::parse_method;
 
 constexpr double nan_value = std::numeric_limits<double>::quiet_NaN();
 
-void validate(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings, bool variational) {
+} // namespace
+
+void check_flow_map_settings(const FlowMapRequest &request) {
+    const Dynamics &dynamics = request.dynamics;
+    const IntegratorSettings &settings = request.settings;
     if (!dynamics.system) throw Error("flow map: no dynamical system given");
     parse_method(settings.method);
     const unsigned dimension = dynamics.system->dimension();
@@ -63,7 +67,7 @@ void validate(const Dynamics &dynamics, double t0, double t1, const IntegratorSe
                                                             "; the flow map engine "
                                                             "handles dimensions 2 to " +
                                                             std::to_string(max_dimension));
-    if (variational && !dynamics.system->has_jacobian())
+    if (request.gradient == GradientMethod::variational && !dynamics.system->has_jacobian())
         throw EngineSettingError(EngineSetting::gradient,
                                  "system '" + dynamics.system->info().name + "' has no Jacobian; use auxiliary-grid");
     if (parse_method(settings.method) == Method::rosenbrock4 && !dynamics.system->has_jacobian())
@@ -85,12 +89,14 @@ void validate(const Dynamics &dynamics, double t0, double t1, const IntegratorSe
                                  "dop853 runs in the lockstep engine only; use \"engine\": \"lockstep\" "
                                  "or the odeint methods dopri5, rkf78, rk4, rosenbrock4");
     if (settings.max_steps == 0) throw EngineSettingError(EngineSetting::max_steps, "0 is below the minimum 1");
-    if (!std::isfinite(t0) || !std::isfinite(t1))
+    if (!std::isfinite(request.t0) || !std::isfinite(request.t1))
         throw EngineSettingError(EngineSetting::time, "t0 and t1 must be finite");
 }
 
-// The engine for the system's dimension (validate() has checked it is 2 .. max_dimension) over `lanes` lanes in batches
-// of `batch`. The bounds box limits the slice's axes when there is a slice, else components 0 and 1.
+namespace {
+
+// The engine for the system's dimension (check_flow_map_settings has checked it is 2 .. max_dimension) over `lanes`
+// lanes in batches of `batch`. The bounds box limits the slice's axes when there is a slice, else components 0 and 1.
 IntegratorStats run_batches(const FlowMapRequest &r, bool variational, std::size_t lanes, std::size_t batch,
                             const InitFn &init, const FinishFn &finish, const DifferenceControl &differences = {}) {
     static_assert(max_dimension == 6, "specialise run_batches_for for every dimension up to max_dimension");
@@ -350,11 +356,6 @@ const char *to_string(EngineSetting setting) {
     return names[static_cast<int>(setting)];
 }
 
-void check_flow_map_settings(const Dynamics &dynamics, double t0, double t1, const IntegratorSettings &settings,
-                             GradientMethod gradient) {
-    validate(dynamics, t0, t1, settings, gradient == GradientMethod::variational);
-}
-
 const char *to_string(GradientMethod method) {
     switch (method) {
     case GradientMethod::none:
@@ -392,10 +393,10 @@ FlowMap compute_grid_flow_map(const FlowMapRequest &request, const Grid &grid) {
 
 // --- The flow map at arbitrary points (memory tiles, extractors' advection) ---
 
-std::size_t points_per_batch(const IntegratorSettings &settings, GradientMethod gradient, bool want_positions) {
-    if (gradient != GradientMethod::auxiliary_grid) return lanes_per_batch(settings);
-    const std::size_t per_point = want_positions ? 5 : 4;
-    return (lanes_per_batch(settings) + per_point - 1) / per_point;
+std::size_t points_per_batch(const FlowMapRequest &request) {
+    if (request.gradient != GradientMethod::auxiliary_grid) return lanes_per_batch(request.settings);
+    const std::size_t per_point = request.want_positions ? 5 : 4;
+    return (lanes_per_batch(request.settings) + per_point - 1) / per_point;
 }
 
 namespace {
@@ -436,7 +437,7 @@ IntegratorStats integrate_auxiliary_grid(const FlowMapRequest &r, const PlaneVie
                                          const StartFn &start, bool positions, bool exits, FlowMap &out) {
     const double offset_x = r.offset_x, offset_y = r.offset_y;
     const std::size_t per_point = positions ? 5 : 4;
-    const std::size_t batch = points_per_batch(r.settings, r.gradient, r.want_positions) * per_point;
+    const std::size_t batch = points_per_batch(r) * per_point;
     const double offsets_x[5] = {offset_x, -offset_x, 0.0, 0.0, 0.0};
     const double offsets_y[5] = {0.0, 0.0, offset_y, -offset_y, 0.0};
     const InitFn init = plane.init([&](std::size_t first, std::size_t n, double *xs, double *ys) {
@@ -479,7 +480,7 @@ IntegratorStats integrate_auxiliary_grid(const FlowMapRequest &r, const PlaneVie
 FlowMap flow_map_at_points(const FlowMapRequest &request, std::size_t count, const StartFn &start, FlowMap reuse) {
     const GradientMethod gradient = request.gradient;
     const bool variational = gradient == GradientMethod::variational;
-    validate(request.dynamics, request.t0, request.t1, request.settings, variational);
+    check_flow_map_settings(request);
     const PlaneView plane(request.dynamics, gradient, "flow_map_at_points");
     const double offset_x = request.offset_x, offset_y = request.offset_y;
     if (gradient == GradientMethod::auxiliary_grid &&
@@ -535,7 +536,7 @@ FlowMap flow_map_of_states(const FlowMapRequest &request, std::size_t count, con
                                                           "states takes \"variational\" or \"none\"");
     const bool variational = request.gradient == GradientMethod::variational;
     const Dynamics &dynamics = request.dynamics;
-    validate(dynamics, request.t0, request.t1, request.settings, variational);
+    check_flow_map_settings(request);
     const std::size_t N = dynamics.system->dimension(), NN = N * N;
     FlowMap out;
     out.dimension = static_cast<unsigned>(N);

@@ -79,7 +79,11 @@ FieldPlan plan_fields(const ResolvedExperiment &r) {
 
 std::size_t tile_rows(const Grid &grid, const IntegratorSettings &settings, const FieldPlan &plan) {
     const std::size_t nx = std::max<std::size_t>(grid.nx, 1);
-    const std::size_t align = std::max<std::size_t>(points_per_batch(settings, plan.gradient, plan.positions), 1);
+    FlowMapRequest batches; // the batch layout of the request compute_grid_fields makes from the plan
+    batches.settings = settings;
+    batches.gradient = plan.gradient;
+    batches.want_positions = plan.positions;
+    const std::size_t align = std::max<std::size_t>(points_per_batch(batches), 1);
     const std::size_t step = align / std::gcd(nx, align); // rows whose points fill whole batches
     std::size_t rows = std::max<std::size_t>(plan.tile_points / nx, 1);
     rows = (rows + step - 1) / step * step;

@@ -281,8 +281,8 @@ void plan_stages(ResolvedExperiment &r) {
                                                     system_name + "' provides none; use \"dopri5\"");
     // What the flow-map engine would refuse, refused now (geobarrier validate computes nothing).
     with_json_paths([&] {
-        check_flow_map_settings(r.dynamics(), e.t0, e.t1, e.integrator,
-                                r.need_cauchy_green ? r.gradient : GradientMethod::none);
+        check_flow_map_settings(
+            {r.dynamics(), e.t0, e.t1, e.integrator, r.need_cauchy_green ? r.gradient : GradientMethod::none});
     });
 }
 

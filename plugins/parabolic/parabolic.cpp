@@ -246,9 +246,7 @@ std::vector<TwoWayLine> Parabolic::distinct_shearlines(const Grid &g, const Line
     for (std::size_t start = 0; start < n; start += block) {
         std::vector<std::size_t> unvisited_seeds;
         for (std::size_t k = start; k < std::min(n, start + block); ++k) {
-            const std::size_t j = static_cast<std::size_t>(std::lround((seeds[2 * k] - g.x_min) / g.dx()));
-            const std::size_t i = static_cast<std::size_t>(std::lround((seeds[2 * k + 1] - g.y_min) / g.dy()));
-            if (!visited[i * g.nx + j]) unvisited_seeds.push_back(k);
+            if (!visited[g.nearest_point(seeds[2 * k], seeds[2 * k + 1])]) unvisited_seeds.push_back(k);
         }
         std::vector<double> block_seeds;
         for (const std::size_t k : unvisited_seeds)
@@ -256,6 +254,7 @@ std::vector<TwoWayLine> Parabolic::distinct_shearlines(const Grid &g, const Line
         std::vector<TwoWayLine> block_lines = integrate_tensor_lines_both_ways(field, block_seeds, settings);
         for (TwoWayLine &line : block_lines) {
             for (std::size_t p = 0; p + 1 < line.xy.size(); p += 2) {
+                // Not Grid::nearest_point: a point more than half a cell off the grid marks no grid point.
                 const long j = std::lround((line.xy[p] - g.x_min) / g.dx());
                 const long i = std::lround((line.xy[p + 1] - g.y_min) / g.dy());
                 if (i >= 0 && j >= 0 && i < static_cast<long>(g.ny) && j < static_cast<long>(g.nx))

@@ -110,12 +110,6 @@ std::optional<Vec> settle(const TrenchField &f, Vec q, Vec n, double h) {
     return Vec{q.x + s * n.x, q.y + s * n.y};
 }
 
-std::size_t nearest_point(const Grid &g, Vec p) {
-    const long j = std::clamp(std::lround((p.x - g.x_min) / g.dx()), 0L, static_cast<long>(g.nx) - 1);
-    const long i = std::clamp(std::lround((p.y - g.y_min) / g.dy()), 0L, static_cast<long>(g.ny) - 1);
-    return static_cast<std::size_t>(i) * g.nx + static_cast<std::size_t>(j);
-}
-
 } // namespace
 
 std::vector<Trench> trace_trenches(const Grid &grid, const std::vector<double> &field,
@@ -182,7 +176,7 @@ std::vector<Trench> trace_trenches(const Grid &grid, const std::vector<double> &
                     ok = jump <= 2.0 * ds && jump >= 0.25 * ds; // else: jumped to another trench, or stalled
                 }
                 ok = ok && depth(f, *next, nq, w) >= 0.5 * settings.min_depth && depth(f, *next, nq, w) > 0.0;
-                const long o = ok ? owner[nearest_point(grid, *next)] : -1;
+                const long o = ok ? owner[grid.nearest_point(next->x, next->y)] : -1;
                 ok = ok && !(o >= 0 && o != id); // else: met a trench traced before
                 if (!ok) {
                     if (ds <= min_step) break;
@@ -211,7 +205,7 @@ std::vector<Trench> trace_trenches(const Grid &grid, const std::vector<double> &
         std::size_t counted = 0;
         for (std::size_t q = 0; q + 1 < trench.xy.size(); q += 2) {
             const Vec v{trench.xy[q], trench.xy[q + 1]};
-            const std::size_t k = nearest_point(grid, v);
+            const std::size_t k = grid.nearest_point(v.x, v.y);
             owner[k] = id;
             const long ci = static_cast<long>(k / grid.nx), cj = static_cast<long>(k % grid.nx);
             for (long di = -1; di <= 1; ++di)

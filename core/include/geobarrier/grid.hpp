@@ -3,7 +3,9 @@
 #ifndef GEOBARRIER_GRID_HPP
 #define GEOBARRIER_GRID_HPP
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <vector>
@@ -22,6 +24,19 @@ struct Grid {
     double dy() const { return (y_max - y_min) / static_cast<double>(ny - 1); }
     double x(std::size_t j) const { return x_min + dx() * static_cast<double>(j); }
     double y(std::size_t i) const { return y_min + dy() * static_cast<double>(i); }
+
+    // The column j whose x(j) is nearest to x: (x - x_min) / dx rounded half away from zero (std::lround), clamped to
+    // [0, nx - 1], so that a point outside the grid gets the column on the grid's nearer edge (the reads of a field
+    // at a point off the grid, a little outside after rounding, stay in bounds).
+    std::size_t nearest_column(double x) const {
+        return static_cast<std::size_t>(std::clamp(std::lround((x - x_min) / dx()), 0L, static_cast<long>(nx) - 1));
+    }
+    // The same for the row i whose y(i) is nearest to y, in [0, ny - 1].
+    std::size_t nearest_row(double y) const {
+        return static_cast<std::size_t>(std::clamp(std::lround((y - y_min) / dy()), 0L, static_cast<long>(ny) - 1));
+    }
+    // The index i * nx + j of the grid point nearest to (x, y) so, for fields in the grid's row-major order.
+    std::size_t nearest_point(double x, double y) const { return nearest_row(y) * nx + nearest_column(x); }
 };
 
 // How the Cauchy–Green tensor of an n-dimensional system is seen on a two-dimensional slice of its phase space

@@ -382,7 +382,6 @@ bool WallFilter::along(const double *xy, std::size_t n, const double *steps, std
     const Grid &g = grid;
     near.assign(n, 0.0);
     bool any_near = false;
-    const double dx = g.dx(), dy = g.dy();
     for (std::size_t k = 0; k < n; ++k) {
         const double x = xy[2 * k], y = xy[2 * k + 1];
         double d = HUGE_VAL;
@@ -391,13 +390,7 @@ bool WallFilter::along(const double *xy, std::size_t n, const double *steps, std
         if (walls.bottom) d = std::min(d, y - g.y_min);
         if (walls.top) d = std::min(d, g.y_max - y);
         bool within = d < reach;
-        if (!within && walls.mask && !near_mask.empty()) {
-            const std::size_t j = static_cast<std::size_t>(
-                                  std::clamp(std::lround((x - g.x_min) / dx), 0L, static_cast<long>(g.nx) - 1)),
-                              i = static_cast<std::size_t>(
-                                  std::clamp(std::lround((y - g.y_min) / dy), 0L, static_cast<long>(g.ny) - 1));
-            within = near_mask[i * g.nx + j] != 0;
-        }
+        if (!within && walls.mask && !near_mask.empty()) within = near_mask[g.nearest_point(x, y)] != 0;
         near[k] = within ? 1.0 : 0.0;
         any_near = any_near || within;
     }
@@ -1206,13 +1199,7 @@ void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_inpu
     if (!exit_time) return;
     const Grid g = grid_of(in);
     const std::vector<std::uint8_t> near = hyperbolic::near_exit_jumps(g, exit_time, in.mask, exit_jumps(in), 1);
-    const auto near_kind = [&](const double *p) {
-        const auto j = static_cast<std::size_t>(
-            std::clamp(std::lround((p[0] - g.x_min) / g.dx()), 0L, static_cast<long>(g.nx) - 1));
-        const auto i = static_cast<std::size_t>(
-            std::clamp(std::lround((p[1] - g.y_min) / g.dy()), 0L, static_cast<long>(g.ny) - 1));
-        return near[i * g.nx + j];
-    };
+    const auto near_kind = [&](const double *p) { return near[g.nearest_point(p[0], p[1])]; };
     // First the candidates seeded there (d_g < max_deviation), by increasing q; then, by increasing q, the runs along
     // the captured set's edge whatever d_g (jump_runs). Along jumps between points that both leave, runs with larger
     // d_g added off-truth barriers on van der Pol (precision 0.55 -> 0.27 on 181 x 181), where trajectories that

@@ -63,6 +63,23 @@ IntegratorSettings adaptive(std::size_t batch) {
 
 } // namespace
 
+TEST_CASE("tiles: points_per_batch, the request's lanes per batch over its lanes per point, rounded up") {
+    FlowMapRequest r; // no system is needed: points_per_batch reads the settings, gradient and want_positions
+    r.settings.batch = 64;
+    r.gradient = GradientMethod::none;
+    CHECK(points_per_batch(r) == 64);
+    r.gradient = GradientMethod::variational;
+    CHECK(points_per_batch(r) == 64);
+    r.gradient = GradientMethod::auxiliary_grid; // 4 neighbours per point
+    CHECK(points_per_batch(r) == 16);
+    r.want_positions = true; // and the centre: ceil(64 / 5)
+    CHECK(points_per_batch(r) == 13);
+    r.settings.method = "rosenbrock4"; // one trajectory at a time: the batch is one point whatever its lanes
+    CHECK(points_per_batch(r) == 1);
+    r.gradient = GradientMethod::none;
+    CHECK(points_per_batch(r) == 1);
+}
+
 TEST_CASE("tiles: the flow map and Cauchy-Green fields tile by tile are the untiled numbers, bit for bit") {
     const System duffing = make_system("duffing");
     const Forcing cosine = make_forcing("cosine", {{"amplitude", 0.08}});

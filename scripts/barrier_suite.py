@@ -771,7 +771,7 @@ _add(Case(
     "strainlines run 0.05-0.1 outside it. The exit time jumps exactly there (exit_time_edges: 1.0 on the cycle, "
     "covering 1.0 of it), and the extractor's exit-time seeds and barriers (exit_jump, exit_stay_jump, and runs "
     "along the captured set's edge whatever d_g) recover it on 361 x 361 (precision 0.976, recall 0.968, rank 1 on "
-    "it, but in 11 pieces; 0 and 0 without) and not on 181 x 181 (0.365, 0.455, rank-1 barrier off the cycle, 3 "
+    "it, but in 11 pieces; 0 and 0 without) and not on 181 x 181 (0.305, 0.608, rank-1 barrier off the cycle, 3 "
     "pieces), where the jumps between points that both leave (trajectories grazing the bounds) give strainline "
     "segments off the cycle"))
 _add(Case(

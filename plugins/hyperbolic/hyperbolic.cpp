@@ -452,6 +452,7 @@ struct Selected {
     std::size_t probes = 0;    // probe points along the piece, about a neighbour distance apart
     std::size_t dominated = 0; // probes with a segment of smaller q within the neighbour distance
     bool exit_edge = false;    // chosen along the exit time's jumps (exit_edge_barriers), not as a local minimum
+    bool along_jumps = false;  // exit_edge, or a local minimum with at least half its points near the jumps
 };
 
 // The lengths and distances of Alg. 1 in state units, from the parameters or the box.
@@ -478,7 +479,8 @@ struct ReportedCurve {
     std::size_t probes = 0, dominated = 0;
     double transverse_ratio = nan_value; // transverse_q_ratio (whole_curves.hpp)
     double strength = nan_value;         // log q / log q_best (whole_curves)
-    bool exit_edge = false;              // at least half its length chosen along the exit time's jumps: significant
+    bool exit_edge = false;              // at least half its length chosen along the exit time's jumps
+    bool along_jumps = false;            // at least half its length along the exit time's jumps: significant
     bool significant = false;
 };
 
@@ -1215,6 +1217,17 @@ void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_inpu
         scale);
     std::stable_sort(runs.begin(), runs.end(), [](const Segment &a, const Segment &b) { return a.q < b.q; });
     if (order.empty() && runs.empty()) return;
+    // The selection's local minima with at least half their points near a jump lie along the exit time's jumps as
+    // these barriers do, and are as material: the tests of step 8 do not apply to them either (on the escape
+    // oscillator, 421 x 361, the unstable manifold's middle turn was a local minimum of q, kept the exit-time runs
+    // off it, and was then demoted to a candidate by min_strength: recall 0.53).
+    for (Selected &pick : selected) {
+        const double *xy = first_point(lines, pick.piece);
+        const std::size_t n = pick.piece.last - pick.piece.first + 1;
+        std::size_t along = 0;
+        for (std::size_t k = 0; k < n; ++k) along += near_kind(xy + 2 * k) != 0 ? 1 : 0;
+        pick.along_jumps = 2 * along >= n;
+    }
     const double cover = cover_distance(g, scale.radius);
     RunIndex kept(g, cover);
     const auto keep = [&](std::size_t b) {
@@ -1223,7 +1236,7 @@ void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_inpu
     for (std::size_t b = 0; b < selected.size(); ++b) keep(b);
     const std::size_t before = selected.size();
     const auto take = [&](Selected pick) {
-        pick.exit_edge = true;
+        pick.exit_edge = pick.along_jumps = true;
         if (pick.remainder) {
             pick.piece.length = polyline_length(points_of(lines, pick.piece));
             if (pick.piece.length < scale.min_length || !meter.measure(lines, pick.piece)) return;
@@ -1283,7 +1296,7 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
         ReportedCurve &rc = curves[c];
         rc.parts = chains[c];
         rc.xy = hyperbolic::chain_points(pieces, chains[c]);
-        double weighted_deviation = 0.0, exit_edge_length = 0.0;
+        double weighted_deviation = 0.0, exit_edge_length = 0.0, along_jumps_length = 0.0;
         rc.least_q_part = chains[c].front().index;
         for (const hyperbolic::JoinedPart &part : chains[c]) {
             const Selected &s = selected[part.index];
@@ -1295,13 +1308,15 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
             rc.dominated += s.dominated;
             if (s.piece.q < selected[rc.least_q_part].piece.q) rc.least_q_part = part.index;
             exit_edge_length += s.exit_edge ? s.piece.length : 0.0;
+            along_jumps_length += s.along_jumps ? s.piece.length : 0.0;
         }
         rc.q = rc.stretched_length / rc.length;
         rc.mean_deviation = weighted_deviation / rc.length;
-        rc.exit_edge = 2.0 * exit_edge_length >= rc.length; // mostly along the exit time's jumps
+        rc.exit_edge = 2.0 * exit_edge_length >= rc.length; // mostly chosen along the exit time's jumps
+        rc.along_jumps = 2.0 * along_jumps_length >= rc.length;
         rc.transverse_ratio =
             hyperbolic::transverse_q_ratio(g, root, cg.mask, rc.xy, cell, 2.0 * cell, std::max(radius, 3.0 * cell));
-        rc.significant = rc.exit_edge || std::isnan(rc.transverse_ratio) ||
+        rc.significant = rc.along_jumps || std::isnan(rc.transverse_ratio) ||
                          rc.transverse_ratio >= m_min_transverse_ratio * (1.0 - 1e-9);
     }
     // The contraction test against the best local minimum: a hyperbolic barrier contracts exponentially in the
@@ -1312,7 +1327,7 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
         if (rc.significant) q_best = std::min(q_best, rc.q);
     for (ReportedCurve &rc : curves) {
         rc.strength = q_best < 1.0 ? std::log(rc.q) / std::log(q_best) : nan_value;
-        rc.significant = rc.significant && (rc.exit_edge || rc.strength >= m_min_strength);
+        rc.significant = rc.significant && (rc.along_jumps || rc.strength >= m_min_strength);
     }
     std::stable_sort(curves.begin(), curves.end(), [](const ReportedCurve &a, const ReportedCurve &b) {
         if (a.significant != b.significant) return a.significant;

@@ -37,7 +37,7 @@ void report_widths(std::ostream &md, std::size_t n, const std::vector<Row> &widt
     const double peak[2] = {peak_lane_fma_rate(8), peak_lane_fma_rate(4)};
     md << "## Vector widths and the machine's limit\n\nW's default at N = " << n
        << " on the native build and on an AVX2-only build (`-march=x86-64-v3 -ffp-contract=off`, "
-          "`GEOBARRIER_NATIVE=OFF`) of the same source, same run, best of two. The fused dop853 step "
+          "`GEOBARRIER_MARCH=x86-64-v3`) of the same source, same run, best of two. The fused dop853 step "
           "(Duffing, variational) costs about "
        << fixed(ops, 0)
        << " vector-lane operations (multiply-adds counted once) per trajectory-step. The floor is that many "

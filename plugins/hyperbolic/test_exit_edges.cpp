@@ -153,3 +153,37 @@ TEST_CASE("exit-time seeds: next to a captured point, one leaving more than stay
     // With stay_jump at the jump (1), as with a point that stays counted as leaving at the horizon: no seed.
     CHECK(exit_jump_seeds(g, exit.data(), nullptr, {0.0, horizon, 1.0, 1.0}, 0.05).empty());
 }
+
+TEST_CASE("near_exit_jumps: the captured set's edge and a jump between leaving points are told apart") {
+    // disc_and_line: the disc's edge separates points that stay from points that leave (captured), the line x = 0.8
+    // points that leave `step` apart (leaving). Reach 1: the points within a grid point of an edge's end.
+    using geobarrier::hyperbolic::near_captured_jump;
+    using geobarrier::hyperbolic::near_exit_jumps;
+    using geobarrier::hyperbolic::near_leaving_jump;
+    const Grid g = unit_grid(101);
+    const std::vector<double> exit = disc_and_line(g);
+    const std::vector<std::uint8_t> near = near_exit_jumps(g, exit.data(), nullptr, {2.0, horizon, 2.0, 2.0}, 1);
+    std::size_t captured = 0, leaving = 0;
+    for (std::size_t i = 0; i < g.ny; ++i)
+        for (std::size_t j = 0; j < g.nx; ++j) {
+            const std::uint8_t kind = near[i * g.nx + j];
+            const double x = g.x(j), y = g.y(i);
+            // Within a grid point (along x and along y) of an edge's end, which lies within a cell of the curve along
+            // the edge: within sqrt(1 + 2^2) = sqrt(5) cells of the curve.
+            const double bound = std::sqrt(5.0) * g.dx() + 1e-12;
+            if (kind & near_captured_jump) {
+                ++captured;
+                CHECK(distance_to_circle(x, y) <= bound);
+            }
+            if (kind & near_leaving_jump) {
+                ++leaving;
+                CHECK(std::fabs(x - line_x) <= 2.0 * g.dx() + 1e-12); // along x only
+            }
+            // And every point on either curve is marked with its kind.
+            if (distance_to_circle(x, y) <= 0.5 * g.dx()) CHECK((kind & near_captured_jump) != 0);
+            if (std::fabs(x - line_x) <= 0.5 * g.dx()) CHECK((kind & near_leaving_jump) != 0);
+            if (kind == 0) CHECK((distance_to_circle(x, y) > 0.5 * g.dx() && std::fabs(x - line_x) > 0.5 * g.dx()));
+        }
+    CHECK(captured > 0);
+    CHECK(leaving > 0);
+}

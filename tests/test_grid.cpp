@@ -5,6 +5,7 @@
 #include <doctest/doctest.h>
 
 #include <cstddef>
+#include <limits>
 
 using geobarrier::Grid;
 
@@ -36,6 +37,8 @@ TEST_CASE("grid: the nearest column, row and point, at the edges, half-way and o
     CHECK(g.nearest_column(-3.0) == 0);
     CHECK(g.nearest_column(1.2) == 4);
     CHECK(g.nearest_column(1e300) == 4);
+    CHECK(g.nearest_column(-1e300) == 0);
+    CHECK(g.nearest_column(std::numeric_limits<double>::quiet_NaN()) == 0);
     CHECK(g.nearest_row(-7.0) == 0);
     CHECK(g.nearest_row(2.6) == 2);
 

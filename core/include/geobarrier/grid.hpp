@@ -27,16 +27,21 @@ struct Grid {
 
     // The column j whose x(j) is nearest to x: (x - x_min) / dx rounded half away from zero (std::lround), clamped to
     // [0, nx - 1], so that a point outside the grid gets the column on the grid's nearer edge (the reads of a field
-    // at a point off the grid, a little outside after rounding, stay in bounds).
-    std::size_t nearest_column(double x) const {
-        return static_cast<std::size_t>(std::clamp(std::lround((x - x_min) / dx()), 0L, static_cast<long>(nx) - 1));
-    }
+    // at a point off the grid, a little outside after rounding, stay in bounds); 0 for NaN.
+    std::size_t nearest_column(double x) const { return nearest_index((x - x_min) / dx(), nx); }
     // The same for the row i whose y(i) is nearest to y, in [0, ny - 1].
-    std::size_t nearest_row(double y) const {
-        return static_cast<std::size_t>(std::clamp(std::lround((y - y_min) / dy()), 0L, static_cast<long>(ny) - 1));
-    }
+    std::size_t nearest_row(double y) const { return nearest_index((y - y_min) / dy(), ny); }
     // The index i * nx + j of the grid point nearest to (x, y) so, for fields in the grid's row-major order.
     std::size_t nearest_point(double x, double y) const { return nearest_row(y) * nx + nearest_column(x); }
+
+  private:
+    // u (in grid spacings from the first point) rounded and clamped to [0, n - 1]. Clamped before rounding: std::lround
+    // of a value beyond long's range, or of NaN, is unspecified (a sanitizer build gave column 0 for x = 1e300).
+    static std::size_t nearest_index(double u, std::size_t n) {
+        if (!(u > 0.0)) return 0;
+        if (u >= static_cast<double>(n - 1)) return n - 1;
+        return static_cast<std::size_t>(std::lround(u));
+    }
 };
 
 // How the Cauchy–Green tensor of an n-dimensional system is seen on a two-dimensional slice of its phase space

@@ -1235,11 +1235,14 @@ void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_inpu
     };
     for (std::size_t b = 0; b < selected.size(); ++b) keep(b);
     const std::size_t before = selected.size();
+    // A part of a candidate is measured here (a remainder, reported with its candidate's q too); a part of a run,
+    // which has no candidate behind it, is measured as a whole of its own.
     const auto take = [&](Selected pick) {
         pick.exit_edge = pick.along_jumps = true;
         if (pick.remainder) {
             pick.piece.length = polyline_length(points_of(lines, pick.piece));
             if (pick.piece.length < scale.min_length || !meter.measure(lines, pick.piece)) return;
+            pick.remainder = pick.candidate != no_candidate;
         }
         selected.push_back(pick);
         keep(selected.size() - 1);
@@ -1256,16 +1259,9 @@ void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_inpu
     for (const Segment &run : runs) {
         const std::vector<char> covered = covered_points(kept, first_point(lines, run), run.last - run.first + 1,
                                                          run.longest_step, cover, scale.min_length);
-        // No candidate segment behind these: a part of a run is measured as a whole of its own, no remainder.
-        for (Selected pick :
-             picks_of_runs(no_candidate, run, covered.size(), [&](std::size_t k) { return !covered[k]; })) {
-            if (pick.remainder) {
-                pick.piece.length = polyline_length(points_of(lines, pick.piece));
-                if (pick.piece.length < scale.min_length || !meter.measure(lines, pick.piece)) continue;
-                pick.remainder = false;
-            }
+        for (const Selected &pick :
+             picks_of_runs(no_candidate, run, covered.size(), [&](std::size_t k) { return !covered[k]; }))
             take(pick);
-        }
     }
     host.info("" + std::to_string(selected.size() - before) + " barriers along the exit time's jumps (of " +
               std::to_string(order.size()) + " segments seeded there, and " + std::to_string(runs.size()) +
@@ -1424,7 +1420,7 @@ void report_barriers(const sdk::Host &host, const std::vector<Segment> &candidat
         if (std::isfinite(rc.transverse_ratio)) metrics.push_back({"transverse_q_ratio", rc.transverse_ratio});
         if (std::isfinite(rc.strength)) metrics.push_back({"relative_strength", rc.strength});
         const Selected &single = selected[rc.parts.front().index];
-        if (rc.parts.size() == 1 && single.remainder && single.candidate != no_candidate)
+        if (rc.parts.size() == 1 && single.remainder) // never a pick of no candidate (exit_edge_barriers)
             metrics.push_back({"segment_relative_stretching", candidates[single.candidate].q});
         if (std::isfinite(check.condition[b])) metrics.push_back({"stretching_condition", check.condition[b]});
         if (check.was_advected[b]) {

@@ -6,7 +6,9 @@ its ground truth against what it must satisfy, and the hyperbolic extractor agai
 - Truth: the analytic separatrices lie on their energy levels; the unforced Duffing stable manifold grown by
   grow_branch lies on H = 0 and covers both loops; workload W's saddle orbit is a fixed point of the period map to
   1e-9 (checked by a plain integration over one period), and its grown stable manifold's points do reach the
-  saddle orbit; the double gyre's orbit sits on the wall; the Van der Pol cycle closes.
+  saddle orbit; the double gyre's orbit sits on the wall, and its walls are the stable manifolds of the corners and
+  of the top wall's orbit (points on them stay on them and run into those saddles within the horizon); the Van der
+  Pol cycle closes.
 - End to end (QUICK cases, whose truth costs under a second; the others, whose manifolds take minutes to grow the
   first time, with BARRIER_ACCURACY_ALL=1): geobarrier run on the small grid, then precision >= 0.95,
   recall >= 0.9, at most 2 pieces per branch and the rank-1 barrier on the truth, for every case expected to pass.
@@ -119,6 +121,18 @@ def test_truth_outside_the_box_is_not_asked_for():
     r = bs.score(doc_of(line(-2.0, 0.0, 2.0, 0.0)), truth, TOL, BOX)
     assert r["recall"] == pytest.approx(1.0)
     assert r["truth_length_in_box"] == pytest.approx(4.0, abs=TOL / 4)
+
+
+def test_also_true_branches_count_for_precision_not_recall():
+    """A barrier on an also-true branch (Case.also: the double gyre's walls) is right but not asked for."""
+    truth = [("segment", line(-1.5, 0.0, 1.5, 0.0))]
+    wall = [("wall", line(-2.0, -1.0, 2.0, -1.0))]
+    doc = doc_of(line(-1.5, -1.0, 1.5, -1.0), line(-1.5, 0.0, 0.0, 0.0))  # rank 1 on the wall, 3.0 + 1.5 long
+    without, with_wall = bs.score(doc, truth, TOL, BOX), bs.score(doc, truth, TOL, BOX, also=wall)
+    assert without["precision"] == pytest.approx(1.5 / 4.5, abs=2e-3) and not without["top_on_truth"]
+    assert with_wall["precision"] == pytest.approx(1.0) and with_wall["top_on_truth"]
+    assert with_wall["recall"] == without["recall"] == pytest.approx((1.5 + TOL) / 3.0, abs=2e-3)
+    assert with_wall["pieces_per_branch"] == {"segment": 1}  # the wall is no branch to count pieces of
 
 
 def test_growth_fractions_cut_the_truth_by_entry_time():
@@ -237,6 +251,53 @@ def test_double_gyre_orbit_sits_on_the_wall():
     image = bs.flow(system, [saddle.point], 0.0, 10.0, rtol=1e-13, atol=1e-15)[0]
     assert np.linalg.norm(image - saddle.point) < 1e-9
     assert abs(saddle.stable[0]) < 1e-9  # the stable direction is normal to the invariant wall
+
+
+def test_double_gyre_walls_are_stable_manifolds():
+    """Each wall segment of double_gyre_walls, checked by plain integration at tight tolerances: points on it stay on
+    the wall and are within the reach-ball of the saddle the segment names after the horizon; the velocity along the
+    walls has the signs the stream function gives; and the segments cover the walls but for the points next to the
+    saddles they leave."""
+    case = bs.CASES["double-gyre-forward"]
+    system = bs.system_of(case.experiment)
+    horizon, reach = case.horizon, case.truth_params["reach"]
+    walls = bs.double_gyre_walls(case)
+    assert len(walls) == 6
+    top = walls[4][1][-1]  # the top segments end at the top wall's orbit at t0
+    assert top[1] == 1.0 and 0.8 < top[0] < 1.0
+    top_later = bs.flow(system, [top], 0.0, horizon, rtol=1e-13, atol=1e-15)[0]
+    targets = [(0.0, 0.0), (2.0, 0.0), (0.0, 1.0), (2.0, 1.0), tuple(top_later), tuple(top_later)]
+    times = np.linspace(0.0, horizon, 31)
+    wall_lengths = {}
+    for (name, poly, entry), target in zip(walls, targets):
+        assert not np.isnan(poly).any() and np.all(entry <= horizon)
+        # Away from the upstream end (there points leave the saddle they start at slowly) and the downstream one.
+        chosen = poly[np.linspace(len(poly) // 20, len(poly) - 2, 8).astype(int)]
+        fixed = 1 if np.ptp(poly[:, 1]) == 0.0 else 0  # the coordinate constant along the wall
+        path = [chosen]
+        for a, b in zip(times[:-1], times[1:]):
+            path.append(bs.flow(system, path[-1], a, b, rtol=1e-12, atol=1e-14))
+        path = np.array(path)  # time, point, coordinate
+        assert np.max(np.abs(path[:, :, fixed] - poly[0, fixed])) < 1e-9, name
+        # Not monotonically: the bottom and top orbits swing between x = 0.89 and 1.11 over a period, so a point
+        # between runs one way, then the other, before it leaves them behind.
+        assert np.all(np.hypot(*(path[-1] - np.array(target)).T) < reach), name
+        wall = name.split(":")[0].replace(" left of its orbit", "").replace(" right of its orbit", "")
+        wall_lengths[wall] = wall_lengths.get(wall, 0.0) + bs.polyline_length(poly)
+    # Each wall's segments cover it but for a point spacing (tol / 4) at each saddle they leave.
+    assert wall_lengths["bottom wall"] == pytest.approx(2.0, abs=2 * case.tol / 4 + 1e-9)
+    assert wall_lengths["top wall"] == pytest.approx(2.0, abs=2 * case.tol / 4 + 1e-9)
+    assert wall_lengths["left wall"] == pytest.approx(1.0, abs=case.tol / 4 + 1e-9)
+    assert wall_lengths["right wall"] == pytest.approx(1.0, abs=case.tol / 4 + 1e-9)
+    # The signs from psi = A sin(pi g) sin(pi y) over a period: along y = 0, u = -pi A sin(pi g) < 0 where g < 1 and
+    # > 0 where g > 1 (g = 1 between x = 3 - sqrt(5) and sqrt(5) - 1 as sin(omega t) swings); along y = 1 the
+    # opposite; along x = 0 and x = 2, v > 0.
+    for t in np.linspace(0.0, 10.0, 9):
+        bottom = system.rhs(t, np.array([[x, 0.0] for x in (0.3, 0.7, 1.3, 1.7)]))[:, 0]
+        top_wall = system.rhs(t, np.array([[x, 1.0] for x in (0.3, 0.7, 1.3, 1.7)]))[:, 0]
+        assert np.all(bottom * [-1, -1, 1, 1] > 0) and np.all(top_wall * [1, 1, -1, -1] > 0)
+        side = system.rhs(t, np.array([[0.0, y] for y in (0.1, 0.5, 0.9)] + [[2.0, y] for y in (0.1, 0.5, 0.9)]))
+        assert np.all(side[:, 1] > 0)
 
 
 def test_van_der_pol_cycle_closes():

@@ -11,13 +11,20 @@
 docs/python.md is the guide; docs/experiment-format.md describes experiments.
 """
 
+import importlib
 import json
 import math
 import os
 import signal
 import threading
 
-from . import _fields
+from . import _openmp
+
+# First of all, before anything loads the native extension and with it the OpenMP runtime: idle threads sleep unless
+# the user chose otherwise (_openmp.py says why). "user", "passive", "too late" or "unknown".
+_openmp_wait = _openmp.import_with_passive_wait(lambda: importlib.import_module("._geobarrier", __name__))
+
+from . import _fields  # noqa: E402 (after the extension's import above)
 from ._errors import ConfigError, Error, IoError, NumericalError, PluginError
 from ._geobarrier import version as __version__
 from . import _geobarrier as _native

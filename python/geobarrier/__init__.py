@@ -14,6 +14,7 @@ docs/python.md is the guide; docs/experiment-format.md describes experiments.
 import importlib
 import json
 import math
+import numbers
 import os
 import signal
 import threading
@@ -25,10 +26,12 @@ from . import _openmp
 _openmp_wait = _openmp.import_with_passive_wait(lambda: importlib.import_module("._geobarrier", __name__))
 
 from . import _fields  # noqa: E402 (after the extension's import above)
+from numpy import bool_ as _np_bool
 from ._errors import ConfigError, Error, IoError, NumericalError, PluginError
 from ._geobarrier import version as __version__
 from . import _geobarrier as _native
-from ._arrays import CauchyGreen, Forcing, System, barriers, cauchy_green, flow_map, ftle
+from ._arrays import CauchyGreen, Forcing, System, barriers, cauchy_green, flow_map, ftle, non_finite
+from ._arrays import _plugin_paths
 from ._barriers import Barrier, Barriers
 from ._fields import Fields
 from ._plot import plot
@@ -137,15 +140,37 @@ def _experiment_text(experiment):
         raise TypeError(f"an experiment is a dict or a path to a JSON file, not {type(experiment).__name__}")
     try:
         return json.dumps(experiment, allow_nan=False, default=_json_default), ""
-    except ValueError as e:  # NaN or infinity: JSON has neither
-        raise ConfigError(f"/: {e} (JSON has no NaN or infinity)", "/") from None
+    except ValueError as e:  # NaN or infinity, which JSON has not (or a dict that holds itself)
+        try:
+            found = non_finite(json.loads(json.dumps(experiment, default=_json_default)))
+        except ValueError:
+            found = None
+        if found is None:
+            raise ConfigError(f"/: {e}", "/") from None
+        path, value = found
+        raise ConfigError(f"{path}: {value!r} is not a finite number (JSON has no NaN or infinity)", path) from None
+
+
+def _output_folder(out):
+    """``out`` as the str the core takes, or None: TypeError for what is no path, ValueError for an empty one."""
+    if out is None:
+        return None
+    if not isinstance(out, (str, os.PathLike)) or not isinstance(os.fspath(out), str):
+        raise TypeError(f"out: expected a folder path (str or os.PathLike), got {type(out).__name__}")
+    out = os.fspath(out)
+    if not out:
+        raise ValueError('out: "" is no folder; give one ("." for the working directory), or out=None to write nothing')
+    return out
 
 
 def _flow_map_only(text, file):
     """The experiment reduced to its flow map: products ["flow_map"], no extractors, no validation products."""
     if not text:
-        with open(file, encoding="utf-8", errors="replace") as f:
-            text = f.read()
+        try:
+            with open(file, encoding="utf-8", errors="replace") as f:
+                text = f.read()
+        except OSError:
+            return text, file  # the core reports the file it cannot read (IoError), as without flow_map
     try:
         experiment = json.loads(text)
     except ValueError:
@@ -164,8 +189,8 @@ def run(experiment, out=None, *, write=None, threads=0, progress=False, flow_map
     out       write the usual output folder (fields.nc, pictures, barriers.json, manifest.json) here;
     write     True: write it to `out`, or to the experiment's output.dir; default: only when `out` is given;
               a run that writes nothing draws no pictures and leaves every folder as it was;
-    threads   worker threads (0: OpenMP's default, all cores; at most 1024, as on the command line); the setting is the
-              run's own;
+    threads   worker threads (0 or None: OpenMP's default, all cores; at most 1024, as on the command line); the
+              setting is the run's own;
     progress  True: a live bar per stage in a Jupyter notebook (tqdm's; a widget with ipywidgets 7 or newer), else
               a progress line on stderr; or a callable(stage, done, total), e.g. ProgressBar(tqdm.tqdm) (ProgressLine and
               ProgressBar objects are closed when the run returns);
@@ -181,13 +206,24 @@ def run(experiment, out=None, *, write=None, threads=0, progress=False, flow_map
     tangle (what the command line writes to forward/, backward/ and tangle.json).
     """
     text, file = _experiment_text(experiment)
+    for name, flag in (("write", write), ("flow_map", flow_map), ("xarray", xarray)):
+        # A truthy string ("no") would write files or draw the wrong thing without a word.
+        if not (isinstance(flag, (bool, _np_bool)) or (flag is None and name == "write")):
+            raise TypeError(f"{name}: expected True or False{' or None' if name == 'write' else ''}, got "
+                            f"{type(flag).__name__} {flag!r}")
+    out = _output_folder(out)
     if flow_map:
         text, file = _flow_map_only(text, file)
     if write is None:
         write = out is not None
     elif not write and out is not None:
         raise ValueError("out names an output folder but write=False")
-    if isinstance(threads, bool) or not isinstance(threads, int) or threads < 0:
+    if threads is None:
+        threads = 0
+    if isinstance(threads, (bool, _np_bool)) or not isinstance(threads, numbers.Integral):
+        raise TypeError(f"threads: expected an int (0 or None: all cores), got {type(threads).__name__}")
+    threads = int(threads)
+    if threads < 0:
         raise ValueError(f"threads must be a non-negative integer, not {threads!r}")
     if threads > _native.max_threads:
         raise ValueError(f"threads must be at most {_native.max_threads} (as on the command line), not {threads!r}")
@@ -205,8 +241,7 @@ def run(experiment, out=None, *, write=None, threads=0, progress=False, flow_map
                         and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
     completed = False
     try:
-        native = _native.run(text, file, None if out is None else os.fspath(out), bool(write), threads, callback,
-                             handle_interrupt)
+        native = _native.run(text, file, out, bool(write), threads, callback, handle_interrupt)
         completed = True
     finally:
         if line is not None:
@@ -223,9 +258,10 @@ def validate(experiment):
 
 
 def plugins(plugin_paths=()):
-    """The plugins found (in `plugin_paths` first, then GEOBARRIER_PLUGIN_PATH, then the built-in ones), each a dict
-    with kind, name, version, doc, file and "params": the schema (name, type, default, min, max, unit, doc)."""
-    found = json.loads(_native.plugins([os.fspath(p) for p in plugin_paths]))["plugins"]
+    """The plugins found (in `plugin_paths` first: a folder or a list of folders; then GEOBARRIER_PLUGIN_PATH, then
+    the built-in ones), each a dict with kind, name, version, doc, file and "params": the schema (name, type,
+    default, min, max, unit, doc)."""
+    found = json.loads(_native.plugins(_plugin_paths(plugin_paths)))["plugins"]
     for plugin in found:
         for param in plugin.get("params", []):
             # JSON's null for an unbounded side of a numeric range: an infinity in Python, usable in comparisons.
@@ -236,5 +272,9 @@ def plugins(plugin_paths=()):
 
 
 def set_log_level(level):
-    """The core's log level on stderr: "debug", "info", "warning" (the default in Python), "error" or "off"."""
-    _native.set_log_level(level)
+    """The core's log level on stderr: "debug", "info", "warning" (the default in Python), "error" or "off" (in
+    any case: "INFO" as Python's logging spells it)."""
+    if not isinstance(level, str):
+        raise TypeError(f'level: expected a str ("debug", "info", "warning", "error" or "off"), got '
+                        f"{type(level).__name__}")
+    _native.set_log_level(level.lower())

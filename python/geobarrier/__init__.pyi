@@ -116,12 +116,12 @@ class ProgressBar:
     def close(self, completed: bool = ...) -> None: ...
 
 def run(experiment: _Experiment, out: Union[str, "os.PathLike[str]", None] = ..., *, write: Optional[bool] = ...,
-        threads: int = ..., progress: Union[bool, None, _ProgressCallback] = ..., flow_map: bool = ...,
+        threads: Optional[int] = ..., progress: Union[bool, None, _ProgressCallback] = ..., flow_map: bool = ...,
         xarray: bool = ...) -> Result:
     """Runs an experiment (a dict or the path of an experiment file) and returns a Result."""
 def validate(experiment: _Experiment) -> Dict[str, Any]:
     """Checks an experiment completely and computes nothing; a summary dict."""
-def plugins(plugin_paths: Sequence[Union[str, "os.PathLike[str]"]] = ...) -> List[Dict[str, Any]]:
+def plugins(plugin_paths: Union[_Path, Sequence[_Path]] = ...) -> List[Dict[str, Any]]:
     """The plugins found, each a dict with its parameter schema."""
 def set_log_level(level: Literal["debug", "info", "warning", "error", "off"]) -> None:
     """The core's log level on stderr."""

@@ -29,19 +29,24 @@ def _schema(schema_text):
     return params
 
 
+def non_finite(value, path=""):
+    """(JSON path, value) of the first NaN or infinity in a JSON document as json.loads gives it, or None."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return path, value
+    items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
+    # JSON Pointer (RFC 6901) escapes "~" and "/" in a key.
+    return next((found for key, v in items
+                 for found in [non_finite(v, f"{path}/{str(key).replace('~', '~0').replace('/', '~1')}")] if found),
+                None)
+
+
 def _params_text(params):
     """Parameters as JSON text for the core; NaN and infinity (which JSON has not) raise naming the parameter."""
-    def not_finite(value, path):
-        if isinstance(value, float) and not math.isfinite(value):
-            return path, value
-        items = value.items() if isinstance(value, dict) else enumerate(value) if isinstance(value, list) else ()
-        return next((found for key, v in items for found in [not_finite(v, f"{path}/{key}")] if found), None)
-
     try:
         return json.dumps(params, allow_nan=False, default=lambda v: v.tolist() if hasattr(v, "tolist") else str(v))
     except ValueError:
-        path, value = not_finite(json.loads(json.dumps(params, default=lambda v: v.tolist() if hasattr(
-            v, "tolist") else str(v))), "") or ("", math.nan)
+        path, value = non_finite(json.loads(json.dumps(params, default=lambda v: v.tolist() if hasattr(
+            v, "tolist") else str(v)))) or ("", math.nan)
         raise ConfigError(f"{path or '/'}: {value!r} is not finite (JSON has no NaN or infinity)", path or "/") \
             from None
 
@@ -390,6 +395,18 @@ def ftle(F, T, *, of="DF"):
     return float(values[0]) if single else values
 
 
+def not_fields_message(fields):
+    """What a TypeError says of a ``fields`` argument that is neither an xarray Dataset nor a Fields, with the fix for
+    the two mistakes a user makes: a Result (its .fields is meant) and the path of fields.nc (not opened)."""
+    hint = ""
+    if hasattr(fields, "fields") and hasattr(fields, "barriers"):
+        hint = " (a run's Result: pass result.fields)"
+    elif isinstance(fields, (str, bytes, os.PathLike)):
+        hint = " (a path: open fields.nc with xarray.open_dataset(path) and pass the Dataset)"
+    return (f"fields: expected an xarray.Dataset (variables over coordinates y, x) or the fields of a run, got "
+            f"{type(fields).__name__}{hint}")
+
+
 def _field_arrays(fields):
     """(attrs, {name: (ny, nx) float64 array}, mask or None, x, y) of an xarray Dataset or a geobarrier.Fields."""
     if hasattr(fields, "data_vars"):  # xarray.Dataset
@@ -400,8 +417,7 @@ def _field_arrays(fields):
         values = {n: np.asarray(fields[n]) for n in fields.keys()}
         x, y = np.asarray(fields.x), np.asarray(fields.y)
     else:
-        raise TypeError(f"fields: expected an xarray.Dataset (variables over coordinates y, x) or the fields of a "
-                        f"run, got {type(fields).__name__}")
+        raise TypeError(not_fields_message(fields))
     mask = values.pop("mask", None)
     if mask is not None:
         if mask.dtype.kind not in "iu":

@@ -34,6 +34,8 @@ class Fields:
         raise AttributeError(f"no field named {name!r} (fields: {', '.join(variables)})")
 
     def __getitem__(self, name):
+        if name not in self._variables:
+            raise KeyError(f"no field named {name!r} (fields: {', '.join(self._variables)})")
         return self._variables[name]
 
     def __contains__(self, name):

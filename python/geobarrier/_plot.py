@@ -12,6 +12,9 @@ def _field(fields, variable):
             raise KeyError(f"no field named {variable!r} (fields: {', '.join(fields.data_vars)})")
         data = fields[variable]
         return np.asarray(fields["x"]), np.asarray(fields["y"]), np.asarray(data), dict(data.attrs)
+    if not (hasattr(fields, "variable_attrs") and hasattr(fields, "keys")):  # not a geobarrier.Fields either
+        from ._arrays import not_fields_message
+        raise TypeError(not_fields_message(fields))
     if variable not in fields:
         raise KeyError(f"no field named {variable!r} (fields: {', '.join(fields)})")
     return np.asarray(fields.x), np.asarray(fields.y), np.asarray(fields[variable]), fields.variable_attrs[variable]

@@ -141,7 +141,7 @@ def test_malformed_files_name_the_line_and_column(tmp_path):
 def test_bad_arguments_from_python():
     with pytest.raises(geobarrier.ConfigError) as raised:  # JSON has no NaN: caught before the core sees it
         geobarrier.run(dict(BASE, time={"t0": 0, "t1": float("nan")}))
-    assert raised.value.path == "/"
+    assert raised.value.path == "/time/t1"
     with pytest.raises(TypeError):
         geobarrier.run(42)
     with pytest.raises(TypeError):

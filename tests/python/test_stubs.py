@@ -164,5 +164,5 @@ def test_mypy_passes_on_the_examples_and_catches_a_wrong_call(tmp_path):
     done = run_mypy(["mypy", "--cache-dir", str(tmp_path / "cache"), str(wrong)], tmp_path)
     errors = [line for line in done.stdout.splitlines() if ": error:" in line]
     assert [int(line.split(":")[1]) for line in errors] == [2, 4, 6], done.stdout
-    assert 'Argument "threads" to "run" has incompatible type "str"; expected "int"' in errors[0]
+    assert 'Argument "threads" to "run" has incompatible type "str"; expected "Optional[int]"' in errors[0]
     assert "set_log_level" in errors[2] and "'verbose'" in errors[2]

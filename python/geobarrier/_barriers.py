@@ -55,6 +55,8 @@ class Barrier:
         return len(self.points)
 
     def __getitem__(self, name):
+        if name not in self.attributes:  # the figures this barrier has (extractors record different ones)
+            raise KeyError(f"no figure {name!r} (this barrier's: {', '.join(self.attributes)})")
         return self.attributes[name]
 
     def __getattr__(self, name):

@@ -132,3 +132,11 @@ def test_a_missing_field_names_the_fields_there():
     with pytest.raises(AttributeError, match=r"no field named 'lambda1' \(fields: ftle, mask\)"):
         fields.lambda1
     assert json.loads(fields.attrs["experiment"])["grid"]["n"] == [11, 9]
+
+
+def test_a_missing_figure_names_the_barriers_figures():
+    barrier = geobarrier.Barrier({"kind": "hyperbolic", "extractor": "hyperbolic", "closed": False,
+                                  "points": [[0, 0], [1, 0], [1, 1]], "rank": 1.0, "length": 2.0})
+    assert barrier["rank"] == 1 and isinstance(barrier["rank"], int) and barrier["length"] == 2.0
+    with pytest.raises(KeyError, match=r"no figure 'nosuch' \(this barrier's: rank, length\)"):
+        barrier["nosuch"]

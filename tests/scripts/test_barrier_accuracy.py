@@ -2,8 +2,10 @@
 its ground truth against what it must satisfy, and the hyperbolic extractor against the issue's thresholds.
 
 - Scorer: a barrier on the truth has precision 1, one moved by twice the tolerance precision 0, a truth branch
-  reported in two halves counts 2 pieces, candidates are not scored, the distances are exact (brute force).
-- Truth: the analytic separatrices lie on their energy levels; the unforced Duffing stable manifold grown by
+  reported in two halves counts 2 pieces, candidates are not scored, the distances are exact (brute force), and
+  also-true branches (the double gyre's walls) count for precision, not for recall or pieces.
+- Truth: flow_from, which grows the manifolds, agrees with one trajectory at a time (also where the escape
+  oscillator's trajectories leave the bounds); the analytic separatrices lie on their energy levels; the unforced Duffing stable manifold grown by
   grow_branch lies on H = 0 and covers both loops; workload W's saddle orbit is a fixed point of the period map to
   1e-9 (checked by a plain integration over one period), and its grown stable manifold's points do reach the
   saddle orbit; the double gyre's orbit sits on the wall, and its walls are the stable manifolds of the corners and
@@ -457,12 +459,13 @@ def test_exit_time_jumps_on_the_van_der_pol_cycle(tmp_path):
 
 @pytest.mark.skipif(not ALL, reason="the escape truth takes minutes to grow the first time; BARRIER_ACCURACY_ALL=1 "
                     "runs it")
-@pytest.mark.parametrize("name", ["escape-below-forward", "escape-below-backward"])
+@pytest.mark.parametrize("name", ["escape-below-forward", "escape-below-backward", "escape-above-backward"])
 def test_exit_time_jumps_on_the_escape_manifolds(name, tmp_path):
     """The escape oscillator (281 x 241): the exit time jumps across the stable (forward) and unstable (backward)
     manifold of the hilltop's saddle orbit grown with SciPy, where trajectories on either side leave over the hilltop
     one turn apart; the jumps lie on the manifold and cover it, also the far part of the unstable one that the
-    hyperbolic barriers miss."""
+    hyperbolic barriers miss. Above the threshold backward too (0.966 on it, covering 0.993); forward there the
+    jumps lie on the tangle (1.000) but cover 0.924 of it, so it is not asserted."""
     if not os.access(BIN, os.X_OK):
         pytest.skip(f"no geobarrier program at {BIN}")
     edges = exit_edges_of(name, tmp_path)

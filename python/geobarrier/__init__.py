@@ -26,10 +26,11 @@ from . import _openmp
 _openmp_wait = _openmp.import_with_passive_wait(lambda: importlib.import_module("._geobarrier", __name__))
 
 from . import _fields  # noqa: E402 (after the extension's import above)
+from . import _geobarrier as _native
+_openmp.guard_forks(_native)  # one thread in a fork child whose OpenMP worker threads stayed behind (_openmp.py)
 from numpy import bool_ as _np_bool
 from ._errors import ConfigError, Error, IoError, NumericalError, PluginError
 from ._geobarrier import version as __version__
-from . import _geobarrier as _native
 from ._arrays import CauchyGreen, Forcing, System, barriers, cauchy_green, flow_map, ftle, non_finite
 from ._arrays import _plugin_paths
 from ._barriers import Barrier, Barriers
@@ -227,6 +228,7 @@ def run(experiment, out=None, *, write=None, threads=0, progress=False, flow_map
         raise ValueError(f"threads must be a non-negative integer, not {threads!r}")
     if threads > _native.max_threads:
         raise ValueError(f"threads must be at most {_native.max_threads} (as on the command line), not {threads!r}")
+    threads = _openmp.parallel_threads(threads)
     if progress not in (False, None, True) and not callable(progress):
         raise TypeError("progress is True, False or a callable(stage, done, total)")
     # progress=True draws the default; a ProgressLine or ProgressBar given is drawn and closed the same way.

@@ -15,6 +15,7 @@ import numpy as np
 
 from ._errors import ConfigError
 from . import _geobarrier as _native
+from . import _openmp
 
 _QUALITIES = ("draft", "standard", "publication")
 
@@ -84,6 +85,13 @@ class System:
         self._native = _native.make_system(_name(name, "system"), text, paths)
         # As an experiment names it (barriers() on fields computed elsewhere builds one).
         self._spec, self._plugin_paths = {"plugin": _name(name, "system"), "params": json.loads(text)}, paths
+
+    def __reduce__(self):
+        # Pickled as what makes it (a multiprocessing "spawn" worker gets it so): the native object is the process's.
+        if self._spec["plugin"] == "equations" and not self._plugin_paths and "state" in self._spec["params"]:
+            p = self._spec["params"]
+            return _equations_system, (p["state"], p["rhs"], p.get("constants"))
+        return _system, (self._spec["plugin"], self._plugin_paths, self._spec["params"])
 
     @classmethod
     def from_equations(cls, state, rhs, constants=None):
@@ -162,6 +170,7 @@ class Forcing:
                                 f"{type(term).__name__}")
         text, paths = _params_text(params), _plugin_paths(plugin_paths)
         self._native = _native.make_forcing(_name(name, "forcing"), text, [t._native for t in given], paths)
+        self._arguments = (_name(name, "forcing"), None if terms is None else given, base, paths, json.loads(text))
         self._spec, self._plugin_paths = {"plugin": _name(name, "forcing"), "params": json.loads(text)}, paths
         if base is not None:
             self._spec["base"] = base._spec
@@ -192,8 +201,23 @@ class Forcing:
         values = self._native.evaluate(times)
         return float(values[0]) if scalar else values.reshape(np.shape(t))
 
+    def __reduce__(self):
+        return _forcing, self._arguments  # pickled as what makes it, as a System
+
     def __repr__(self):
         return f"<geobarrier.Forcing {self.name} {self.params}>"
+
+
+def _system(name, plugin_paths, params):
+    return System(name, plugin_paths=plugin_paths, **params)
+
+
+def _equations_system(state, rhs, constants):
+    return System.from_equations(state, rhs, constants)
+
+
+def _forcing(name, terms, base, plugin_paths, params):
+    return Forcing(name, terms=terms, base=base, plugin_paths=plugin_paths, **params)
 
 
 def _available_bytes():
@@ -300,7 +324,7 @@ def flow_map(system, points, t0, t1, *, forcing=None, derivative=False, log_det=
     t0, t1 = _real(t0, "t0"), _real(t1, "t1")
     if t0 == t1:
         raise ConfigError(f"t1: equals t0 ({t0!r}); give an interval of non-zero length", "t1")
-    threads = _threads(threads)
+    threads = _openmp.parallel_threads(_threads(threads))
     n = system.dimension
     points = _numbers(points, "points")
     shape = points.shape
@@ -374,6 +398,7 @@ def cauchy_green(DF, T=None, *, log_det=None):
         if log_det.shape != (array.shape[0],):
             raise ConfigError(f"log_det: {log_det.size} values for {array.shape[0]} gradients", "log_det")
     duration = None if T is None else _real(T, "T", nonzero=True)
+    _openmp.parallel_threads(0)  # OpenMP's default count: noted for forks (one thread in a child, _openmp.py)
     C, eigenvalues, eigenvectors = _native.cauchy_green(array, log_det)
     ftle_values = None if duration is None else _native.ftle_of_gradients(array, duration)
     if single:
@@ -391,6 +416,7 @@ def ftle(F, T, *, of="DF"):
         raise ConfigError(f"of: {of!r} is not \"DF\" or \"C\"", "of")
     array, single = _tensors(F, "F")
     duration = _real(T, "T", nonzero=True)
+    _openmp.parallel_threads(0)  # as in cauchy_green
     values = (_native.ftle_of_gradients if of == "DF" else _native.ftle_of_tensors)(array, duration)
     return float(values[0]) if single else values
 
@@ -529,9 +555,9 @@ def barriers(fields, extractor="hyperbolic", *, system=None, forcing=None, t0=No
                 mask[~np.isfinite(value)] |= 2  # mask_non_finite (fields.nc's flag_masks)
     handle_interrupt = (threading.current_thread() is threading.main_thread()
                         and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+    threads = _openmp.parallel_threads(_threads(threads))
     try:
-        found, others = _native.extract_barriers(json.dumps(experiment), mask, arrays, _threads(threads),
-                                                 handle_interrupt)
+        found, others = _native.extract_barriers(json.dumps(experiment), mask, arrays, threads, handle_interrupt)
     except ConfigError as e:
         # Settings by their Python names: "/extractors/0/params/x" is x, the extractor's plugin "extractor", the
         # system's parameters "/system/params/a" are the System's (as System() names them: "/a").

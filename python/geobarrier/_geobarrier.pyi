@@ -19,6 +19,8 @@ def run(text: str, file: str, out: Optional[str], write: bool, threads: int,
     (tangle.json as JSON text)."""
 def validate(text: str, file: str) -> str:
     """Checks an experiment; the summary as JSON text."""
+def set_default_threads(threads: int) -> None:
+    """The OpenMP thread count of the calling thread's later parallel regions (1 in a fork child, _openmp.py)."""
 def plugins(extra_folders: List[str]) -> str:
     """The plugins found, as JSON text (geobarrier plugins --json)."""
 def set_log_level(level: str) -> None:

@@ -1,4 +1,5 @@
-"""Idle OpenMP threads sleep in the Python module as in the geobarrier program (apps/geobarrier/openmp_wait.cpp).
+"""The module and its OpenMP runtime: idle threads sleep as in the geobarrier program (apps/geobarrier/openmp_wait.cpp),
+and a process forked after a parallel run runs the core with one thread (the second half of this file).
 
 Why: with no policy set, libgomp keeps an idle thread spinning for a few ms after each of a run's ~47 parallel
 regions before it sleeps; on a busy machine the spinning thread takes the core the master thread needs (the program's
@@ -14,6 +15,7 @@ process already (another library loaded it) it is too late: its setting stays, a
 
 import os
 import re
+import threading
 import warnings
 
 # The OpenMP runtimes: GNU's (libgomp.so.1), LLVM's (libomp.so) and Intel's (libiomp5.so), also as wheels vendor them
@@ -65,3 +67,41 @@ def import_with_passive_wait(load):
             RuntimeWarning, stacklevel=3)
         return "too late"
     return "unknown"
+
+
+# Forks. libgomp keeps, for each thread that ran a parallel region of more than one thread, a pool of worker threads
+# for the next region. A fork copies the forking thread only, and in the child that thread's next parallel region of
+# more than one thread waits for the pool's workers forever: multiprocessing's "fork" Pool (Linux's default start
+# method) hung in its first run when the parent had run geobarrier before. In such a child the forking thread runs
+# the core with one thread (a Pool's workers are the parallelism there); other threads of the child have no pool yet
+# and keep theirs.
+_parallel = threading.local()  # .used: this thread ran the core's parallel code
+_stale_pool_thread = None  # in a child forked after its forking thread ran parallel code: that thread's ident
+
+
+def parallel_threads(threads):
+    """The thread count a call hands the core (0: OpenMP's default): ``threads``, or 1 in the thread whose pool a
+    fork left behind, with a warning when the caller asked for more."""
+    if _stale_pool_thread is not None and _stale_pool_thread == threading.get_ident():
+        if threads not in (0, 1):
+            warnings.warn(
+                f"geobarrier: threads={threads} runs with 1 thread: this process was forked (os.fork, "
+                "multiprocessing's \"fork\" start method) after this thread ran geobarrier's parallel code, and GNU "
+                "OpenMP's worker threads do not survive a fork (more than one would wait for them forever). Use the "
+                "\"spawn\" or \"forkserver\" start method for threads in the workers.", RuntimeWarning, stacklevel=3)
+        return 1
+    if threads != 1:
+        _parallel.used = True
+    return threads
+
+
+def guard_forks(native):
+    """Registers the fork handler that sets one thread in a child whose forking thread's OpenMP pool is stale."""
+    def after_fork_in_child():
+        global _stale_pool_thread
+        if getattr(_parallel, "used", False):
+            _stale_pool_thread = threading.get_ident()
+            native.set_default_threads(1)  # the core's regions without a thread count of their own (cauchy_green)
+
+    if hasattr(os, "register_at_fork"):
+        os.register_at_fork(after_in_child=after_fork_in_child)

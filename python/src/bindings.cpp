@@ -17,6 +17,8 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include <omp.h>
+
 #include <chrono>
 #include <csignal>
 #include <exception>
@@ -273,6 +275,18 @@ PYBIND11_MODULE(_geobarrier, m) {
     m.def("run", &run, py::arg("text"), py::arg("file"), py::arg("out"), py::arg("write"), py::arg("threads"),
           py::arg("progress"), py::arg("handle_interrupt"));
     m.def("validate", &validate, py::arg("text"), py::arg("file"));
+    // The OpenMP thread count of the calling thread's later parallel regions (omp_set_num_threads). The package sets 1
+    // in a child forked after the forking thread ran parallel code: libgomp keeps that thread's pool of worker
+    // threads, which the fork did not copy, and a parallel region of more than one thread waits for them forever.
+    m.def(
+        "set_default_threads",
+        [](int threads) {
+            if (threads < 1 || threads > geobarrier::max_threads)
+                throw py::value_error("threads: " + std::to_string(threads) + "; give 1 to " +
+                                      std::to_string(geobarrier::max_threads));
+            omp_set_num_threads(threads);
+        },
+        py::arg("threads"));
     m.def("plugins", &plugins, py::arg("extra_folders"));
     m.def("set_log_level", &set_log_level, py::arg("level"));
     // fields.nc's mask attributes, from the one definition the NetCDF writer uses.

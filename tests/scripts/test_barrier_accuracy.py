@@ -8,7 +8,7 @@ its ground truth against what it must satisfy, and the hyperbolic extractor agai
   oscillator's trajectories leave the bounds); the analytic separatrices lie on their energy levels; the unforced Duffing stable manifold grown by
   grow_branch lies on H = 0 and covers both loops; workload W's saddle orbit is a fixed point of the period map to
   1e-9 (checked by a plain integration over one period), and its grown stable manifold's points do reach the
-  saddle orbit; the double gyre's orbit sits on the wall, and its walls are the stable manifolds of the corners and
+  saddle orbit, as do the escape oscillator's above the threshold; the double gyre's orbit sits on the wall, and its walls are the stable manifolds of the corners and
   of the top wall's orbit (points on them stay on them and run into those saddles within the horizon); the Van der
   Pol cycle closes.
 - End to end (QUICK cases, whose truth costs under a second; the others, whose manifolds take minutes to grow the
@@ -264,6 +264,30 @@ def test_workload_w_grown_stable_manifold_reaches_the_saddle_orbit():
     # ... while points beside the manifold (0.02 off along the unstable direction) do not.
     beside = bs.flow(system, chosen[len(chosen) // 2:][:5] + 0.02 * saddle.unstable, 0.0, 4 * math.pi)
     assert np.min(np.hypot(*(beside - saddle.point).T)) > 0.05
+
+
+def test_escape_above_grown_stable_manifold_reaches_the_saddle_orbit():
+    """The escape oscillator above Melnikov's threshold (the stopped system, grown with flow_from): each point of its
+    stable manifold grown for one period, carried forward by one plain integration to the time at which it was
+    started, lies rho = 1e-3 from the saddle orbit along its stable direction, while points 0.02 beside it along
+    the unstable direction end far from it. (Forward, transverse errors grow like e^{0.95 t}: only the first period
+    can be checked this way.)"""
+    case = bs.CASES["escape-above-forward"]
+    system = bs.system_of(case.experiment)
+    saddle = bs.find_saddle(system, case.truth_params["guess"], 0.0)
+    assert saddle.residual < 1e-9
+    poly, entry = bs.grow_branch(system, saddle, "stable", 1, 0.0, system.period, 0.1, case.tol / 4)
+    linear = math.log(0.1 / 1e-3) / abs(saddle.stable_exponent)  # the time from rho to the 0.1-ball
+    orbit = bs.SaddleOrbit(system, saddle, "stable")
+    outside = np.nonzero(entry >= 0)[0]  # points started outside the ball, not on the straight head
+    for i in outside[np.linspace(0, len(outside) - 1, 8).astype(int)]:
+        start = entry[i] + linear
+        p, v = orbit.at(start)
+        x = bs.flow(system, [poly[i]], 0.0, start, rtol=1e-13, atol=1e-15)[0]
+        assert np.hypot(*(x - p[0])) == pytest.approx(1e-3, abs=1e-8)
+        assert np.dot(x - p[0], v[0]) == pytest.approx(1e-3, abs=1e-8)
+        beside = bs.flow(system, [poly[i] + 0.02 * saddle.unstable], 0.0, start, rtol=1e-13, atol=1e-15)[0]
+        assert np.hypot(*(beside - p[0])) > 0.5
 
 
 def test_double_gyre_orbit_sits_on_the_wall():

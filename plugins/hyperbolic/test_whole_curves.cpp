@@ -1,6 +1,6 @@
 // The hyperbolic extractor's whole-curve stage (whole_curves.hpp) on polylines and fields whose answer is known by
-// construction: pieces of one line or circle joined, neighbours that merely end near each other not joined, and a
-// valley of stretching told from a slope.
+// construction: pieces of one line or circle joined, also when traced a little off each other, neighbours that merely
+// end near each other not joined, strands along better curves bundled, and a valley of stretching told from a slope.
 #include "whole_curves.hpp"
 
 #include <doctest/doctest.h>
@@ -9,6 +9,7 @@
 #include <vector>
 
 using geobarrier::Grid;
+using geobarrier::hyperbolic::bundled_curves;
 using geobarrier::hyperbolic::chain_points;
 using geobarrier::hyperbolic::join_end_to_end;
 using geobarrier::hyperbolic::JoinedPart;
@@ -81,6 +82,73 @@ TEST_CASE("the arcs of a whole circle join into one open chain, not a loop") {
     const auto chains = join_end_to_end(pieces, 0.05, 0.05);
     REQUIRE(chains.size() == 1);
     CHECK(chains[0].size() == 3);
+}
+
+TEST_CASE("pieces traced a little off each other join when each end lies on the other's tangent line") {
+    const double join = 0.04, tangent = 0.04, beside = 0.02, reach = 0.08;
+    SUBCASE("side by side where they overlap: one curve that does not run back") {
+        // y = 0 up to x = 0.5, then y = 0.012 from x = 0.4825 on: they overlap by 0.0175, 0.012 apart.
+        const std::vector<std::vector<double>> pieces = {segment(0.0, 0.0, 0.5, 0.0, 51),
+                                                         segment(1.0, 0.012, 0.4825, 0.012, 116)};
+        CHECK(join_end_to_end(pieces, join, tangent).size() == 2); // neither end lies ahead of the other
+        const auto chains = join_end_to_end(pieces, join, tangent, 0.8, beside, reach);
+        REQUIRE(chains.size() == 1);
+        const std::vector<double> xy = chain_points(pieces, chains[0]);
+        const double sign = xy[2] > xy[0] ? 1.0 : -1.0;
+        for (std::size_t k = 1; k < xy.size() / 2; ++k) CHECK(sign * (xy[2 * k] - xy[2 * k - 2]) > 0.0);
+        CHECK(std::abs(xy[0] - xy[xy.size() - 2]) == doctest::Approx(1.0));
+    }
+    SUBCASE("in line across a gap wider than the join distance, up to the reach") {
+        const std::vector<std::vector<double>> gap = {segment(0.0, 0.0, 0.5, 0.0, 30),
+                                                      segment(0.56, 0.0, 1.0, 0.0, 30)};
+        CHECK(join_end_to_end(gap, join, tangent, 0.8, beside, reach).size() == 1);
+        const std::vector<std::vector<double>> far = {segment(0.0, 0.0, 0.5, 0.0, 30), segment(0.6, 0.0, 1.0, 0.0, 30)};
+        CHECK(join_end_to_end(far, join, tangent, 0.8, beside, reach).size() == 2);
+        // Across the gap, but 0.03 off the first one's line: farther than `beside`.
+        const std::vector<std::vector<double>> off = {segment(0.0, 0.0, 0.5, 0.0, 30),
+                                                      segment(0.56, 0.03, 1.0, 0.03, 30)};
+        CHECK(join_end_to_end(off, join, tangent, 0.8, beside, reach).size() == 2);
+    }
+    SUBCASE("only between the curves flagged loose, when flags are given") {
+        const std::vector<std::vector<double>> gap = {segment(0.0, 0.0, 0.5, 0.0, 30),
+                                                      segment(0.56, 0.0, 1.0, 0.0, 30)};
+        CHECK(join_end_to_end(gap, join, tangent, 0.8, beside, reach, {1, 1}).size() == 1);
+        CHECK(join_end_to_end(gap, join, tangent, 0.8, beside, reach, {1, 0}).size() == 2);
+    }
+    SUBCASE("side by side, ending at the same place: running the same way, so still apart") {
+        const std::vector<std::vector<double>> pieces = {segment(0.0, 0.0, 0.5, 0.0, 30),
+                                                         segment(0.5, 0.012, 0.0, 0.012, 30)};
+        CHECK(join_end_to_end(pieces, join, tangent, 0.8, beside, reach).size() == 2);
+    }
+}
+
+TEST_CASE("bundled_curves: a curve along better ones adds nothing a candidate's length long") {
+    const double distance = 0.02, min_length = 0.1;
+    const std::vector<double> best = segment(0.0, 0.0, 1.0, 0.0, 101);
+    SUBCASE("a strand 0.01 off the best one, within its length or running on past it by less than min_length") {
+        const std::vector<char> b = bundled_curves(
+            {best, segment(0.1, 0.01, 0.9, 0.01, 81), segment(0.5, 0.01, 1.08, 0.01, 59)}, distance, min_length);
+        CHECK(b == std::vector<char>{0, 1, 1});
+    }
+    SUBCASE("a strand farther off than the distance, or running on past it by more, is kept") {
+        const std::vector<char> b = bundled_curves(
+            {best, segment(0.1, 0.05, 0.9, 0.05, 81), segment(0.5, 0.01, 1.3, 0.01, 81)}, distance, min_length);
+        CHECK(b == std::vector<char>{0, 0, 0});
+    }
+    SUBCASE("only curves kept bundle others: along a bundled curve alone is not along a barrier") {
+        // The second lies along the first; the third lies along the second only, beyond the first's reach.
+        const std::vector<char> b = bundled_curves(
+            {best, segment(0.0, 0.015, 1.0, 0.015, 101), segment(0.0, 0.03, 1.0, 0.03, 101)}, distance, min_length);
+        CHECK(b == std::vector<char>{0, 1, 0});
+    }
+    SUBCASE("the first curve is never bundled, the order decides") {
+        // The longer one runs on 0.18 past either end of the shorter: kept too, though the shorter came first.
+        CHECK(bundled_curves({segment(0.2, 0.01, 0.8, 0.01, 61), best}, distance, min_length) ==
+              std::vector<char>{0, 0});
+        // Past it by 0.08 only: bundled.
+        CHECK(bundled_curves({segment(0.1, 0.01, 0.9, 0.01, 81), best}, distance, min_length) ==
+              std::vector<char>{0, 1});
+    }
 }
 
 TEST_CASE("transverse_q_ratio: above 1 in a valley of sqrt(lambda1), below 1 on its flank, NaN along the edge") {

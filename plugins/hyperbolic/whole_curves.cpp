@@ -1,6 +1,7 @@
 #include "whole_curves.hpp"
 
 #include <geobarrier/curves.hpp>
+#include <geobarrier/segment_index.hpp>
 
 #include <algorithm>
 #include <cmath>
@@ -49,6 +50,13 @@ bool ahead(const End &from, const End &to, double close) {
     return along > 0.0 && along >= across;
 }
 
+// Whether `to` lies within `beside` of end `from`'s tangent line and at most `beside` behind it.
+bool in_line(const End &from, const End &to, double beside) {
+    const double dx = to.x - from.x, dy = to.y - from.y;
+    const double along = dx * from.tx + dy * from.ty, across = std::abs(dx * from.ty - dy * from.tx);
+    return across <= beside && along >= -beside;
+}
+
 std::size_t find_root(std::vector<std::size_t> &parent, std::size_t i) {
     while (parent[i] != i) i = parent[i] = parent[parent[i]];
     return i;
@@ -57,8 +65,8 @@ std::size_t find_root(std::vector<std::size_t> &parent, std::size_t i) {
 } // namespace
 
 std::vector<std::vector<JoinedPart>> join_end_to_end(const std::vector<std::vector<double>> &curves,
-                                                     double join_distance, double tangent_length,
-                                                     double min_alignment) {
+                                                     double join_distance, double tangent_length, double min_alignment,
+                                                     double beside, double reach, const std::vector<char> &loose) {
     const std::size_t n = curves.size();
     std::vector<End> ends(2 * n);
     std::vector<char> usable(n, 0);
@@ -79,9 +87,11 @@ std::vector<std::vector<JoinedPart>> join_end_to_end(const std::vector<std::vect
             if (a / 2 == b / 2 || !usable[a / 2] || !usable[b / 2]) continue;
             const End &ea = ends[a], &eb = ends[b];
             const double d = std::hypot(ea.x - eb.x, ea.y - eb.y);
-            if (d > join_distance) continue;
+            const bool may_be_beside = beside > 0.0 && (loose.empty() || (loose[a / 2] && loose[b / 2]));
+            if (d > std::max(join_distance, may_be_beside ? reach : 0.0)) continue;
             if (ea.tx * eb.tx + ea.ty * eb.ty > -min_alignment) continue; // they do not run on into each other
-            if (!ahead(ea, eb, close) || !ahead(eb, ea, close)) continue;
+            const bool meet = d <= join_distance && ahead(ea, eb, close) && ahead(eb, ea, close);
+            if (!meet && !(may_be_beside && in_line(ea, eb, beside) && in_line(eb, ea, beside))) continue;
             pairs.push_back({d, a, b});
         }
     std::stable_sort(pairs.begin(), pairs.end(), [](const Pair &p, const Pair &q) { return p.distance < q.distance; });
@@ -130,14 +140,57 @@ std::vector<double> chain_points(const std::vector<std::vector<double>> &curves,
     for (const JoinedPart &part : chain) {
         const std::vector<double> &c = curves[part.index];
         const std::size_t n = c.size() / 2;
-        for (std::size_t i = 0; i < n; ++i) {
-            const std::size_t k = part.reversed ? n - 1 - i : i;
+        const auto point = [&](std::size_t i) { return part.reversed ? n - 1 - i : i; };
+        // The part's first point nearest the chain's end: past the run of points that approach it.
+        std::size_t first = 0;
+        if (!xy.empty()) {
+            const double ex = xy[xy.size() - 2], ey = xy.back();
+            const auto distance = [&](std::size_t i) {
+                return std::hypot(c[2 * point(i)] - ex, c[2 * point(i) + 1] - ey);
+            };
+            while (first + 1 < n && distance(first + 1) < distance(first)) ++first;
+        }
+        for (std::size_t i = first; i < n; ++i) {
+            const std::size_t k = point(i);
             if (!xy.empty() && xy[xy.size() - 2] == c[2 * k] && xy.back() == c[2 * k + 1]) continue;
             xy.push_back(c[2 * k]);
             xy.push_back(c[2 * k + 1]);
         }
     }
     return xy;
+}
+
+std::vector<char> bundled_curves(const std::vector<std::vector<double>> &curves, double distance, double min_length) {
+    std::vector<Segment> segments;
+    for (std::size_t c = 0; c < curves.size(); ++c)
+        append_polyline_segments(curves[c].data(), curves[c].size() / 2, false, c, segments);
+    std::vector<char> bundled(curves.size(), 0);
+    if (segments.empty()) return bundled;
+    const SegmentIndex index(std::move(segments), distance);
+    for (std::size_t c = 0; c < curves.size(); ++c) {
+        const std::vector<double> &xy = curves[c];
+        const std::size_t n = xy.size() / 2;
+        const auto free = [&](std::size_t k) {
+            for (const std::size_t other : index.ids_within(xy[2 * k], xy[2 * k + 1], distance))
+                if (other < c && !bundled[other]) return false;
+            return true;
+        };
+        // The longest run of free points, measured along the curve between its first and last point.
+        double run = 0.0, longest = 0.0;
+        bool previous_free = false;
+        for (std::size_t k = 0; k < n && longest < min_length; ++k) {
+            const bool is_free = free(k);
+            if (is_free && previous_free) {
+                run += std::hypot(xy[2 * k] - xy[2 * k - 2], xy[2 * k + 1] - xy[2 * k - 1]);
+                longest = std::max(longest, run);
+            } else {
+                run = 0.0;
+            }
+            previous_free = is_free;
+        }
+        bundled[c] = n > 0 && longest < min_length ? 1 : 0;
+    }
+    return bundled;
 }
 
 double transverse_q_ratio(const Grid &grid, const std::vector<double> &root, const std::vector<std::uint8_t> &mask,

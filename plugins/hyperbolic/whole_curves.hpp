@@ -28,15 +28,28 @@ struct JoinedPart {
 // Chains of the given polylines (x, y interleaved) whose ends meet: an end of one within `join_distance` of an end of
 // another, the two running on into each other (their outward tangents, measured over `tangent_length` from each end,
 // at an angle of at least 180 degrees minus acos(min_alignment) apart, and each end's partner ahead of it, not
-// behind). Nearest ends are joined first; each end joins at most once, and no chain closes on itself. Every polyline
-// is in exactly one chain; a polyline no end of which meets another is a chain of one. Chains are in order of their
-// first polyline's index, and each chain's parts in order along it.
+// behind). With `beside` > 0, two ends also meet up to `reach` apart when each lies within `beside` of the other's
+// tangent line and at most `beside` behind it: pieces of one curve that the strainlines traced a cell or two off each
+// other, side by side where they overlap, or in line across a gap; only between polylines flagged in `loose` (all
+// when it is empty). Nearest ends are joined first; each end joins at
+// most once, and no chain closes on itself. Every polyline is in exactly one chain; a polyline no end of which meets
+// another is a chain of one. Chains are in order of their first polyline's index, and each chain's parts in order
+// along it.
 std::vector<std::vector<JoinedPart>> join_end_to_end(const std::vector<std::vector<double>> &curves,
                                                      double join_distance, double tangent_length,
-                                                     double min_alignment = 0.8);
+                                                     double min_alignment = 0.8, double beside = 0.0,
+                                                     double reach = 0.0, const std::vector<char> &loose = {});
 
-// The points of a chain: its parts' points in order, each reversed where the chain says.
+// The points of a chain: its parts' points in order, each reversed where the chain says. Where a part begins beside
+// the chain's end (the two overlap), it joins at its point nearest that end: its points before it, which run back
+// along the chain, are left out.
 std::vector<double> chain_points(const std::vector<std::vector<double>> &curves, const std::vector<JoinedPart> &chain);
+
+// One representative of each bundle: which of the curves (in order of preference, the best first) lie along the
+// curves before them that are kept. A curve is bundled when none of its runs of points farther than `distance` from
+// every kept curve before it is `min_length` long: what it adds is shorter than a candidate may be (the selection's
+// rule for the part of a candidate not yet covered, docs/extractors.md step 6). 1 for bundled, else 0.
+std::vector<char> bundled_curves(const std::vector<std::vector<double>> &curves, double distance, double min_length);
 
 // How clearly the curve is a local minimum of relative stretching q among the curves parallel to it (Alg. 1's local
 // minimum, tested against the field itself rather than against the strainlines that happen to be candidates): the

@@ -38,8 +38,18 @@ class ProgressLine:
         filled = int(fraction * self.width + 0.5)
         bar = "#" * filled + "." * (self.width - filled)
         elapsed = time.monotonic() - self.start
-        self.stream.write(f"\r{stage:<20s}[{bar}] {100 * fraction:3.0f}%  {elapsed:.1f} s")
-        self.stream.flush()
+        self._write(f"\r{stage:<20s}[{bar}] {100 * fraction:3.0f}%  {elapsed:.1f} s")
+
+    def _write(self, text):
+        # A progress line must not stop the run it shows: without a stream (sys.stderr is None under pythonw and in
+        # some services) or with one that fails (closed, a full disk), the line is not drawn.
+        if self.stream is None:
+            return
+        try:
+            self.stream.write(text)
+            self.stream.flush()
+        except (OSError, ValueError, AttributeError):
+            self.stream = None
 
     def close(self, completed=False):
         """Ends the line of the stage in progress; ``completed``: the stage finished (a later stage began, or the
@@ -47,8 +57,7 @@ class ProgressLine:
         if self.stage is not None:
             if completed and self.done != self.total:
                 self._draw(self.total or 1, self.total or 1)
-            self.stream.write("\n")
-            self.stream.flush()
+            self._write("\n")
             self.stage = None
 
 

@@ -5,6 +5,7 @@ contextvars context although the core calls them from its worker threads."""
 import contextvars
 import json
 
+import numpy as np
 import pytest
 
 import geobarrier
@@ -71,6 +72,25 @@ def test_text_progress_outside_a_notebook(capsys):
     assert lines[0].startswith("\rflow map") and lines[0].rsplit("\r", 1)[1].split("]")[1].strip().startswith("100%")
     assert lines[1].startswith("\rextractor elliptic") and "100%" in lines[1].rsplit("\r", 1)[1]
     assert lines[2] == ""
+
+
+
+def test_a_missing_or_failing_stderr_does_not_stop_the_run(monkeypatch):
+    # Under pythonw and in some services sys.stderr is None: progress=True raised AttributeError from the core's
+    # thread and the run was lost; a closed stream raised ValueError.
+    import io
+    experiment = dict(attractor_experiment(), extractors=[])
+    reference = geobarrier.run(experiment, threads=2, xarray=False).fields.ftle
+    closed = io.StringIO()
+    closed.close()
+    for stream in (None, closed):
+        monkeypatch.setattr("sys.stderr", stream)
+        r = geobarrier.run(experiment, progress=True, threads=2, xarray=False)
+        assert np.array_equal(r.fields.ftle, reference, equal_nan=True)
+    line = geobarrier.ProgressLine(closed)
+    line("flow map", 1, 2)
+    line.close(completed=True)
+    assert line.stream is None  # it stopped drawing at the first failed write
 
 
 CALLER = contextvars.ContextVar("caller", default="none")

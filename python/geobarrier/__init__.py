@@ -22,12 +22,16 @@ import threading
 from . import _openmp
 
 # First of all, before anything loads the native extension and with it the OpenMP runtime: idle threads sleep unless
-# the user chose otherwise (_openmp.py says why). "user", "passive", "too late" or "unknown".
-_openmp_wait = _openmp.import_with_passive_wait(lambda: importlib.import_module("._geobarrier", __name__))
+# the user chose otherwise (_openmp.py says why). "user", "passive", "too late" or "unknown". Once: importlib.reload
+# (and a notebook's autoreload) runs this file again in the same namespace, with the extension loaded by then.
+if "_openmp_wait" not in globals():
+    _openmp_wait = _openmp.import_with_passive_wait(lambda: importlib.import_module("._geobarrier", __name__))
 
 from . import _fields  # noqa: E402 (after the extension's import above)
 from . import _geobarrier as _native
-_openmp.guard_forks(_native)  # one thread in a fork child whose OpenMP worker threads stayed behind (_openmp.py)
+if not globals().get("_forks_guarded"):  # once, as above
+    _openmp.guard_forks(_native)  # one thread in a fork child whose OpenMP worker threads stayed behind (_openmp.py)
+    _forks_guarded = True
 from numpy import bool_ as _np_bool
 from ._errors import ConfigError, Error, IoError, NumericalError, PluginError
 from ._geobarrier import version as __version__

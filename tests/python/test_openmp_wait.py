@@ -64,3 +64,11 @@ def test_a_runtime_loaded_before_with_the_users_policy_warns_of_nothing():
     out, err = fresh_interpreter("import ctypes; ctypes.CDLL('libgomp.so.1'); " + SHOW, OMP_WAIT_POLICY="active")
     assert "policy user" in out
     assert "RuntimeWarning" not in err
+
+
+def test_reloading_the_module_is_no_second_import():
+    # importlib.reload (a notebook's autoreload) found the runtime loaded and warned that it was too late.
+    out, err = fresh_interpreter("import importlib, warnings; warnings.simplefilter('error'); " + SHOW.replace(
+        "import os, geobarrier; ", "import os, geobarrier; importlib.reload(geobarrier); "))
+    assert "policy passive" in out and "RuntimeWarning" not in err
+    assert err.count("GOMP_SPINCOUNT = '0'") == 1

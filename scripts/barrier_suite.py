@@ -942,10 +942,10 @@ _add(Case(
     "backward FTLE ridge on it is one-sided and d_g < 1e-3 only in a band about a cell wide; the lattice's "
     "strainlines run 0.05-0.1 outside it. The exit time jumps exactly there (exit_time_edges: 1.0 on the cycle, "
     "covering 1.0 of it), and the extractor's exit-time seeds and barriers (exit_jump, exit_stay_jump, and runs "
-    "along the captured set's edge whatever d_g) recover it on 361 x 361 (precision 0.976, recall 0.968, rank 1 on "
-    "it, but in 11 pieces; 0 and 0 without) and not on 181 x 181 (0.305, 0.608, rank-1 barrier off the cycle, 3 "
-    "pieces), where the jumps between points that both leave (trajectories grazing the bounds) give strainline "
-    "segments off the cycle"))
+    "along the captured set's edge whatever d_g) recover it on 361 x 361 (precision 0.977, recall 0.973, rank 1 on "
+    "it, but in 5 pieces, 11 before exit-time pieces a cell or two apart were joined; 0 and 0 without) and not on "
+    "181 x 181 (0.308, 0.610, rank-1 barrier off the cycle, 2 pieces), where the jumps between points that both "
+    "leave (trajectories grazing the bounds) give strainline segments off the cycle"))
 _add(Case(
     "double-gyre-forward", "double gyre (experiments/double-gyre.json), forward T = 15: a repelling barrier on the "
     "stable manifold of the periodic orbit on the bottom wall near x = 1",

@@ -181,6 +181,13 @@ def _flow_map_only(text, file):
     except ValueError:
         return text, file  # the core reports where the JSON is malformed
     if isinstance(experiment, dict):
+        time = experiment.get("time")
+        if isinstance(time, dict) and time.get("directions") == "both":
+            # "both" runs both directions for the crossings of their barriers, which a flow map alone has not (the
+            # core would say that the experiment has no extractors, which it had).
+            raise ConfigError('/time/directions: flow_map=True computes the flow map of one direction, and "both" '
+                              'asks for two (for the crossings of their barriers); set it to "one" (t0 to t1), or run '
+                              'without flow_map', f"{file}: /time/directions" if file else "/time/directions")
         experiment["products"] = ["flow_map"]
         experiment.pop("extractors", None)
         experiment.pop("validation", None)

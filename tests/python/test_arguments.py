@@ -140,3 +140,16 @@ def test_a_missing_figure_names_the_barriers_figures():
     assert barrier["rank"] == 1 and isinstance(barrier["rank"], int) and barrier["length"] == 2.0
     with pytest.raises(KeyError, match=r"no figure 'nosuch' \(this barrier's: rank, length\)"):
         barrier["nosuch"]
+
+
+def test_flow_map_of_an_experiment_in_both_directions_says_why_not(tmp_path):
+    # The core said that the experiment had no extractors (flow_map=True drops them), which it had.
+    experiment = base_experiment(time={"t0": 0, "t1": 2, "directions": "both"}, extractors=[{"plugin": "hyperbolic"}])
+    path = write_json(tmp_path / "both.json", experiment)
+    for given, file in ((experiment, ""), (path, str(path))):
+        with pytest.raises(geobarrier.ConfigError, match='flow_map=True computes the flow map of one direction, and '
+                                                         '"both" asks for two') as raised:
+            geobarrier.run(given, flow_map=True)
+        assert (raised.value.path, raised.value.file) == ("/time/directions", file)
+    one = dict(experiment, time={"t0": 0, "t1": 2, "directions": "one"})
+    assert set(geobarrier.run(one, flow_map=True, xarray=False).fields.keys()) == {"flow_x", "flow_y", "mask"}

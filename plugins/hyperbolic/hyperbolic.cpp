@@ -1527,13 +1527,14 @@ void report_barriers(const sdk::Host &host, const std::vector<Segment> &candidat
     }
 }
 
-// The picture barriers.png: the FTLE with the barriers, the least-stretching one red, candidates thin grey.
+// The picture barriers.png: the FTLE with the barriers, the least-stretching one red, the others white and as broad as
+// they are confident (relative_strength: width 1 + 2 s px, s clamped to [0, 1]), candidates thin grey.
 void draw_barriers(const sdk::Host &host, const gb_extract_input &in, const CauchyGreenField &cg,
                    const std::vector<ReportedCurve> &curves, bool backward) {
     const std::string which = backward ? "attracting" : "repelling";
     FieldPlot fp;
-    fp.title =
-        "FTLE and " + which + " hyperbolic barriers (candidates grey), t = " + format(in.t0) + " to " + format(in.t1);
+    fp.title = "FTLE, " + which + " barriers (width: strength; candidates grey), t = " + format(in.t0) + " to " +
+               format(in.t1);
     fp.colorbar_label = "FTLE";
     fp.x_label = sdk::axis_label(in, 0); // "name [unit]" of the system's states (ABI 1.2)
     fp.y_label = sdk::axis_label(in, 1);
@@ -1542,7 +1543,8 @@ void draw_barriers(const sdk::Host &host, const gb_extract_input &in, const Cauc
         c.xy = curves[b].xy;
         const bool best = b == 0 && curves[b].significant;
         c.color = best ? "red" : curves[b].significant ? "white" : "grey";
-        c.width = best ? 3.0 : curves[b].significant ? 1.5 : 0.75;
+        const double strength = std::isfinite(curves[b].strength) ? std::clamp(curves[b].strength, 0.0, 1.0) : 0.0;
+        c.width = best ? 3.0 : curves[b].significant ? 1.0 + 2.0 * strength : 0.75;
         fp.curves.push_back(c);
     }
     sdk::draw_field_png(host, std::filesystem::path(in.output_dir) / "barriers.png", cg.grid, cg.ftle, cg.mask, fp);

@@ -74,22 +74,34 @@ void for_each_jump_edge(const Grid &g, const double *exit_time, const std::uint8
 
 } // namespace
 
-std::vector<double> exit_jump_seeds(const Grid &g, const double *exit_time, const std::uint8_t *mask,
-                                    const ExitJumps &rule, double separation) {
+std::vector<JumpEdge> exit_jump_edges(const Grid &g, const double *exit_time, const std::uint8_t *mask,
+                                      const ExitJumps &rule) {
+    std::vector<JumpEdge> edges;
+    for_each_jump_edge(g, exit_time, mask, rule, [&](std::size_t p, bool along_x, bool captured) {
+        edges.push_back({p, along_x, captured});
+    });
+    return edges;
+}
+
+std::vector<double> exit_jump_seeds(const Grid &g, const std::vector<JumpEdge> &edges, double separation) {
     std::vector<double> seeds;
     Thinning thinning(g, separation > 0 ? separation : std::min(g.dx(), g.dy()));
-    for_each_jump_edge(g, exit_time, mask, rule, [&](std::size_t p, bool horizontal, bool) {
-        const double x = g.x(p % g.nx), y = g.y(p / g.nx);
-        if (horizontal)
+    for (const JumpEdge &e : edges) {
+        const double x = g.x(e.p % g.nx), y = g.y(e.p / g.nx);
+        if (e.along_x)
             thinning.offer(x + 0.5 * g.dx(), y, seeds);
         else
             thinning.offer(x, y + 0.5 * g.dy(), seeds);
-    });
+    }
     return seeds;
 }
 
-std::vector<std::uint8_t> near_exit_jumps(const Grid &g, const double *exit_time, const std::uint8_t *mask,
-                                          const ExitJumps &rule, std::size_t reach) {
+std::vector<double> exit_jump_seeds(const Grid &g, const double *exit_time, const std::uint8_t *mask,
+                                    const ExitJumps &rule, double separation) {
+    return exit_jump_seeds(g, exit_jump_edges(g, exit_time, mask, rule), separation);
+}
+
+std::vector<std::uint8_t> near_exit_jumps(const Grid &g, const std::vector<JumpEdge> &edges, std::size_t reach) {
     std::vector<std::uint8_t> near(g.size(), 0);
     const auto mark = [&](std::size_t p, std::uint8_t kind) {
         const std::size_t i = p / g.nx, j = p % g.nx;
@@ -97,12 +109,17 @@ std::vector<std::uint8_t> near_exit_jumps(const Grid &g, const double *exit_time
             for (std::size_t b = j > reach ? j - reach : 0; b <= std::min(g.nx - 1, j + reach); ++b)
                 near[a * g.nx + b] |= kind;
     };
-    for_each_jump_edge(g, exit_time, mask, rule, [&](std::size_t p, bool horizontal, bool captured) {
-        const std::uint8_t kind = captured ? near_captured_jump : near_leaving_jump;
-        mark(p, kind);
-        mark(horizontal ? p + 1 : p + g.nx, kind);
-    });
+    for (const JumpEdge &e : edges) {
+        const std::uint8_t kind = e.captured ? near_captured_jump : near_leaving_jump;
+        mark(e.p, kind);
+        mark(e.along_x ? e.p + 1 : e.p + g.nx, kind);
+    }
     return near;
+}
+
+std::vector<std::uint8_t> near_exit_jumps(const Grid &g, const double *exit_time, const std::uint8_t *mask,
+                                          const ExitJumps &rule, std::size_t reach) {
+    return near_exit_jumps(g, exit_jump_edges(g, exit_time, mask, rule), reach);
 }
 
 } // namespace geobarrier::hyperbolic

@@ -12,6 +12,7 @@
 
 #include <geobarrier/grid.hpp>
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -34,9 +35,23 @@ struct ExitJumps {
     double stay_jump;
 };
 
+// A grid edge across which the exit time jumps (ExitJumps): from grid point p to p + 1 (along_x) or to p + nx;
+// captured when one of its points stays.
+struct JumpEdge {
+    std::size_t p;
+    bool along_x;
+    bool captured;
+};
+
+// Those edges in grid order (row by row, the edge along x before the edge along y). Empty when nothing exits
+// (exit_time all NaN: a run without bounds). `mask` may be null (no point masked). Found once, they serve both
+// functions below (each a pass over the whole grid otherwise).
+std::vector<JumpEdge> exit_jump_edges(const Grid &g, const double *exit_time, const std::uint8_t *mask,
+                                      const ExitJumps &rule);
+
 // The midpoints (x, y interleaved) of the grid edges across which the exit time jumps (ExitJumps), thinned, in grid
-// order (row by row, the edge along x before the edge along y), to seeds at least `separation` apart. Empty when
-// nothing exits (exit_time all NaN: a run without bounds). `mask` may be null (no point masked).
+// order, to seeds at least `separation` apart.
+std::vector<double> exit_jump_seeds(const Grid &g, const std::vector<JumpEdge> &edges, double separation);
 std::vector<double> exit_jump_seeds(const Grid &g, const double *exit_time, const std::uint8_t *mask,
                                     const ExitJumps &rule, double separation);
 
@@ -45,6 +60,7 @@ std::vector<double> exit_jump_seeds(const Grid &g, const double *exit_time, cons
 // where one of them stays (the captured set's edge). The extractor keeps of the strainlines from those seeds what
 // runs along the jumps.
 constexpr std::uint8_t near_leaving_jump = 1, near_captured_jump = 2;
+std::vector<std::uint8_t> near_exit_jumps(const Grid &g, const std::vector<JumpEdge> &edges, std::size_t reach);
 std::vector<std::uint8_t> near_exit_jumps(const Grid &g, const double *exit_time, const std::uint8_t *mask,
                                           const ExitJumps &rule, std::size_t reach);
 

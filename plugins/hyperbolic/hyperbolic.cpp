@@ -591,10 +591,12 @@ struct Hyperbolic {
         const double d = seed_distance(g);
         return {std::max(d / g.dx(), 1.0), std::max(d / g.dy(), 1.0)};
     }
-    std::vector<double> exit_seeds(const sdk::Host &host, const gb_extract_input &in, const Grid &g) const;
+    std::vector<double> exit_seeds(const sdk::Host &host, const gb_extract_input &in, const Grid &g,
+                                   std::vector<hyperbolic::JumpEdge> &jumps) const;
     std::vector<double> without_early_exits(const sdk::Host &host, const gb_extract_input &in, const Grid &g,
                                             const std::vector<double> &seeds) const;
-    void exit_edge_barriers(const sdk::Host &host, const gb_extract_input &in, const std::vector<Strainline> &lines,
+    void exit_edge_barriers(const sdk::Host &host, const gb_extract_input &in,
+                            const std::vector<hyperbolic::JumpEdge> &jumps, const std::vector<Strainline> &lines,
                             const Candidates &found, const SegmentMeter &meter, const WallFilter &walls,
                             const Scales &scale, std::vector<Selected> &selected) const;
     std::vector<Strainline> direct_strainlines(const sdk::Host &host, const gb_extract_input &in,
@@ -670,11 +672,14 @@ std::vector<double> deviation_and_log_lambda1(const CauchyGreenField &cg, const 
 // precision 0.974, recall 0.975 without these seeds), and above the threshold (1.1 gamma_c, 141 x 121) these seeds
 // added a second barrier, ranked first and scored against no truth, crossing the unstable manifold 0.06 from where
 // the lattice's barrier crosses it, next to the saddle orbit.
-std::vector<double> Hyperbolic::exit_seeds(const sdk::Host &host, const gb_extract_input &in, const Grid &g) const {
+// `jumps` receives those edges, for exit_edge_barriers (one pass over the grid for both).
+std::vector<double> Hyperbolic::exit_seeds(const sdk::Host &host, const gb_extract_input &in, const Grid &g,
+                                           std::vector<hyperbolic::JumpEdge> &jumps) const {
     const double *exit_time = find_field(in, "exit_time");
     if (!exit_time || !(m_exit_jump > 0) || m_route != "direct" || !(in.t1 < in.t0)) return {};
     const hyperbolic::ExitJumps rule = exit_jumps(in);
-    std::vector<double> seeds = hyperbolic::exit_jump_seeds(g, exit_time, in.mask, rule, seed_distance(g));
+    jumps = hyperbolic::exit_jump_edges(g, exit_time, in.mask, rule);
+    std::vector<double> seeds = hyperbolic::exit_jump_seeds(g, jumps, seed_distance(g));
     if (!seeds.empty())
         host.info("" + std::to_string(seeds.size() / 2) + " strainline seeds where the exit time jumps by more than " +
                   format(rule.jump) + " (exit_jump " + format(m_exit_jump) + " of |t1 - t0|), or from staying to " +
@@ -1245,13 +1250,14 @@ std::vector<Segment> jump_runs(const std::vector<Strainline> &lines, const NearJ
 // their runs along the captured set's edge whatever d_g (jump_runs) give their parts not within two cells of a
 // barrier kept (the selection's, then these), at least min_length long, as barriers (`selection` "exit-time").
 void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_input &in,
+                                    const std::vector<hyperbolic::JumpEdge> &jumps,
                                     const std::vector<Strainline> &lines, const Candidates &found,
                                     const SegmentMeter &meter, const WallFilter &walls, const Scales &scale,
                                     std::vector<Selected> &selected) const {
-    const double *exit_time = find_field(in, "exit_time");
-    if (!exit_time) return;
+    // Only the strainlines from exit_seeds, which found `jumps`, give these barriers: none without them.
+    if (std::none_of(lines.begin(), lines.end(), [](const Strainline &l) { return l.exit_seeded; })) return;
     const Grid g = grid_of(in);
-    const std::vector<std::uint8_t> near = hyperbolic::near_exit_jumps(g, exit_time, in.mask, exit_jumps(in), 1);
+    const std::vector<std::uint8_t> near = hyperbolic::near_exit_jumps(g, jumps, 1);
     const auto near_kind = [&](const double *p) { return near[g.nearest_point(p[0], p[1])]; };
     // First the candidates seeded there (d_g < max_deviation), by increasing q; then, by increasing q, the runs along
     // the captured set's edge whatever d_g (jump_runs). Along jumps between points that both leave, runs with larger
@@ -1638,12 +1644,14 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     const SegmentMeter meter{opposite, g, fields};
     const WallFilter walls(cg, m_walls, scale.radius);
     Truncation truncation;
+    // Where the exit time jumps (exit_seeds finds them), for exit_edge_barriers.
+    std::vector<hyperbolic::JumpEdge> jumps;
     lap("fields"); // the tensor fields' copies and the wall filter, before any strainline
     // The direct route truncates its strainlines batch by batch as it integrates them; the opposite-time route after
     // advecting them.
     const std::vector<Strainline> lines = opposite ? opposite_time_strainlines(host, in, scale.max_length)
                                                    : direct_strainlines(host, in, cg, deviation, scale, meter, walls,
-                                                                        exit_seeds(host, in, g), truncation);
+                                                                        exit_seeds(host, in, g, jumps), truncation);
     if (opposite) {
         truncation = Truncation(lines.size());
         truncate(lines, 0, lines.size(), meter, walls, scale, truncation);
@@ -1653,7 +1661,7 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     const std::vector<Segment> &candidates = found.segments;
     if (host.progress(0.7)) throw std::runtime_error("stopped by the user");
     std::vector<Selected> selected = local_minima(host, g, lines, found, meter, scale);
-    exit_edge_barriers(host, in, lines, found, meter, walls, scale, selected);
+    exit_edge_barriers(host, in, jumps, lines, found, meter, walls, scale, selected);
     lap("selection");
     const std::vector<ReportedCurve> curves = whole_curves(host, cg, lines, selected);
     lap("whole curves");

@@ -1394,10 +1394,35 @@ def compare_barriers(a_json, b_json, h):
     return float(m.group(1)), float(m.group(2))
 
 
+def agreement(doc_a, doc_b, distance):
+    """How much of one run's barriers the other's reproduce: (share of a's barrier length within `distance` of b's
+    barriers, share of b's within it of a's); 0 for a side with no barriers. Unlike compare-barriers' distances,
+    which a barrier that merely runs on farther in one run makes large, this separates moved barriers (both shares
+    fall) from longer or extra ones (one share falls)."""
+    h = distance / 4
+    curves_a = [pts for _, pts in barrier_curves(doc_a)]
+    curves_b = [pts for _, pts in barrier_curves(doc_b)]
+
+    def share(curves, others):
+        if not curves or not others:
+            return 0.0
+        near, total = 0.0, 0.0
+        other_set = CurveSet(others, h / 2)
+        for pts in curves:
+            P, w = length_samples(pts, h)
+            total += float(w.sum())
+            near += float(w[other_set.distance(P) <= distance].sum())
+        return near / total if total > 0 else 0.0
+
+    return round(share(curves_a, curves_b), 4), round(share(curves_b, curves_a), 4)
+
+
 def refinements(case, base_result, binary=DEFAULT_BIN, grid="small", out=None, threads=None, cache=None):
     """The default run against line_step x 4/3 and / 2, the grid x 1.5 and T +- 10%: the barrier count, the
-    distances (in the default run's grid spacings) from compare-barriers, and each run's precision, recall and
-    top_on_truth against the case's truth (for T +- 10% still the truth grown for the case's own |T|)."""
+    distances (in the default run's grid spacings) from compare-barriers, the agreement within 2 spacings both ways
+    (default_within_2: share of the default run's barriers near the changed run's; change_within_2: the converse),
+    and each run's precision, recall and top_on_truth against the case's truth (for T +- 10% still the truth grown
+    for the case's own |T|)."""
     n = grid_n(case, grid)
     step = base_result["line_step"]
     t0, t1 = case.experiment["time"]["t0"], case.experiment["time"]["t1"]
@@ -1408,6 +1433,8 @@ def refinements(case, base_result, binary=DEFAULT_BIN, grid="small", out=None, t
     variants += [("grid x1.5", [int(round((k - 1) * 1.5)) + 1 for k in n], None, None),
                  ("T -10%", n, None, t0 + 0.9 * (t1 - t0)), ("T +10%", n, None, t0 + 1.1 * (t1 - t0))]
     base_json = os.path.join(base_result["folder"], "run", "barriers.json")
+    with open(base_json) as f:
+        base_doc = json.load(f)
     rows = []
     for k, (label, nn, params, tt) in enumerate(variants):
         folder = os.path.join(out, case.name, f"refine{k}")
@@ -1416,8 +1443,10 @@ def refinements(case, base_result, binary=DEFAULT_BIN, grid="small", out=None, t
         worst, union = compare_barriers(base_json, os.path.join(folder, "run", "barriers.json"),
                                         base_result["spacing"])
         r = score(doc, truth_full(case, cache), case.tol, case.box, case.horizon, also=also_full(case, cache))
+        kept, reproduced = agreement(base_doc, doc, 2 * base_result["spacing"])
         rows.append({"change": label, "barriers": len(barrier_curves(doc)), "max_distance": worst,
-                     "union_distance": union, "run_seconds": round(wall, 2), "precision": r["precision"],
+                     "union_distance": union, "default_within_2": kept, "change_within_2": reproduced,
+                     "run_seconds": round(wall, 2), "precision": r["precision"],
                      "recall": r["recall"], "top_on_truth": r["top_on_truth"], "passes": r["passes"]})
     return rows
 

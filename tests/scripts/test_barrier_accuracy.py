@@ -3,7 +3,8 @@ its ground truth against what it must satisfy, and the hyperbolic extractor agai
 
 - Scorer: a barrier on the truth has precision 1, one moved by twice the tolerance precision 0, a truth branch
   reported in two halves counts 2 pieces, candidates are not scored, the distances are exact (brute force), and
-  also-true branches (the double gyre's walls) count for precision, not for recall or pieces.
+  also-true branches (the double gyre's walls) count for precision, not for recall or pieces; agreement between
+  two runs tells a moved barrier (both shares fall) from one that runs on farther (one share falls).
 - Truth: flow_from, which grows the manifolds, agrees with one trajectory at a time (also where the escape
   oscillator's trajectories leave the bounds); the analytic separatrices lie on their energy levels; the unforced Duffing stable manifold grown by
   grow_branch lies on H = 0 and covers both loops; workload W's saddle orbit is a fixed point of the period map to
@@ -84,6 +85,19 @@ def test_barrier_moved_by_twice_the_tolerance_scores_zero():
     assert r["precision"] == 0.0 and r["recall"] == 0.0
     assert r["pieces_per_branch"] == {"segment": 0}
     assert not r["top_on_truth"] and not r["passes"]
+
+
+def test_agreement_tells_a_moved_barrier_from_a_longer_one():
+    d = 0.02
+    base = doc_of(line(0.0, 0.0, 1.0, 0.0))
+    # The same curve half the distance off and running on 0.5 farther: all of the base is reproduced, a third of the
+    # longer one (0.5 - d beyond the base's end) is new.
+    longer = (1.0 + math.sqrt(d * d - 0.01 ** 2)) / 1.5
+    assert bs.agreement(base, doc_of(line(0.0, 0.01, 1.5, 0.01)), d) == pytest.approx((1.0, longer), abs=2e-3)
+    # Moved by twice the distance: neither reproduces the other.
+    assert bs.agreement(base, doc_of(line(0.0, 2 * d, 1.0, 2 * d)), d) == (0.0, 0.0)
+    # No barriers on one side.
+    assert bs.agreement(base, {"barriers": []}, d) == (0.0, 0.0)
 
 
 def test_partial_cover_measures_length_shares():

@@ -123,7 +123,8 @@ def validate(experiment: _Experiment) -> Dict[str, Any]:
     """Checks an experiment completely and computes nothing; a summary dict."""
 def plugins(plugin_paths: Union[_Path, Sequence[_Path]] = ...) -> List[Dict[str, Any]]:
     """The plugins found, each a dict with its parameter schema."""
-def set_log_level(level: Literal["debug", "info", "warning", "error", "off"]) -> None:
+def set_log_level(level: Literal["debug", "info", "warning", "error", "off", "DEBUG", "INFO", "WARNING", "ERROR",
+                                 "OFF"]) -> None:
     """The core's log level on stderr."""
 def plot(fields: Any, barriers: Sequence[Barrier] = ..., *, variable: str = ..., ax: Optional[Any] = ...,
          candidates: Sequence[Barrier] = ..., colorbar: bool = ..., cmap: Any = ..., aspect: Any = ...,

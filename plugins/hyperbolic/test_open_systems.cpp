@@ -50,9 +50,9 @@ double distance_to(const std::vector<Point> &points, const Point &p) {
     return best;
 }
 
-} // namespace
-
-TEST_CASE("van der Pol backward with bounds: the barriers lie on the limit cycle and cover it") {
+// Van der Pol (mu = 1) run backward over 10 with bounds that stop exits, on the suite case's 361 x 361 grid, with the
+// hyperbolic extractor's `params`: its barriers.json.
+json run_van_der_pol_backward(const json &params) {
     json j = json::parse(R"({
       "system":  {"plugin": "van-der-pol", "params": {"mu": 1}},
       "forcing": {"plugin": "none"},
@@ -63,6 +63,7 @@ TEST_CASE("van der Pol backward with bounds: the barriers lie on the limit cycle
       "extractors": [{"plugin": "hyperbolic"}],
       "output": {"dir": "unused", "plots": false}
     })");
+    j["extractors"][0]["params"] = params;
     j["plugin_paths"] = {test::plugin_dir().string()};
     const fs::path dir = fs::temp_directory_path() / ("geobarrier-test-open-systems-" + std::to_string(::getpid()));
     fs::remove_all(dir);
@@ -70,8 +71,15 @@ TEST_CASE("van der Pol backward with bounds: the barriers lie on the limit cycle
     options.output_dir = dir;
     options.quiet = true;
     run_experiment(resolve_experiment(parse_experiment(j)), options);
-    const json barriers = json::parse(std::ifstream(dir / "barriers.json"))["barriers"];
+    const json doc = json::parse(std::ifstream(dir / "barriers.json"));
     fs::remove_all(dir);
+    return doc;
+}
+
+} // namespace
+
+TEST_CASE("van der Pol backward with bounds: the barriers lie on the limit cycle and cover it") {
+    const json barriers = run_van_der_pol_backward(json::object())["barriers"];
     REQUIRE(!barriers.empty());
 
     // Tolerance 0.035, about two grid spacings (0.0167), as the suite's case.
@@ -123,30 +131,8 @@ TEST_CASE("van der Pol backward with bounds: the barriers lie on the limit cycle
 // 0.3) are left out: their strainlines found no barrier of their own. The same barriers, point for point, with the
 // defaults as with every seed (early_exit 0).
 TEST_CASE("van der Pol backward with bounds: leaving out the seeds whose trajectories left early keeps the barriers") {
-    const auto run_with = [](const json &params) {
-        json j = json::parse(R"({
-          "system":  {"plugin": "van-der-pol", "params": {"mu": 1}},
-          "forcing": {"plugin": "none"},
-          "grid":    {"x": [-3, 3], "y": [-3, 3], "n": [361, 361]},
-          "time":    {"t0": 0, "t1": -10},
-          "bounds":  {"x": [-3.2, 3.2], "y": [-3.2, 3.2]},
-          "products": ["ftle", "strain_deviation"],
-          "extractors": [{"plugin": "hyperbolic"}],
-          "output": {"dir": "unused", "plots": false}
-        })");
-        j["extractors"][0]["params"] = params;
-        j["plugin_paths"] = {test::plugin_dir().string()};
-        const fs::path dir = fs::temp_directory_path() / ("geobarrier-test-early-exit-" + std::to_string(::getpid()));
-        fs::remove_all(dir);
-        RunOptions options;
-        options.output_dir = dir;
-        options.quiet = true;
-        run_experiment(resolve_experiment(parse_experiment(j)), options);
-        const json doc = json::parse(std::ifstream(dir / "barriers.json"));
-        fs::remove_all(dir);
-        return doc;
-    };
-    const json left_out = run_with(json::object()), all = run_with({{"early_exit", 0.0}});
+    const json left_out = run_van_der_pol_backward(json::object()),
+               all = run_van_der_pol_backward({{"early_exit", 0.0}});
     REQUIRE(!all["barriers"].empty());
     CHECK(left_out["barriers"] == all["barriers"]);
     // The seeds left out did give strainlines: candidates (13 with them, 4 without, measured).

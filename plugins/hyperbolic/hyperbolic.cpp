@@ -1336,7 +1336,8 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
                                                     const std::vector<Selected> &selected) const {
     const Grid &g = cg.grid;
     const double cell = std::max(g.dx(), g.dy());
-    const double radius = scales(g).radius;
+    const Scales scale = scales(g);
+    const double radius = scale.radius;
     std::vector<double> root(g.size());
     for (std::size_t p = 0; p < g.size(); ++p) root[p] = std::sqrt(cg.lambda1[p]);
     std::vector<std::vector<double>> pieces(selected.size());
@@ -1394,14 +1395,14 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
         return a.q < b.q;
     };
     std::stable_sort(curves.begin(), curves.end(), by_significance_and_q);
-    // One representative of each bundle: a barrier that adds no run a candidate's length long farther than three
-    // cells (the cover distance and the cell the exit-time runs reach on either side of a jump) from the barriers of
-    // smaller q is a candidate.
+    // One representative of each bundle: a barrier that adds no run of min_length farther than the cover distance
+    // (two cells) from the barriers of smaller q is a candidate (three cells bundled distinct turns of the escape
+    // oscillator's manifold, 2.8-4 cells apart on 561 x 481: recall 0.911 -> 0.856).
     std::vector<std::vector<double>> barrier_points;
     for (const ReportedCurve &rc : curves)
         if (rc.significant) barrier_points.push_back(rc.xy);
     const std::vector<char> bundled =
-        hyperbolic::bundled_curves(barrier_points, cover_distance(g, radius), scales(g).min_length);
+        hyperbolic::bundled_curves(barrier_points, cover_distance(g, radius), scale.min_length);
     for (std::size_t b = 0; b < bundled.size(); ++b)
         if (bundled[b]) {
             curves[b].bundled = true;

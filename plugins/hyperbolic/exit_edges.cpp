@@ -96,11 +96,6 @@ std::vector<double> exit_jump_seeds(const Grid &g, const std::vector<JumpEdge> &
     return seeds;
 }
 
-std::vector<double> exit_jump_seeds(const Grid &g, const double *exit_time, const std::uint8_t *mask,
-                                    const ExitJumps &rule, double separation) {
-    return exit_jump_seeds(g, exit_jump_edges(g, exit_time, mask, rule), separation);
-}
-
 std::vector<std::uint8_t> near_exit_jumps(const Grid &g, const std::vector<JumpEdge> &edges, std::size_t reach) {
     std::vector<std::uint8_t> near(g.size(), 0);
     const auto mark = [&](std::size_t p, std::uint8_t kind) {
@@ -115,11 +110,6 @@ std::vector<std::uint8_t> near_exit_jumps(const Grid &g, const std::vector<JumpE
         mark(e.along_x ? e.p + 1 : e.p + g.nx, kind);
     }
     return near;
-}
-
-std::vector<std::uint8_t> near_exit_jumps(const Grid &g, const double *exit_time, const std::uint8_t *mask,
-                                          const ExitJumps &rule, std::size_t reach) {
-    return near_exit_jumps(g, exit_jump_edges(g, exit_time, mask, rule), reach);
 }
 
 } // namespace geobarrier::hyperbolic

@@ -49,11 +49,8 @@ struct JumpEdge {
 std::vector<JumpEdge> exit_jump_edges(const Grid &g, const double *exit_time, const std::uint8_t *mask,
                                       const ExitJumps &rule);
 
-// The midpoints (x, y interleaved) of the grid edges across which the exit time jumps (ExitJumps), thinned, in grid
-// order, to seeds at least `separation` apart.
+// The midpoints (x, y interleaved) of `edges`, thinned in their order to seeds at least `separation` apart.
 std::vector<double> exit_jump_seeds(const Grid &g, const std::vector<JumpEdge> &edges, double separation);
-std::vector<double> exit_jump_seeds(const Grid &g, const double *exit_time, const std::uint8_t *mask,
-                                    const ExitJumps &rule, double separation);
 
 // Which grid points lie within `reach` grid points (along x and along y) of an end of such an edge: one byte a point,
 // 0 far from every jump, else near_leaving_jump where both points of the edge leave, or-ed with near_captured_jump
@@ -61,7 +58,5 @@ std::vector<double> exit_jump_seeds(const Grid &g, const double *exit_time, cons
 // runs along the jumps.
 constexpr std::uint8_t near_leaving_jump = 1, near_captured_jump = 2;
 std::vector<std::uint8_t> near_exit_jumps(const Grid &g, const std::vector<JumpEdge> &edges, std::size_t reach);
-std::vector<std::uint8_t> near_exit_jumps(const Grid &g, const double *exit_time, const std::uint8_t *mask,
-                                          const ExitJumps &rule, std::size_t reach);
 
 } // namespace geobarrier::hyperbolic

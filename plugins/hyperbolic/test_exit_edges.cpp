@@ -10,9 +10,16 @@
 #include <vector>
 
 using geobarrier::Grid;
-using geobarrier::hyperbolic::exit_jump_seeds;
+using geobarrier::hyperbolic::exit_jump_edges;
+using geobarrier::hyperbolic::ExitJumps;
 
 namespace {
+
+// The seeds as the extractor finds them: the jump edges, then their midpoints thinned.
+std::vector<double> exit_jump_seeds(const Grid &g, const double *exit_time, const std::uint8_t *mask,
+                                    const ExitJumps &rule, double separation) {
+    return geobarrier::hyperbolic::exit_jump_seeds(g, exit_jump_edges(g, exit_time, mask, rule), separation);
+}
 
 constexpr double nan_value = std::numeric_limits<double>::quiet_NaN();
 constexpr double radius = 0.3, cx = 0.5, cy = 0.5, line_x = 0.8, step = 5.0, horizon = 10.0;
@@ -162,7 +169,8 @@ TEST_CASE("near_exit_jumps: the captured set's edge and a jump between leaving p
     using geobarrier::hyperbolic::near_leaving_jump;
     const Grid g = unit_grid(101);
     const std::vector<double> exit = disc_and_line(g);
-    const std::vector<std::uint8_t> near = near_exit_jumps(g, exit.data(), nullptr, {2.0, horizon, 2.0, 2.0}, 1);
+    const std::vector<std::uint8_t> near =
+        near_exit_jumps(g, exit_jump_edges(g, exit.data(), nullptr, {2.0, horizon, 2.0, 2.0}), 1);
     std::size_t captured = 0, leaving = 0;
     for (std::size_t i = 0; i < g.ny; ++i)
         for (std::size_t j = 0; j < g.nx; ++j) {

@@ -170,23 +170,18 @@ std::vector<char> bundled_curves(const std::vector<std::vector<double>> &curves,
     for (std::size_t c = 0; c < curves.size(); ++c) {
         const std::vector<double> &xy = curves[c];
         const std::size_t n = xy.size() / 2;
-        const auto free = [&](std::size_t k) {
+        // 0 where the point is farther than `distance` from every kept curve before this one, else 1: the runs of
+        // free points are the runs below 0.5, as the strainlines' compact pieces are found (runs_below).
+        std::vector<double> near(n, 0.0);
+        for (std::size_t k = 0; k < n; ++k)
             for (const std::size_t other : index.ids_within(xy[2 * k], xy[2 * k + 1], distance))
-                if (other < c && !bundled[other]) return false;
-            return true;
-        };
-        // The longest run of free points, measured along the curve between its first and last point.
-        double run = 0.0, longest = 0.0;
-        bool previous_free = false;
-        for (std::size_t k = 0; k < n && longest < min_length; ++k) {
-            const bool is_free = free(k);
-            if (is_free && previous_free) {
-                run += std::hypot(xy[2 * k] - xy[2 * k - 2], xy[2 * k + 1] - xy[2 * k - 1]);
-                longest = std::max(longest, run);
-            } else {
-                run = 0.0;
-            }
-            previous_free = is_free;
+                if (other < c && !bundled[other]) near[k] = 1.0;
+        const std::vector<double> steps = segment_lengths(xy);
+        double longest = 0.0;
+        for (const PointRun &run : runs_below(near, 0.5)) {
+            double length = 0.0;
+            for (std::size_t k = run.first; k + 1 < run.end; ++k) length += steps[k];
+            longest = std::max(longest, length);
         }
         bundled[c] = n > 0 && longest < min_length ? 1 : 0;
     }

@@ -49,6 +49,17 @@ struct GridSliceSpec {
     SliceTensor tensor = SliceTensor::full;            // "cauchy_green": {"slice_tensor": ...}
 };
 
+// "convergence" (docs/experiment-format.md): the run repeated with changed settings, and each barrier's share of
+// length that the changed runs reproduce within `spacings` grid spacings (run/convergence.hpp). Empty lists: that
+// change is not made.
+struct ConvergenceSpec {
+    std::vector<double> grid;                   // factors of the grid's intervals: n - 1 -> round((n - 1) f)
+    std::vector<double> horizon;                // factors of the horizon t1 - t0
+    std::vector<nlohmann::json> extractor_keys; // each an object of keys set in every extractor that declares them
+    double threshold = 0.9;                     // a barrier converged: share >= threshold under every change
+    double spacings = 2.0;                      // "near": within this many of the run's grid spacings
+};
+
 struct Experiment {
     std::filesystem::path file; // where it was read from ("" for in-memory)
     nlohmann::json source;      // the JSON as written
@@ -81,6 +92,8 @@ struct Experiment {
     bool plots = true;
     std::vector<std::string> warnings; // what parsing adjusted (e.g. a clamped rtol); copied into the manifest
     ValidationSpec validation;         // the "validation" object: products computed only when asked
+    // The "convergence" object: changed runs, only when asked.
+    std::optional<ConvergenceSpec> convergence;
 
     bool wants(const std::string &product) const;
 };

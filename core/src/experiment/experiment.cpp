@@ -397,6 +397,67 @@ void read_validation(const json &section, Experiment &e) {
                           "\"extractors\" (e.g. {\"plugin\": \"elliptic\"})");
 }
 
+// One factor of "convergence"'s "grid" or "horizon": finite, in (0, max_factor], not 1 (that repeats the run).
+double convergence_factor(const json &v, const std::string &path, double max_factor, const char *what) {
+    if (!v.is_number())
+        throw ConfigError(path, short_dump(v) + " is " + type_name(v) + "; expected a factor of the " + what);
+    const double f = v.get<double>();
+    if (!std::isfinite(f) || !(f > 0) || f > max_factor || f == 1.0)
+        throw ConfigError(path, short_dump(v) + " must be a factor of the " + what + " greater than 0, at most " +
+                                    fmt::format("{:g}", max_factor) + " and other than 1 (1 repeats the run)");
+    return f;
+}
+
+// A factor or an array of factors (each a changed run).
+std::vector<double> convergence_factors(const ObjectReader &c, const std::string &key, double max_factor,
+                                        const char *what) {
+    if (!c.has(key)) return {};
+    const json &v = c.get(key);
+    if (!v.is_array()) return {convergence_factor(v, c.child(key), max_factor, what)};
+    if (v.empty()) throw ConfigError(c.child(key), "[] is empty; give a factor or leave the key out");
+    std::vector<double> factors;
+    for (std::size_t k = 0; k < v.size(); ++k)
+        factors.push_back(convergence_factor(v[k], c.child(key) + "/" + std::to_string(k), max_factor, what));
+    return factors;
+}
+
+// "convergence": the changed runs (docs/experiment-format.md, "Convergence"). Whether an extractor declares each
+// of "extractor_keys" and takes its value is checked when the experiment is resolved (run/convergence.hpp).
+ConvergenceSpec read_convergence(const json &section, const Experiment &e) {
+    if (e.extractors.empty())
+        throw ConfigError("/convergence", "compares the barriers of changed runs, and the experiment has no "
+                                          "\"extractors\": add one or leave \"convergence\" out");
+    ObjectReader c(section, "/convergence");
+    ConvergenceSpec spec;
+    // A grid 4 times finer costs 16 flow maps; a horizon 10 times longer is another experiment.
+    spec.grid = convergence_factors(c, "grid", 4.0, "grid's intervals");
+    spec.horizon = convergence_factors(c, "horizon", 10.0, "horizon t1 - t0");
+    if (c.has("extractor_keys")) {
+        const json &keys = c.get("extractor_keys");
+        if (!keys.is_array() || keys.empty())
+            throw ConfigError("/convergence/extractor_keys",
+                              short_dump(keys) + " must be a non-empty array of objects, each {key: value, ...} of "
+                                                 "extractor parameters for one changed run");
+        for (std::size_t k = 0; k < keys.size(); ++k) {
+            if (!keys[k].is_object() || keys[k].empty())
+                throw ConfigError("/convergence/extractor_keys/" + std::to_string(k),
+                                  short_dump(keys[k]) + " must be a non-empty object {key: value, ...} of extractor "
+                                                        "parameters (e.g. {\"line_step\": 0.004})");
+            spec.extractor_keys.push_back(keys[k]);
+        }
+    }
+    spec.threshold = c.number("threshold", spec.threshold);
+    if (!(spec.threshold > 0) || spec.threshold > 1)
+        throw ConfigError("/convergence/threshold",
+                          short_dump(c.get("threshold")) + " must be a share of a barrier's length, in (0, 1]");
+    spec.spacings = c.positive("spacings", spec.spacings);
+    c.finish();
+    if (spec.grid.empty() && spec.horizon.empty() && spec.extractor_keys.empty())
+        throw ConfigError("/convergence", "asks for no changed run: give at least one of \"grid\", \"horizon\" and "
+                                          "\"extractor_keys\" (e.g. {\"grid\": 1.5, \"horizon\": [0.9, 1.1]})");
+    return spec;
+}
+
 // Folders relative to the experiment's folder `base`.
 std::vector<fs::path> read_plugin_paths(const json &p, const fs::path &base) {
     if (!p.is_array()) throw ConfigError("/plugin_paths", short_dump(p) + " must be an array of folder paths");
@@ -461,6 +522,7 @@ Experiment parse_experiment(const json &j, const fs::path &file) {
     if (!e.frames.empty() && root.has("validation")) // its times are the run's: not defined for several frames yet
         throw ConfigError("/validation", "validation products are not supported with several initial times "
                                          "(\"time\": {\"t0\": [...]}): run them on a single t0");
+    if (root.has("convergence")) e.convergence = read_convergence(root.get("convergence"), e);
     if (root.has("plugin_paths")) e.plugin_paths = read_plugin_paths(root.get("plugin_paths"), base);
     read_output(root, file, e);
     if (e.products.empty() && e.extractors.empty() && e.validation.empty())

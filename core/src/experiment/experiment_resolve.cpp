@@ -8,6 +8,7 @@
 
 #include "engine/tiles.hpp"
 #include "experiment/resources.hpp"
+#include "run/convergence.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -367,6 +368,7 @@ ResolvedExperiment resolve_experiment(const Experiment &experiment) {
     check_memory(estimate_run_memory(e.grid, e.integrator, plan_fields(r)), available_memory(), e.grid);
     echo_settings(r, resolved);
     r.resolved = resolved;
+    (void)detail::convergence_changes(r); // a changed run that could not run is refused now, not after this one
     return r;
 }
 

@@ -4,6 +4,7 @@
 #define GEOBARRIER_RUN_BARRIER_MATCHING_HPP
 
 #include <geobarrier/experiment.hpp>
+#include <geobarrier/segment_index.hpp>
 
 #include <nlohmann/json.hpp>
 
@@ -24,6 +25,16 @@ std::vector<BarrierMatch> match_barriers(const std::vector<std::vector<double>> 
                                          const std::vector<bool> &closed, const std::vector<std::size_t> &curve_of,
                                          const nlohmann::json &previous, const nlohmann::json &next, const Grid &grid,
                                          double tolerance);
+
+// Whether two barriers (barriers.json entries) can be one material curve: the same extractor, kind and direction (a
+// repelling and an attracting barrier never are).
+bool same_family(const nlohmann::json &a, const nlohmann::json &b);
+
+// The share of a polyline's length (x, y interleaved; `closed` joins the last point to the first) within `distance`
+// of the curves of `others` (0 when there are none, or the polyline has no length): its segments are cut into pieces
+// of at most distance / 4, each near when its midpoint is. The convergence of a run's barriers under changed
+// settings (convergence.hpp) and scripts/barrier_suite.py's agreement() measure the same.
+double barrier_share_near(const std::vector<double> &xy, bool closed, const SegmentIndex &others, double distance);
 
 // A barrier's points (x, y interleaved), from its "points".
 std::vector<double> barrier_points(const nlohmann::json &barrier);

@@ -111,20 +111,18 @@ double mean_distance_to_polyline(const std::vector<double> &from, const std::vec
     return sum / static_cast<double>(from.size() / 2);
 }
 
+bool detail::same_family(const json &a, const json &b) {
+    return a.value("extractor", "") == b.value("extractor", "") && a.value("kind", "") == b.value("kind", "") &&
+           a.value("repelling", false) == b.value("repelling", false) &&
+           a.value("attracting", false) == b.value("attracting", false);
+}
+
 namespace {
 
 std::vector<double> points_of(const json &barrier) {
     std::vector<double> xy;
     for (const json &p : barrier.at("points")) xy.insert(xy.end(), {p[0].get<double>(), p[1].get<double>()});
     return xy;
-}
-
-// Barriers of the same extractor, kind and direction can be one material curve; a repelling and an attracting
-// barrier never are.
-bool same_family(const json &a, const json &b) {
-    return a.value("extractor", "") == b.value("extractor", "") && a.value("kind", "") == b.value("kind", "") &&
-           a.value("repelling", false) == b.value("repelling", false) &&
-           a.value("attracting", false) == b.value("attracting", false);
 }
 
 // The barrier's own stretching figure, by the first of these keys it has: the hyperbolic extractor's relative
@@ -157,7 +155,7 @@ std::vector<detail::BarrierMatch> candidate_matches(const std::vector<std::vecto
         const std::vector<double> image = resampled_inside(curves[c], curve_closed[c], g, spacing);
         if (image.size() < 4) continue; // nothing of it is left in the box
         for (std::size_t b = 0; b < next.size(); ++b) {
-            if (!same_family(previous[image_of[c]], next[b]) || next_xy[b].size() < 4) continue;
+            if (!detail::same_family(previous[image_of[c]], next[b]) || next_xy[b].size() < 4) continue;
             const bool closed = next[b].value("closed", false);
             const double to = mean_distance_to_polyline(image, next_xy[b], closed, cutoff),
                          from = mean_distance_to_polyline(next_xy[b], image, curve_closed[c], cutoff);

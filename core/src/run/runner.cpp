@@ -7,6 +7,7 @@
 
 #include "engine/tiles.hpp"
 #include "experiment/resources.hpp"
+#include "run/convergence.hpp"
 #include "run/mpi.hpp"
 #include <geobarrier/cancel.hpp>
 #include <geobarrier/cauchy_green.hpp>
@@ -502,6 +503,76 @@ FoundBarriers run_extractors(const ResolvedExperiment &r, const RunOptions &opti
     return found;
 }
 
+// The barriers of a changed run of "convergence" that changes only extractor keys: its extractors on this run's fields
+// (no new flow map), writing into a private folder that is removed. Their stage times and warnings are not this run's.
+json reextracted_barriers(const ResolvedExperiment &changed, const RunOptions &options, const GridStages &grid) {
+    struct RemovedFolder {
+        fs::path path = private_scratch_folder();
+        ~RemovedFolder() {
+            std::error_code ec;
+            fs::remove_all(path, ec);
+        }
+    } folder;
+    fs::create_directories(folder.path);
+    RunRecord scratch;
+    return run_extractors(changed, options, grid, folder.path, false, scratch).items;
+}
+
+// Whether this run's fields hold every field the changed run's extractors read.
+bool fields_serve(const ResolvedExperiment &changed, const GridStages &grid) {
+    for (const Extractor &x : changed.extractors)
+        for (const auto &name : x.required_fields())
+            if (!grid.fields.count(name)) return false;
+    return true;
+}
+
+// Stage 3a: "convergence" (run/convergence.hpp). Each changed run in turn, in memory: re-extraction from this run's
+// fields where only extractor keys change, else a whole run (a new flow map); nothing of them is written. Then this
+// run's barriers (`items`) are marked with the share of each that every changed run reproduces. Returns the
+// "convergence" object of barriers.json and the manifest (null without "convergence").
+json check_convergence(const ResolvedExperiment &r, const RunOptions &options, const GridStages &grid, json &items,
+                       RunRecord &record) {
+    const Experiment &e = r.experiment;
+    if (!e.convergence) return json();
+    const std::vector<detail::ConvergenceChange> changes = detail::convergence_changes(r);
+    StageTimer timer(record.stages, "convergence");
+    std::vector<json> barriers;
+    json runs = json::array();
+    for (std::size_t k = 0; k < changes.size(); ++k) {
+        const detail::ConvergenceChange &c = changes[k];
+        throw_if_cancelled("before the changed run " + c.label);
+        report(options, "convergence", k, changes.size());
+        const auto start = std::chrono::steady_clock::now();
+        const ResolvedExperiment changed = resolve_experiment(parse_experiment(c.source, e.file));
+        const bool reextract = c.same_fields && fields_serve(changed, grid);
+        spdlog::info("convergence: changed run {} of {}, {} ({})", k + 1, changes.size(), c.label,
+                     reextract ? "this run's fields" : "a new flow map");
+        if (reextract) {
+            barriers.push_back(reextracted_barriers(changed, options, grid));
+        } else {
+            RunOptions o = options;
+            o.output_dir.reset();
+            o.write_files = false; // in memory: a private folder, removed
+            o.keep_results = true; // the barriers
+            barriers.push_back(run_experiment(changed, o).barriers);
+        }
+        runs.push_back(
+            {{"change", c.label},
+             {"json_path", c.json_path},
+             {"flow_map", !reextract},
+             {"barriers", barriers.back().size()},
+             {"wall_seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()}});
+    }
+    report(options, "convergence", changes.size(), changes.size());
+    std::vector<std::string> warnings;
+    json summary =
+        detail::mark_convergence(items, changes, barriers, std::move(runs), e.grid, *e.convergence, warnings);
+    for (const std::string &w : warnings) record.warn(w);
+    spdlog::info("convergence: {} of {} barriers persist under every change (threshold {:g})",
+                 summary["converged"].get<std::size_t>(), items.size(), e.convergence->threshold);
+    return summary;
+}
+
 // Stage 3b: the validation products (Poincaré iterates, tracers, trajectories, forcing, advected barriers), only
 // those the experiment's "validation" object asks for; they write their own files, returned.
 std::vector<fs::path> run_validation_products(const ResolvedExperiment &r, const RunOptions &options,
@@ -567,7 +638,7 @@ StateAxes plane_axes(const ResolvedExperiment &r) {
 // Stage 4: fields.nc, the FTLE picture and barriers.json, each written atomically into the staging folder `out`.
 void write_result_files(const ResolvedExperiment &r, const RunOptions &options, const GridStages &grid,
                         const std::vector<FieldVariable> &variables, const json &barriers, const json &candidates,
-                        const fs::path &out, bool plots, RunSummary &summary) {
+                        const json &convergence, const fs::path &out, bool plots, RunSummary &summary) {
     const Experiment &e = r.experiment;
     if (!variables.empty()) {
         json attributes = {{"title", e.description.empty() ? std::string("geobarrier fields") : e.description},
@@ -605,6 +676,7 @@ void write_result_files(const ResolvedExperiment &r, const RunOptions &options, 
         const fs::path file = out / "barriers.json";
         json contents = {{"barriers", barriers}};
         if (!candidates.empty()) contents["candidates"] = candidates;
+        if (!convergence.is_null()) contents["convergence"] = convergence;
         write_text_file(file, contents.dump(1) + "\n");
         summary.files.push_back(file);
     }
@@ -682,6 +754,8 @@ RunSummary run_stages(const ResolvedExperiment &r, const RunOptions &options) {
     compute_flow_and_cauchy_green(r, options, plan_fields(r), record, grid);
     compute_deviation_fields(r, record, grid);
     FoundBarriers found = run_extractors(r, options, grid, out, plots, record);
+    const json convergence = check_convergence(r, options, grid, found.items, record);
+    if (!convergence.is_null()) record.manifest["convergence"] = convergence;
     if (record.manifest.contains("escape"))
         mark_basin_boundary(e.grid, grid.flow, found.items, record.manifest["escape"]);
     const std::vector<fs::path> validation_files =
@@ -693,7 +767,8 @@ RunSummary run_stages(const ResolvedExperiment &r, const RunOptions &options) {
     const std::vector<FieldVariable> variables = field_variables(e, grid);
     try {
         StageTimer timer(record.stages, "output");
-        write_result_files(r, options, grid, variables, found.items, found.candidates, out, plots, summary);
+        write_result_files(r, options, grid, variables, found.items, found.candidates, convergence, out, plots,
+                           summary);
     } catch (const IoError &error) {
         throw IoError(staging.final_names(error.what()) + storage_hint(out)); // a full disk shows up as "HDF error"
     }
@@ -757,6 +832,10 @@ RunSummary run_experiment(const ResolvedExperiment &r, const RunOptions &options
         throw ConfigError("threads", std::to_string(options.threads) + " worker threads asked for; give 1 to " +
                                          std::to_string(max_threads) + " (or 0: one per core)");
     // The engine names a bad setting by its own name; the experiment's JSON path goes with it here.
+    // Every rank would have to join each changed run's flow map (run_as_tile_worker runs one experiment's).
+    if (r.experiment.convergence && mpi::sharing_tiles())
+        throw ConfigError("/convergence", "changed runs are not supported under mpirun; run the experiment without "
+                                          "mpirun, or leave \"convergence\" out");
     return with_json_paths([&] {
         if (r.experiment.both_directions) return run_claimed(r, options, run_both_directions); // two runs, their tangle
         if (!r.experiment.frames.empty()) return run_claimed(r, options, run_frames); // a run per frame, their tracks

@@ -71,6 +71,13 @@ int command_run(const fs::path &file, const std::optional<fs::path> &out, int th
     if (!quiet) {
         std::cout << "wrote " << summary.files.size() << " files to " << summary.output_dir.string() << ":\n";
         for (const auto &f : summary.files) std::cout << "  " << f.string() << "\n";
+        // "convergence": how many barriers persist under every changed run (the warnings named the others).
+        if (const auto c = summary.manifest.find("convergence"); c != summary.manifest.end() && c->is_object())
+            std::cout << "convergence: " << c->at("converged") << " of " << c->at("barriers")
+                      << " barriers persist under every change (at least " << c->at("threshold").get<double>()
+                      << " of their length within " << c->at("spacings").get<double>()
+                      << " grid spacings of each changed run's "
+                      << "barriers); barriers.json gives each one's \"persistence\"\n";
     }
     return 0;
 }

@@ -169,7 +169,8 @@ def _output_folder(out):
 
 
 def _flow_map_only(text, file):
-    """The experiment reduced to its flow map: products ["flow_map"], no extractors, no validation products."""
+    """The experiment reduced to its flow map: products ["flow_map"], no extractors, no validation products, no
+    convergence check."""
     if not text:
         try:
             with open(file, encoding="utf-8", errors="replace") as f:
@@ -191,6 +192,7 @@ def _flow_map_only(text, file):
         experiment["products"] = ["flow_map"]
         experiment.pop("extractors", None)
         experiment.pop("validation", None)
+        experiment.pop("convergence", None)  # compares barriers, and a flow map alone has none
         text = json.dumps(experiment)
     return text, file
 

@@ -195,20 +195,23 @@ TEST_CASE("convergence: the pendulum's stub between a saddle and the box's edge 
     j["convergence"] = {{"horizon", 1.1}};
     const Result r = run_into(j, "pendulum");
     const json &barriers = r.barriers.at("barriers");
-    // The stub (x from -pi to the box's edge at -4, or pi to 4: about 1.2 long, docs/extractor-measurements.md) is a
-    // barrier of the default run and none of the changed run's lies along it.
-    std::size_t stubs = 0;
-    for (std::size_t b = 0; b < barriers.size(); ++b) {
-        if (length_of(barriers[b]) > 2.0) continue;
-        ++stubs;
-        CHECK(barriers[b]["persistence"][0]["share"].get<double>() < 0.1);
-        CHECK(barriers[b]["converged"] == false);
-        CHECK(std::count(r.barriers["convergence"]["not_converged"].begin(),
-                         r.barriers["convergence"]["not_converged"].end(), b) == 1);
-        bool warned = false;
+    const json &not_converged = r.barriers["convergence"]["not_converged"];
+    const auto warned = [&](std::size_t b) {
         for (const json &w : r.manifest["warnings"])
-            warned = warned || w.get<std::string>().find("barrier " + std::to_string(b) + " ") == 0;
-        CHECK(warned);
+            if (w.get<std::string>().find("barrier " + std::to_string(b) + " ") == 0) return true;
+        return false;
+    };
+    // The stub from the saddle at -pi to the box's edge at -4 (about 1.2 long, docs/extractor-measurements.md) is a
+    // barrier of the default run, and none of the changed run's barriers lies along it.
+    std::size_t lost_stubs = 0;
+    for (std::size_t b = 0; b < barriers.size(); ++b) {
+        const double share = barriers[b]["persistence"][0]["share"].get<double>();
+        if (length_of(barriers[b]) < 2.0 && share < 0.1) ++lost_stubs;
+        // Every barrier below the threshold, and only those, is flagged, listed and named in a warning.
+        const bool lost = share < 0.9;
+        CHECK(barriers[b]["converged"] == !lost);
+        CHECK(std::count(not_converged.begin(), not_converged.end(), b) == (lost ? 1 : 0));
+        CHECK(warned(b) == lost);
     }
-    CHECK(stubs == 1);
+    CHECK(lost_stubs >= 1);
 }

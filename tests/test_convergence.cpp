@@ -215,3 +215,31 @@ TEST_CASE("convergence: the pendulum's stub between a saddle and the box's edge 
     }
     CHECK(lost_stubs >= 1);
 }
+
+TEST_CASE("convergence: closed barriers (elliptic, the unforced Duffing oscillator's tori) and a parabolic one (the "
+          "Bickley jet's core) persist under a finer grid and T -+ 10%") {
+    // The tori of an integrable system are level sets of its energy, the jet's core the line y = 0: invariant curves
+    // that every grid and horizon reports again.
+    json tori =
+        suite_case("duffing", {{"alpha", 1}, {"beta", 1}, {"delta", 0}}, {{-1.8, 1.8}, {-1.2, 1.2}}, {181, 121});
+    tori["extractors"] = {{{"plugin", "elliptic"}, {"params", json::object()}}};
+    json jet =
+        suite_case("parallel-shear", {{"profile", "jet"}, {"velocity", 1}, {"width", 1}}, {{0, 4}, {-2, 2}}, {81, 81});
+    jet["time"]["t1"] = 10;
+    jet["integrator"] = {{"rtol", 1e-10}, {"atol", 1e-12}};
+    jet["extractors"] = {{{"plugin", "parabolic"}, {"params", {{"method", "shearless"}}}}};
+    for (json j : {tori, jet}) {
+        const std::string extractor = j["extractors"][0]["plugin"];
+        CAPTURE(extractor);
+        j["convergence"] = {{"grid", 1.5}, {"horizon", {0.9, 1.1}}};
+        const Result r = run_into(j, extractor);
+        const json &barriers = r.barriers.at("barriers");
+        REQUIRE(!barriers.empty());
+        CHECK(r.barriers["convergence"]["converged"] == barriers.size());
+        for (const json &b : barriers) {
+            CHECK(b["closed"] == (extractor == "elliptic"));
+            CHECK(b["converged"] == true);
+            for (const json &p : b["persistence"]) CHECK(p["share"].get<double>() >= 0.9);
+        }
+    }
+}

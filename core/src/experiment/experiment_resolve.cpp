@@ -367,6 +367,10 @@ ResolvedExperiment resolve_experiment(const Experiment &experiment) {
     // Refuse up front a grid the machine cannot hold (the estimate of the tiled run errs on the high side).
     check_memory(estimate_run_memory(e.grid, e.integrator, plan_fields(r)), available_memory(), e.grid);
     echo_settings(r, resolved);
+    if (e.convergence) { // the defaults the check uses
+        resolved["convergence"]["threshold"] = e.convergence->threshold;
+        resolved["convergence"]["spacings"] = e.convergence->spacings;
+    }
     r.resolved = resolved;
     (void)detail::convergence_changes(r); // a changed run that could not run is refused now, not after this one
     return r;

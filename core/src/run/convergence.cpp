@@ -168,16 +168,21 @@ json detail::mark_convergence(json &items, const std::vector<ConvergenceChange> 
                     : barrier_share_near(xy, closed, SegmentIndex(std::move(segments), distance), distance);
             persistence.push_back({{"change", changes[c].label}, {"share", share}});
             if (share < spec.threshold)
-                lost += fmt::format("{}{} ({:.2f})", lost.empty() ? "" : ", ", changes[c].label, share);
+                lost += fmt::format("{}{}: {:.2f}", lost.empty() ? "" : ", ", changes[c].label, share);
         }
         item["persistence"] = persistence;
         item["converged"] = lost.empty();
         if (lost.empty()) continue;
         not_converged.push_back(b);
-        warnings.push_back(fmt::format("barrier {} ({} {}, {:.3g} long) does not persist: less than {:g} of its length "
+        // "hyperbolic", "elliptic closed", ...: the extractor, its kind where that says more, and the rank if given.
+        const std::string extractor = item.value("extractor", ""), kind = item.value("kind", "");
+        const std::string what =
+            extractor + (kind.empty() || kind == extractor ? "" : " " + kind) +
+            (item.contains("rank") && item["rank"].is_number() ? fmt::format(", rank {:g}", item["rank"].get<double>())
+                                                               : "");
+        warnings.push_back(fmt::format("barrier {} ({}, {:.3g} long) does not persist: less than {:g} of its length "
                                        "within {:g} grid spacings of the changed run's barriers under {}",
-                                       b, item.value("extractor", ""), item.value("kind", ""),
-                                       polyline_length(xy, closed), spec.threshold, spec.spacings, lost));
+                                       b, what, polyline_length(xy, closed), spec.threshold, spec.spacings, lost));
     }
     return {{"threshold", spec.threshold},   {"spacings", spec.spacings},
             {"distance", distance},          {"runs", std::move(runs)},

@@ -1399,7 +1399,8 @@ def agreement(doc_a, doc_b, distance):
     """How much of one run's barriers the other's reproduce: (share of a's barrier length within `distance` of b's
     barriers, share of b's within it of a's); 0 for a side with no barriers. Unlike compare-barriers' distances,
     which a barrier that merely runs on farther in one run makes large, this separates moved barriers (both shares
-    fall) from longer or extra ones (one share falls)."""
+    fall) from longer or extra ones (one share falls). A run's own "convergence" check gives the first share per
+    barrier by the same rule (core/src/run/convergence.cpp, barrier_share_near)."""
     h = distance / 4
     curves_a = [pts for _, pts in barrier_curves(doc_a)]
     curves_b = [pts for _, pts in barrier_curves(doc_b)]

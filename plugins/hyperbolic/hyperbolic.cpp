@@ -1392,7 +1392,10 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
     // its q against its parallels' is as sharp a minimum as the best's, where a level set's is near 1.
     double q_best = HUGE_VAL, ratio_best = nan_value;
     for (const ReportedCurve &rc : curves)
-        if (rc.significant) q_best = std::min(q_best, rc.q);
+        if (rc.significant && rc.q < q_best) {
+            q_best = rc.q;
+            ratio_best = rc.transverse_ratio;
+        }
     for (ReportedCurve &rc : curves) {
         rc.strength = q_best < 1.0 ? std::log(rc.q) / std::log(q_best) : nan_value;
         rc.contrast =
@@ -1510,10 +1513,10 @@ void report_barriers(const sdk::Host &host, const std::vector<Segment> &candidat
         };
         if (std::isfinite(rc.transverse_ratio)) metrics.push_back({"transverse_q_ratio", rc.transverse_ratio});
         if (std::isfinite(rc.strength)) metrics.push_back({"relative_strength", rc.strength});
+        if (std::isfinite(rc.contrast)) metrics.push_back({"relative_contrast", rc.contrast});
         const Selected &single = selected[rc.parts.front().index];
         if (rc.parts.size() == 1 && single.remainder) // never a pick of no candidate (exit_edge_barriers)
             metrics.push_back({"segment_relative_stretching", candidates[single.candidate].q});
-        if (std::isfinite(rc.contrast)) metrics.push_back({"relative_contrast", rc.contrast});
         if (std::isfinite(check.condition[b])) metrics.push_back({"stretching_condition", check.condition[b]});
         if (check.was_advected[b]) {
             const AdvectedCurve &a = check.advected[b];

@@ -612,7 +612,8 @@ struct Hyperbolic {
                   const WallFilter &walls, const Scales &scale, Truncation &out) const;
     Candidates gathered_candidates(const sdk::Host &host, Truncation &truncation, double min_length) const;
     std::vector<Selected> local_minima(const sdk::Host &host, const Grid &g, const std::vector<Strainline> &lines,
-                                       const Candidates &found, const SegmentMeter &meter, const Scales &scale) const;
+                                       const Candidates &found, const SegmentMeter &meter, const WallFilter &walls,
+                                       const Scales &scale) const;
     std::vector<ReportedCurve> whole_curves(const sdk::Host &host, const CauchyGreenField &cg,
                                             const std::vector<Strainline> &lines,
                                             const std::vector<Selected> &selected) const;
@@ -1101,9 +1102,14 @@ std::vector<Selected> picks_of_runs(std::size_t c, const Segment &cand, std::siz
 
 // The runs of candidate c's points not covered by a barrier of smaller q (at least two points) that pass the
 // selection rule of local_minima, in order along the candidate; a remainder's own q is not measured yet (the caller
-// does, for the few that are kept). `index` holds the segments that are no pieces, its buckets sorted by q.
+// does, for the few that are kept). `index` holds the segments that are no pieces, its buckets sorted by q. A
+// remainder is held to the wall test of its candidate (WallFilter::along) on its own: a candidate mostly in the
+// interior can leave, once its interior part is covered, a remainder along a wall that is no invariant line, whose
+// q (small there: the wall stops the stretching across it) would then be the best and push the true barriers below
+// min_strength (the double gyre's suite case on 451 x 226: 2.2 units along the bottom and left walls, ranked first).
 std::vector<Selected> uncovered_minima(const std::vector<Strainline> &lines, const Candidates &found, std::size_t c,
-                                       const std::vector<char> &covered, const RunIndex &index, const Scales &scale) {
+                                       const std::vector<char> &covered, const RunIndex &index, const Scales &scale,
+                                       const WallFilter &walls) {
     std::vector<Selected> picks;
     const std::vector<Segment> &candidates = found.segments;
     const auto q_of = [&](std::size_t d) { return candidates[d].q; };
@@ -1113,8 +1119,11 @@ std::vector<Selected> uncovered_minima(const std::vector<Strainline> &lines, con
         std::vector<double> piece_probes;
         if (pick.remainder) {
             const std::vector<double> piece_xy = points_of(lines, pick.piece);
-            pick.piece.length = polyline_length(piece_xy);
+            const std::vector<double> steps = segment_lengths(piece_xy);
+            pick.piece.length = length_from_steps(steps, 0, steps.size());
             if (pick.piece.length < scale.min_length || 3.0 * pick.piece.length < cand.length) continue;
+            std::vector<double> near_wall;
+            if (walls.along(piece_xy.data(), piece_xy.size() / 2, steps.data(), near_wall)) continue;
             piece_probes = probe_points(piece_xy, scale.radius);
         }
         const std::vector<double> &probes = pick.remainder ? piece_probes : found.probes[c];
@@ -1139,7 +1148,8 @@ std::vector<Selected> uncovered_minima(const std::vector<Strainline> &lines, con
 // (a remainder's own q).
 std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid &g,
                                                const std::vector<Strainline> &lines, const Candidates &found,
-                                               const SegmentMeter &meter, const Scales &scale) const {
+                                               const SegmentMeter &meter, const WallFilter &walls,
+                                               const Scales &scale) const {
     const std::vector<Segment> &candidates = found.segments;
     const std::vector<char> piece_of_longer = pieces_of_longer(g, lines, found, scale.radius);
     RunIndex index(g, scale.radius);
@@ -1171,7 +1181,7 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
             const std::size_t n = cand.last - cand.first + 1;
             covered[i - start] = covered_points(kept, xy, n, cand.longest_step, cover, scale.min_length);
             if (!covered[i - start].empty())
-                picks[i - start] = uncovered_minima(lines, found, order[i], covered[i - start], index, scale);
+                picks[i - start] = uncovered_minima(lines, found, order[i], covered[i - start], index, scale, walls);
         }
         std::optional<RunIndex> added; // the barriers this chunk added, made with its first
         const std::size_t kept_before = selected.size();
@@ -1180,7 +1190,7 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
             const std::size_t c = order[i];
             if (covered[i - start].empty()) continue; // no uncovered run min_length long: nothing to select
             if (added && add_near_points(*added, first_point(lines, candidates[c]), cover, covered[i - start]))
-                picks[i - start] = uncovered_minima(lines, found, c, covered[i - start], index, scale);
+                picks[i - start] = uncovered_minima(lines, found, c, covered[i - start], index, scale, walls);
             const std::size_t first_new = selected.size();
             for (Selected &pick : picks[i - start])
                 if (!pick.remainder || meter.measure(lines, pick.piece)) selected.push_back(pick);
@@ -1675,7 +1685,7 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     const Candidates found = gathered_candidates(host, truncation, scale.min_length);
     const std::vector<Segment> &candidates = found.segments;
     if (host.progress(0.7)) throw std::runtime_error("stopped by the user");
-    std::vector<Selected> selected = local_minima(host, g, lines, found, meter, scale);
+    std::vector<Selected> selected = local_minima(host, g, lines, found, meter, walls, scale);
     exit_edge_barriers(host, in, jumps, lines, found, meter, walls, scale, selected);
     lap("selection");
     const std::vector<ReportedCurve> curves = whole_curves(host, cg, lines, selected);

@@ -480,7 +480,6 @@ struct ReportedCurve {
     std::size_t probes = 0, dominated = 0;
     double transverse_ratio = nan_value; // transverse_q_ratio (whole_curves.hpp)
     double strength = nan_value;         // log q / log q_best (whole_curves)
-    double contrast = nan_value;         // log transverse_ratio / that of the curve of q_best (whole_curves)
     bool exit_edge = false;              // at least half its length chosen along the exit time's jumps
     bool along_jumps = false;            // at least half its length along the exit time's jumps: significant
     bool bundled = false;                // along barriers of smaller q (bundled_curves): a candidate
@@ -542,8 +541,7 @@ struct Hyperbolic {
                    "only); 0 = seed there too; direct route only"),
         real_param("min_strength", 0.9, 0.0, 1.0, "",
                    "a barrier contracts at least this power of the best barrier's contraction: log q / log q_best "
-                   ">= this (relative_strength), or its q is as sharp a minimum among its parallels: "
-                   "log transverse_q_ratio / the best's >= this (relative_contrast); other curves are candidates"),
+                   ">= this (relative_strength); curves failing either test are reported as candidates"),
     };
 
     explicit Hyperbolic(const sdk::Params &p)
@@ -1394,24 +1392,13 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
     }
     // The contraction test against the best local minimum: a hyperbolic barrier contracts exponentially in the
     // horizon (q ~ exp(-lambda T)), a curve shaped by shear only algebraically (q ~ 1 / (s T)), so its log q is a
-    // small fraction of the best's. Where even the best is not contracted (q_best >= 1) nothing is hyperbolic. Or it
-    // repels its surroundings as sharply as the best does (relative_contrast): on a grid, q along a manifold is set by
-    // how the grid samples a trough of sqrt(lambda1) narrower than a cell (on the pendulum's separatrix sqrt(lambda1)
-    // is ~1e-7, its bilinear samples ~3e-3), so a branch leaving a saddle, whose trough the grid samples higher, can
-    // reach only 0.86 of the best's log q (the pendulum's stubs from the saddles to the box's edge on 481 x 361);
-    // its q against its parallels' is as sharp a minimum as the best's, where a level set's is near 1.
-    double q_best = HUGE_VAL, ratio_best = nan_value;
+    // small fraction of the best's. Where even the best is not contracted (q_best >= 1) nothing is hyperbolic.
+    double q_best = HUGE_VAL;
     for (const ReportedCurve &rc : curves)
-        if (rc.significant && rc.q < q_best) {
-            q_best = rc.q;
-            ratio_best = rc.transverse_ratio;
-        }
+        if (rc.significant) q_best = std::min(q_best, rc.q);
     for (ReportedCurve &rc : curves) {
         rc.strength = q_best < 1.0 ? std::log(rc.q) / std::log(q_best) : nan_value;
-        rc.contrast =
-            q_best < 1.0 && ratio_best > 1.0 ? std::log(rc.transverse_ratio) / std::log(ratio_best) : nan_value;
-        rc.significant =
-            rc.significant && (rc.along_jumps || rc.strength >= m_min_strength || rc.contrast >= m_min_strength);
+        rc.significant = rc.significant && (rc.along_jumps || rc.strength >= m_min_strength);
     }
     const auto by_significance_and_q = [](const ReportedCurve &a, const ReportedCurve &b) {
         if (a.significant != b.significant) return a.significant;
@@ -1523,7 +1510,6 @@ void report_barriers(const sdk::Host &host, const std::vector<Segment> &candidat
         };
         if (std::isfinite(rc.transverse_ratio)) metrics.push_back({"transverse_q_ratio", rc.transverse_ratio});
         if (std::isfinite(rc.strength)) metrics.push_back({"relative_strength", rc.strength});
-        if (std::isfinite(rc.contrast)) metrics.push_back({"relative_contrast", rc.contrast});
         const Selected &single = selected[rc.parts.front().index];
         if (rc.parts.size() == 1 && single.remainder) // never a pick of no candidate (exit_edge_barriers)
             metrics.push_back({"segment_relative_stretching", candidates[single.candidate].q});

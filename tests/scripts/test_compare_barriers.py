@@ -13,8 +13,6 @@ spacings apart (docs/extractor-measurements.md, "How well the hyperbolic barrier
 Run by ctest (tests/CMakeLists.txt) or directly: python3 tests/scripts/test_compare_barriers.py
 """
 import contextlib
-import importlib.machinery
-import importlib.util
 import io
 import json
 import math
@@ -28,16 +26,10 @@ import unittest.mock
 HERE = os.path.dirname(os.path.abspath(__file__))
 SCRIPT = os.path.join(HERE, "..", "..", "scripts", "compare-barriers")
 
-
-def load_script():
-    loader = importlib.machinery.SourceFileLoader("compare_barriers", SCRIPT)
-    spec = importlib.util.spec_from_loader("compare_barriers", loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
+from script_module import load_script  # noqa: E402  (tests/scripts, the test's own folder)
 
 
-cb = load_script()
+cb = load_script("compare-barriers", "compare_barriers")
 
 
 def point_segment_distance(p, a, b):

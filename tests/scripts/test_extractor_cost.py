@@ -6,27 +6,16 @@ CPU and, beside it, the lowest and highest ratio of all runs; the commit is the 
 
 Run by ctest (tests/CMakeLists.txt) or directly: /usr/bin/python3 tests/scripts/test_extractor_cost.py
 """
-import importlib.machinery
-import importlib.util
 import json
 import math
 import os
 import tempfile
 import unittest
 
-HERE = os.path.dirname(os.path.abspath(__file__))
-SCRIPT = os.path.join(HERE, "..", "..", "scripts", "extractor-cost")
+from script_module import load_script  # tests/scripts, this test's own folder
 
 
-def load_script():
-    loader = importlib.machinery.SourceFileLoader("extractor_cost", SCRIPT)
-    spec = importlib.util.spec_from_loader("extractor_cost", loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
-
-
-ec = load_script()
+ec = load_script("extractor-cost", "extractor_cost")
 
 
 def run(flow_cpu, extractor_cpu, flow_wall=1.0, extractor_wall=0.4):

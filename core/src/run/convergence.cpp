@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstddef>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace geobarrier {
@@ -188,6 +189,26 @@ json detail::mark_convergence(json &items, const std::vector<ConvergenceChange> 
             {"distance", distance},          {"runs", std::move(runs)},
             {"barriers", items.size()},      {"converged", items.size() - not_converged.size()},
             {"not_converged", not_converged}};
+}
+
+json detail::total_convergence(const std::vector<std::pair<std::string, json>> &runs) {
+    json total, by_run = json::array();
+    std::size_t barriers = 0, converged = 0;
+    for (const auto &[run, c] : runs) {
+        if (!c.is_object()) continue;
+        if (total.is_null()) total = {{"threshold", c.at("threshold")}, {"spacings", c.at("spacings")}};
+        barriers += c.at("barriers").get<std::size_t>();
+        converged += c.at("converged").get<std::size_t>();
+        by_run.push_back({{"run", run},
+                          {"barriers", c.at("barriers")},
+                          {"converged", c.at("converged")},
+                          {"not_converged", c.at("not_converged")}});
+    }
+    if (total.is_null()) return total;
+    total["barriers"] = barriers;
+    total["converged"] = converged;
+    total["runs"] = std::move(by_run);
+    return total;
 }
 
 } // namespace geobarrier

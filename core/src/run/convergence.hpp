@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace geobarrier::detail {
@@ -35,6 +36,12 @@ std::vector<ConvergenceChange> convergence_changes(const ResolvedExperiment &r);
 nlohmann::json mark_convergence(nlohmann::json &items, const std::vector<ConvergenceChange> &changes,
                                 const std::vector<nlohmann::json> &changed_barriers, nlohmann::json runs,
                                 const Grid &grid, const ConvergenceSpec &spec, std::vector<std::string> &warnings);
+
+// The "convergence" object of the manifest of a run made of several runs ("directions": "both", frames) from each
+// one's (its folder, its manifest's "convergence"; null when it has none), null when none has one: their `barriers` and
+// `converged` summed, so that `geobarrier run` ends with the count as after a single run, and per run its own counts
+// and `not_converged`.
+nlohmann::json total_convergence(const std::vector<std::pair<std::string, nlohmann::json>> &runs);
 
 } // namespace geobarrier::detail
 

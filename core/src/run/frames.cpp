@@ -9,6 +9,7 @@
 #include "engine/tiles.hpp"
 #include "experiment/resources.hpp"
 #include "run/barrier_matching.hpp"
+#include "run/convergence.hpp"
 #include "run/mpi.hpp"
 
 #include <fmt/format.h>
@@ -543,6 +544,7 @@ RunSummary run_frames(const ResolvedExperiment &r, const RunOptions &options) {
     std::vector<json> barriers;
     std::vector<FrameField> fields;
     json frames = json::array();
+    std::vector<std::pair<std::string, json>> convergence; // each frame's manifest's, for the manifest's total
     RunSummary summary;
     // The frames' results in frame order, each as its run ends (the oldest first).
     const auto finish = [&](RunningFrame &running) {
@@ -556,6 +558,8 @@ RunSummary run_frames(const ResolvedExperiment &r, const RunOptions &options) {
                           {"folder", frame_folder(k)},
                           {"manifest", frame_folder(k) + "/manifest.json"},
                           {"barriers", frame.barriers.size()}});
+        convergence.emplace_back(frame_folder(k),
+                                 frame.manifest.is_object() ? frame.manifest.value("convergence", json()) : json());
         if (e.plots && !e.extractors.empty()) keep_ftle(frame, e.frames[k], e.frames.size(), fields);
         barriers.push_back(std::move(frame.barriers));
     };
@@ -587,15 +591,17 @@ RunSummary run_frames(const ResolvedExperiment &r, const RunOptions &options) {
     json stages = json::array({{{"stage", "frames"}, {"wall_seconds", seconds_since(start)}}});
     if (!e.extractors.empty()) manifest_tracks = write_tracks(r, out, barriers, fields, summary, files, stages);
     files.push_back("manifest.json");
-    const json manifest = {{"experiment", e.source},
-                           {"frames", frames},
-                           {"horizon", e.t1 - e.t0},
-                           {"frames_in_flight", schedule.in_flight},
-                           {"threads_per_frame", schedule.threads},
-                           {"tracks", manifest_tracks},
-                           {"stages", stages},
-                           {"wall_seconds", seconds_since(start)},
-                           {"files", files}};
+    json manifest = {{"experiment", e.source},
+                     {"frames", frames},
+                     {"horizon", e.t1 - e.t0},
+                     {"frames_in_flight", schedule.in_flight},
+                     {"threads_per_frame", schedule.threads},
+                     {"tracks", manifest_tracks},
+                     {"stages", stages},
+                     {"wall_seconds", seconds_since(start)},
+                     {"files", files}};
+    // "convergence": each frame checked its own barriers; the counts of all, for `geobarrier run`'s last line.
+    if (json total = detail::total_convergence(convergence); !total.is_null()) manifest["convergence"] = total;
     write_text_file(out / "manifest.json", manifest.dump(2) + "\n");
     summary.files.push_back(out / "manifest.json");
     summary.manifest = manifest;

@@ -1,4 +1,5 @@
 // Both directions in one run and the transverse crossings of their barriers (tangle.hpp).
+#include "run/convergence.hpp"
 #include "run/mpi.hpp"
 #include <geobarrier/errors.hpp>
 #include <geobarrier/extraction.hpp>
@@ -435,14 +436,17 @@ RunSummary run_both_directions(const ResolvedExperiment &r, const RunOptions &op
     }
     // The folder's manifest, written last: what a sweep reads (its "experiment" is the experiment as given).
     files.push_back("manifest.json");
-    const json manifest = {
-        {"experiment", e.source},
-        {"directions", "both"},
-        {"runs", {{"forward", "forward/manifest.json"}, {"backward", "backward/manifest.json"}}},
-        {"crossings", counts},
-        {"grown_crossings", e.grow_periods > 0 ? tangle["grown"]["counts"] : json()},
-        {"wall_seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()},
-        {"files", files}};
+    json manifest = {{"experiment", e.source},
+                     {"directions", "both"},
+                     {"runs", {{"forward", "forward/manifest.json"}, {"backward", "backward/manifest.json"}}},
+                     {"crossings", counts},
+                     {"grown_crossings", e.grow_periods > 0 ? tangle["grown"]["counts"] : json()},
+                     {"wall_seconds", std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()},
+                     {"files", files}};
+    // "convergence": each direction checked its own barriers; the counts of both, for `geobarrier run`'s last line.
+    const json convergence = detail::total_convergence({{"forward", forward.manifest.value("convergence", json())},
+                                                        {"backward", backward.manifest.value("convergence", json())}});
+    if (!convergence.is_null()) manifest["convergence"] = convergence;
     if (write) {
         write_text_file(out / "manifest.json", manifest.dump(2) + "\n");
         summary.files.push_back(out / "manifest.json");

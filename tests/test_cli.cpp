@@ -2,6 +2,7 @@
 // errors, plugin search folders, and a run that writes its files.
 #include <doctest/doctest.h>
 #include <nlohmann/json.hpp>
+#include <program_output.hpp>
 #include <test_support.hpp>
 
 #include <sys/wait.h>
@@ -15,23 +16,14 @@ using nlohmann::json;
 
 namespace {
 
-struct Result {
-    int status;
-    std::string output; // stdout and stderr together
-};
+using Result = geobarrier::test::CommandResult; // output: stdout and stderr together by default
 
 // Runs the program with a shell, returns its exit status and output (by default stdout and stderr together;
 // `streams` "2>/dev/null" keeps stdout alone, "2>&1 >/dev/null" stderr alone).
 Result run(const std::string &args, const std::string &env = "", const std::string &streams = "2>&1") {
     const std::string command =
         env + " " + geobarrier::test::geobarrier_program().string() + " " + args + " " + streams;
-    FILE *pipe = ::popen(command.c_str(), "r");
-    REQUIRE(pipe != nullptr);
-    std::string output;
-    std::array<char, 4096> buffer;
-    while (std::fgets(buffer.data(), buffer.size(), pipe)) output += buffer.data();
-    const int raw = ::pclose(pipe);
-    return {WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, output};
+    return geobarrier::test::run_command(command);
 }
 
 bool contains(const std::string &text, const std::string &part) { return text.find(part) != std::string::npos; }

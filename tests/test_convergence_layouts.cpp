@@ -6,15 +6,13 @@
 // frame holds the same barriers, on the saddle's separatrix, which persist.
 #include <doctest/doctest.h>
 #include <nlohmann/json.hpp>
+#include <program_output.hpp>
 #include <test_support.hpp>
 
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <array>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <regex>
@@ -39,22 +37,13 @@ fs::path scratch(const std::string &name) {
 json read_json(const fs::path &file) { return json::parse(geobarrier::test::read_text(file)); }
 
 // `geobarrier run` on j into dir/out (2 threads, as the machine has); its exit status and stdout.
-struct Program {
-    int status;
-    std::string output;
-};
+using Program = geobarrier::test::CommandResult;
 Program run_program(const json &j, const fs::path &dir) {
     std::ofstream(dir / "experiment.json") << j.dump(2);
     const std::string command = geobarrier::test::geobarrier_program().string() + " run " +
                                 (dir / "experiment.json").string() + " --threads 2 --out " + (dir / "out").string() +
                                 " 2>/dev/null";
-    FILE *pipe = ::popen(command.c_str(), "r");
-    REQUIRE(pipe != nullptr);
-    std::string output;
-    std::array<char, 4096> buffer;
-    while (std::fgets(buffer.data(), buffer.size(), pipe)) output += buffer.data();
-    const int raw = ::pclose(pipe);
-    return {WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, output};
+    return geobarrier::test::run_command(command);
 }
 
 // The program's last line says the top manifest's counts.

@@ -1,6 +1,7 @@
 // `geobarrier check-plugin` end to end: the table for good plugins (files and names), per-plugin parameters, the
 // declared domain, a failing plugin, an unloadable file, and bad options; exit codes 0, 1 and 2.
 #include <doctest/doctest.h>
+#include <program_output.hpp>
 #include <test_support.hpp>
 
 #include <sys/wait.h>
@@ -19,21 +20,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
-struct Result {
-    int status;
-    std::string output;
-};
+using Result = geobarrier::test::CommandResult;
 
 Result run(const std::string &args) {
     const std::string command =
         "env -u GEOBARRIER_PLUGIN_PATH " + geobarrier::test::geobarrier_program().string() + " " + args + " 2>&1";
-    FILE *pipe = ::popen(command.c_str(), "r");
-    REQUIRE(pipe != nullptr);
-    std::string output;
-    std::array<char, 4096> buffer;
-    while (std::fgets(buffer.data(), buffer.size(), pipe)) output += buffer.data();
-    const int raw = ::pclose(pipe);
-    return {WIFEXITED(raw) ? WEXITSTATUS(raw) : -1, output};
+    return geobarrier::test::run_command(command);
 }
 
 bool contains(const std::string &text, const std::string &part) { return text.find(part) != std::string::npos; }

@@ -5,8 +5,6 @@
 #include <program_output.hpp>
 #include <test_support.hpp>
 
-#include <sys/wait.h>
-
 #include <array>
 #include <cstdio>
 #include <fstream>

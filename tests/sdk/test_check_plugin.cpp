@@ -4,10 +4,7 @@
 #include <program_output.hpp>
 #include <test_support.hpp>
 
-#include <sys/wait.h>
-
 #include <algorithm>
-#include <array>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>

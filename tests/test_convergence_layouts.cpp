@@ -111,8 +111,8 @@ void check_total(const json &total, const std::vector<std::pair<std::string, jso
 
 std::vector<double> first_shares(const fs::path &dir) {
     std::vector<double> shares;
-    for (const json &b : read_json(dir / "barriers.json")["barriers"])
-        shares.push_back(b["persistence"][0]["share"].get<double>());
+    const json doc = read_json(dir / "barriers.json"); // kept: a range-for over a temporary's member reads freed memory
+    for (const json &b : doc["barriers"]) shares.push_back(b["persistence"][0]["share"].get<double>());
     std::sort(shares.begin(), shares.end());
     return shares;
 }

@@ -930,22 +930,18 @@ _add(Case(
         segments="0.82 (precision 0.28); two curves on the inner lobe stay candidates at relative_strength 0.88 and "
         "0.86, below min_strength 0.9, where off-truth curves of other cases reach 0.79-0.81",
         grown="precision 1.000, recall 0.936 on 301 x 201, 1.000 and 0.986 on 601 x 401")))
+# Open system in backward time: the cycle is the edge of the captured set (inside it backward trajectories converge to
+# the origin and never leave), where the backward FTLE ridge is one-sided and strainlines drift off it; the extractor
+# reports that edge itself, traced from the exit time (docs/extractors.md, "Open systems"). Measured (AMD EPYC,
+# 2026-11-29): precision 1.000, recall 1.000, one barrier on 181 x 181, 271 x 271 and 361 x 361; before, 0.308 and
+# 0.610 with the rank-1 barrier off the cycle on 181 x 181, 0.977 and 0.973 in 5 pieces on 361 x 361.
 _add(Case(
     "van-der-pol-backward", "x'' = (1 - x^2) x' - x, backward T = -10 with bounds: an attracting barrier on the "
     "limit cycle",
     experiment("van-der-pol", {"mu": 1}, {"plugin": "none"}, ((-3.0, 3.0), (-3.0, 3.0)), -10.0,
                bounds={"x": [-3.2, 3.2], "y": [-3.2, 3.2]}),
     (181, 181), (361, 361), 0.035, "0.035: about 2 spacings of a 361 x 361 grid on the 6 x 6 box", limit_cycle,
-    {"start": [2.0, 0.0]}, expected_to_pass=False,
-    reason="open system in backward time: with bounds that stop exits (the default) nothing is masked; the cycle is "
-    "the edge of the captured set (inside it backward trajectories converge to the origin and never leave), so the "
-    "backward FTLE ridge on it is one-sided and d_g < 1e-3 only in a band about a cell wide; the lattice's "
-    "strainlines run 0.05-0.1 outside it. The exit time jumps exactly there (exit_time_edges: 1.0 on the cycle, "
-    "covering 1.0 of it), and the extractor's exit-time seeds and barriers (exit_jump, exit_stay_jump, and runs "
-    "along the captured set's edge whatever d_g) recover it on 361 x 361 (precision 0.977, recall 0.973, rank 1 on "
-    "it, but in 5 pieces, 11 before exit-time pieces a cell or two apart were joined; 0 and 0 without) and not on "
-    "181 x 181 (0.308, 0.610, rank-1 barrier off the cycle, 2 pieces), where the jumps between points that both "
-    "leave (trajectories grazing the bounds) give strainline segments off the cycle"))
+    {"start": [2.0, 0.0]}))
 _add(Case(
     "double-gyre-forward", "double gyre (experiments/double-gyre.json), forward T = 15: a repelling barrier on the "
     "stable manifold of the periodic orbit on the bottom wall near x = 1",

@@ -49,6 +49,7 @@ constexpr double max_condition = 100.0;
 struct Strainline {
     std::vector<double> xy, xy_t1;
     bool exit_seeded = false; // seeded where the exit time jumps (exit_seeds)
+    bool traced = false;      // no strainline: the captured set's edge itself (exit_edge_barriers)
 };
 
 // A compact strainline segment with d_g^xi1 < max_deviation at every point: a barrier candidate.
@@ -453,7 +454,8 @@ struct Selected {
     std::size_t probes = 0;    // probe points along the piece, about a neighbour distance apart
     std::size_t dominated = 0; // probes with a segment of smaller q within the neighbour distance
     bool exit_edge = false;    // chosen along the exit time's jumps (exit_edge_barriers), not as a local minimum
-    bool along_jumps = false;  // exit_edge, or a local minimum with at least half its points near the jumps
+    bool along_jumps = false;  // exit_edge, or a local minimum with at least half its points on the jumps
+    bool parallels = true;     // a local minimum of q among its parallel curves (open systems: supported_picks)
 };
 
 // The lengths and distances of Alg. 1 in state units, from the parameters or the box.
@@ -596,7 +598,7 @@ struct Hyperbolic {
     std::vector<double> without_early_exits(const sdk::Host &host, const gb_extract_input &in, const Grid &g,
                                             const std::vector<double> &seeds) const;
     void exit_edge_barriers(const sdk::Host &host, const gb_extract_input &in,
-                            const std::vector<hyperbolic::JumpEdge> &jumps, const std::vector<Strainline> &lines,
+                            const std::vector<hyperbolic::JumpEdge> &jumps, std::vector<Strainline> &lines,
                             const Candidates &found, const SegmentMeter &meter, const WallFilter &walls,
                             const Scales &scale, std::vector<Selected> &selected) const;
     std::vector<Strainline> direct_strainlines(const sdk::Host &host, const gb_extract_input &in,
@@ -612,6 +614,10 @@ struct Hyperbolic {
     std::vector<Selected> local_minima(const sdk::Host &host, const Grid &g, const std::vector<Strainline> &lines,
                                        const Candidates &found, const SegmentMeter &meter, const WallFilter &walls,
                                        const Scales &scale) const;
+    void on_jumps(const Grid &g, const gb_extract_input &in, std::vector<Selected> &selected,
+                  const std::vector<Strainline> &lines) const;
+    void supported_picks(const CauchyGreenField &cg, const std::vector<Strainline> &lines,
+                         std::vector<Selected> &selected) const;
     std::vector<ReportedCurve> whole_curves(const sdk::Host &host, const CauchyGreenField &cg,
                                             const std::vector<Strainline> &lines,
                                             const std::vector<Selected> &selected) const;
@@ -1251,22 +1257,66 @@ std::vector<Segment> jump_runs(const std::vector<Strainline> &lines, const NearJ
     return runs;
 }
 
+// The selection's local minima with at least half their points ON a jump of the exit time (across_exit_jumps: the
+// exit time at the nearest grid points a cell to either side of the curve jumps) lie along the exit time's jumps as
+// the exit-time barriers do, and are as material: the tests of step 8 do not apply to them either (on the escape
+// oscillator, 421 x 361, the unstable manifold's middle turn was a local minimum of q, kept the exit-time runs off
+// it, and was then demoted to a candidate by min_strength: recall 0.53). Near a jump is not enough: on van der Pol
+// (181 x 181) strainlines inside the captured set, a cell or two off its edge where every point stays, were exempted
+// so and joined the pieces along the cycle (precision 0.62).
+void Hyperbolic::on_jumps(const Grid &g, const gb_extract_input &in, std::vector<Selected> &selected,
+                          const std::vector<Strainline> &lines) const {
+    const double *exit_time = find_field(in, "exit_time");
+    const double cell = std::max(g.dx(), g.dy());
+    for (Selected &pick : selected) {
+        const std::size_t n = pick.piece.last - pick.piece.first + 1;
+        const std::vector<std::uint8_t> kind = hyperbolic::across_exit_jumps(g, exit_time, in.mask, exit_jumps(in),
+                                                                             first_point(lines, pick.piece), n, cell);
+        pick.along_jumps =
+            2 * static_cast<std::size_t>(std::count_if(kind.begin(), kind.end(), [](auto k) { return k != 0; })) >= n;
+    }
+}
+
+// Open systems: the captured set's edge where it closes on itself and the exit time jumps across it but for a few
+// grid edges (captured_set_edges: at least min_edge_jumps of them), added to `lines` as exit-seeded lines of their own
+// (Strainline::traced). The boundary of a set of points whose trajectories stay in the bounds over the horizon, where
+// it is not the horizon's cut through a smooth exit time (exit_stay_jump), is made of trajectories that stay as well:
+// a closed invariant curve, the attracting barrier itself (van der Pol's limit cycle, within half a cell of it),
+// which strainlines along its one-sided FTLE ridge follow only in part (181 x 181: they drift inwards by a cell or
+// two, off the cycle). A few of its grid edges are cuts all the same, where a point next to the cycle, whose time
+// to leave diverges there, leaves just before the horizon (4 of 844 on 271 x 271). An edge that the horizon cuts in
+// large part (the escape oscillator's, 0.28 to 0.57 of it) or that meets the grid's edge is no such curve; the
+// strainlines along its jumps are what exit_edge_barriers keeps there.
+constexpr double min_edge_jumps = 0.9;
+void add_closed_captured_edges(const Grid &g, const double *exit_time, const std::uint8_t *mask,
+                               const hyperbolic::ExitJumps &rule, std::vector<Strainline> &lines) {
+    for (hyperbolic::EdgeCurve &edge : hyperbolic::captured_set_edges(g, exit_time, mask, rule)) {
+        if (!edge.closed || edge.jumps < min_edge_jumps) continue;
+        Strainline line;
+        line.xy = std::move(edge.xy);
+        line.exit_seeded = line.traced = true;
+        lines.push_back(std::move(line));
+    }
+}
+
 // Open systems (exit_edges.hpp): the strainlines seeded where the exit time jumps give barriers where they run along
 // the jumps, whether or not they are local minima of q. Such a curve separates trajectories that leave the bounds a
 // loop apart, or leave from those that stay: a material curve, on the stable (forward) or unstable (backward)
 // manifold of what the escaping trajectories pass, even where it contracts less than the best barrier (the far part
 // of an escape oscillator's unstable manifold, whose strands the local-minimum rule drops: the strainlines beside
-// them drift off and are cut by d_g). Their candidate segments' runs of points within a cell of a jump edge's end and
-// their runs along the captured set's edge whatever d_g (jump_runs) give their parts not within two cells of a
-// barrier kept (the selection's, then these), at least min_length long, as barriers (`selection` "exit-time").
+// them drift off and are cut by d_g). First the captured set's closed edges (add_closed_captured_edges), then their
+// candidate segments' runs of points within a cell of a jump edge's end, then their runs along the captured set's
+// edge whatever d_g (jump_runs) give their parts not within two cells of a barrier kept (the selection's picks that
+// are barriers on their own, then these), at least min_length long, as barriers (`selection` "exit-time").
 void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_input &in,
-                                    const std::vector<hyperbolic::JumpEdge> &jumps,
-                                    const std::vector<Strainline> &lines, const Candidates &found,
-                                    const SegmentMeter &meter, const WallFilter &walls, const Scales &scale,
-                                    std::vector<Selected> &selected) const {
+                                    const std::vector<hyperbolic::JumpEdge> &jumps, std::vector<Strainline> &lines,
+                                    const Candidates &found, const SegmentMeter &meter, const WallFilter &walls,
+                                    const Scales &scale, std::vector<Selected> &selected) const {
     // Only the strainlines from exit_seeds, which found `jumps`, give these barriers: none without them.
     if (std::none_of(lines.begin(), lines.end(), [](const Strainline &l) { return l.exit_seeded; })) return;
     const Grid g = grid_of(in);
+    const double *exit_time = find_field(in, "exit_time");
+    add_closed_captured_edges(g, exit_time, in.mask, exit_jumps(in), lines);
     const std::vector<std::uint8_t> near = hyperbolic::near_exit_jumps(g, jumps, 1);
     const auto near_kind = [&](const double *p) { return near[g.nearest_point(p[0], p[1])]; };
     // First the candidates seeded there (d_g < max_deviation), by increasing q; then, by increasing q, the runs along
@@ -1284,23 +1334,14 @@ void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_inpu
         scale);
     std::stable_sort(runs.begin(), runs.end(), [](const Segment &a, const Segment &b) { return a.q < b.q; });
     if (order.empty() && runs.empty()) return;
-    // The selection's local minima with at least half their points near a jump lie along the exit time's jumps as
-    // these barriers do, and are as material: the tests of step 8 do not apply to them either (on the escape
-    // oscillator, 421 x 361, the unstable manifold's middle turn was a local minimum of q, kept the exit-time runs
-    // off it, and was then demoted to a candidate by min_strength: recall 0.53).
-    for (Selected &pick : selected) {
-        const double *xy = first_point(lines, pick.piece);
-        const std::size_t n = pick.piece.last - pick.piece.first + 1;
-        std::size_t along = 0;
-        for (std::size_t k = 0; k < n; ++k) along += near_kind(xy + 2 * k) != 0 ? 1 : 0;
-        pick.along_jumps = 2 * along >= n;
-    }
+    on_jumps(g, in, selected, lines);
     const double cover = cover_distance(g, scale.radius);
     RunIndex kept(g, cover);
     const auto keep = [&](std::size_t b) {
         kept.add(first_point(lines, selected[b].piece), selected[b].piece.last - selected[b].piece.first + 1, b);
     };
-    for (std::size_t b = 0; b < selected.size(); ++b) keep(b);
+    for (std::size_t b = 0; b < selected.size(); ++b)
+        if (selected[b].along_jumps || selected[b].parallels) keep(b);
     const std::size_t before = selected.size();
     // A part of a candidate is measured here (a remainder, reported with its candidate's q too); a part of a run,
     // which has no candidate behind it, is measured as a whole of its own.
@@ -1314,6 +1355,17 @@ void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_inpu
         selected.push_back(pick);
         keep(selected.size() - 1);
     };
+    const auto take_runs = [&](bool traced) {
+        for (const Segment &run : runs) {
+            if (lines[run.line].traced != traced) continue;
+            const std::vector<char> covered = covered_points(kept, first_point(lines, run), run.last - run.first + 1,
+                                                             run.longest_step, cover, scale.min_length);
+            for (const Selected &pick :
+                 picks_of_runs(no_candidate, run, covered.size(), [&](std::size_t k) { return !covered[k]; }))
+                take(pick);
+        }
+    };
+    take_runs(true);
     for (const std::size_t c : order) {
         const Segment &cand = candidates[c];
         const double *xy = first_point(lines, cand);
@@ -1323,16 +1375,28 @@ void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_inpu
         const auto free = [&](std::size_t k) { return !covered[k] && near_kind(xy + 2 * k) != 0; };
         for (const Selected &pick : picks_of_runs(c, cand, covered.size(), free)) take(pick);
     }
-    for (const Segment &run : runs) {
-        const std::vector<char> covered = covered_points(kept, first_point(lines, run), run.last - run.first + 1,
-                                                         run.longest_step, cover, scale.min_length);
-        for (const Selected &pick :
-             picks_of_runs(no_candidate, run, covered.size(), [&](std::size_t k) { return !covered[k]; }))
-            take(pick);
-    }
+    take_runs(false);
     host.info("" + std::to_string(selected.size() - before) + " barriers along the exit time's jumps (of " +
-              std::to_string(order.size()) + " segments seeded there, and " + std::to_string(runs.size()) +
-              " runs of those strainlines along the captured set's edge)");
+              std::to_string(order.size()) + " segments seeded there, " + std::to_string(runs.size()) +
+              " runs of those strainlines and of the captured set's closed edges along that edge)");
+}
+
+// Open systems: whether each pick of the selection is a local minimum of q among its parallel curves, the test
+// whole_curves applies to the curves it joins (transverse_q_ratio at least min_transverse_ratio, or untestable). A
+// pick that fails it and does not lie along the exit time's jumps is no barrier on its own: it keeps no exit-time
+// barrier off the jumps beside it (exit_edge_barriers) and joins no piece that is one (whole_curves).
+void Hyperbolic::supported_picks(const CauchyGreenField &cg, const std::vector<Strainline> &lines,
+                                 std::vector<Selected> &selected) const {
+    const Grid &g = cg.grid;
+    const double cell = std::max(g.dx(), g.dy()), far = std::max(scales(g).radius, 3.0 * cell);
+    std::vector<double> root(g.size());
+    for (std::size_t p = 0; p < g.size(); ++p) root[p] = std::sqrt(cg.lambda1[p]);
+#pragma omp parallel for schedule(dynamic)
+    for (std::size_t b = 0; b < selected.size(); ++b) {
+        const double ratio = hyperbolic::transverse_q_ratio(g, root, cg.mask, points_of(lines, selected[b].piece), cell,
+                                                            2.0 * cell, far);
+        selected[b].parallels = std::isnan(ratio) || ratio >= m_min_transverse_ratio * (1.0 - 1e-9);
+    }
 }
 
 // Alg. 1 after step 3, the barriers as wholes (whole_curves.hpp; docs/extractors.md, step 8): the pieces the
@@ -1359,8 +1423,14 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
     // the selection: a level set running beside a separatrix's end would join it (unforced Duffing: precision 0.17).
     std::vector<char> along_jumps(selected.size());
     for (std::size_t b = 0; b < selected.size(); ++b) along_jumps[b] = selected[b].along_jumps ? 1 : 0;
+    // A piece that is no barrier on its own (not along the jumps, and no local minimum of q among its parallels)
+    // joins no piece that is: joined, it would pass for part of a barrier (van der Pol, 181 x 181: strainlines inside
+    // the captured set, whose ends touch the cycle, joined the pieces along it: precision 0.63).
+    std::vector<int> group(selected.size(), 0);
+    for (std::size_t b = 0; b < selected.size(); ++b)
+        group[b] = selected[b].along_jumps || selected[b].parallels ? 0 : 1;
     const std::vector<std::vector<hyperbolic::JoinedPart>> chains =
-        hyperbolic::join_end_to_end(pieces, 4.0 * cell, 4.0 * cell, 0.8, 2.0 * cell, 8.0 * cell, along_jumps);
+        hyperbolic::join_end_to_end(pieces, 4.0 * cell, 4.0 * cell, 0.8, 2.0 * cell, 8.0 * cell, along_jumps, group);
     std::vector<ReportedCurve> curves(chains.size());
 #pragma omp parallel for schedule(dynamic)
     for (std::size_t c = 0; c < chains.size(); ++c) {
@@ -1587,6 +1657,7 @@ void Hyperbolic::draw_strainlines(const sdk::Host &host, const gb_extract_input 
     const std::size_t stride = std::max<std::size_t>(1, (lines.size() + 599) / 600);
     const double pixel = std::max(g.x_max - g.x_min, g.y_max - g.y_min) / 1200.0;
     for (std::size_t l = 0; l < lines.size(); l += stride) {
+        if (lines[l].traced) continue; // no strainline (exit_edge_barriers)
         PlotSeries s;
         const std::vector<double> &xy = lines[l].xy;
         for (std::size_t k = 0; k < xy.size() / 2; ++k)
@@ -1660,9 +1731,9 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     lap("fields"); // the tensor fields' copies and the wall filter, before any strainline
     // The direct route truncates its strainlines batch by batch as it integrates them; the opposite-time route after
     // advecting them.
-    const std::vector<Strainline> lines = opposite ? opposite_time_strainlines(host, in, scale.max_length)
-                                                   : direct_strainlines(host, in, cg, deviation, scale, meter, walls,
-                                                                        exit_seeds(host, in, g, jumps), truncation);
+    std::vector<Strainline> lines = opposite ? opposite_time_strainlines(host, in, scale.max_length)
+                                             : direct_strainlines(host, in, cg, deviation, scale, meter, walls,
+                                                                  exit_seeds(host, in, g, jumps), truncation);
     if (opposite) {
         truncation = Truncation(lines.size());
         truncate(lines, 0, lines.size(), meter, walls, scale, truncation);
@@ -1672,6 +1743,7 @@ void Hyperbolic::extract(const sdk::Host &host, const gb_extract_input &in) cons
     const std::vector<Segment> &candidates = found.segments;
     if (host.progress(0.7)) throw std::runtime_error("stopped by the user");
     std::vector<Selected> selected = local_minima(host, g, lines, found, meter, walls, scale);
+    if (!jumps.empty()) supported_picks(cg, lines, selected);
     exit_edge_barriers(host, in, jumps, lines, found, meter, walls, scale, selected);
     lap("selection");
     const std::vector<ReportedCurve> curves = whole_curves(host, cg, lines, selected);

@@ -195,3 +195,139 @@ TEST_CASE("near_exit_jumps: the captured set's edge and a jump between leaving p
     CHECK(captured > 0);
     CHECK(leaving > 0);
 }
+
+TEST_CASE("a jump between leaving points counts where the time to leave rises towards it, not where it falls") {
+    // Backward from t0 = 0 over 10. Left of x = 0.5 points leave at a time that changes by 0.02 a point, right of it
+    // 4 later (a loop, above `jump` 1). A strand of a saddle's manifold: the time rises towards x = 0.5 on the early
+    // side (from 2 at x = 0 to 3 at x = 0.5): every jump is on the line. A trajectory grazing the bounds: the time
+    // falls towards it (3 to 2): no jump, and no seed.
+    const Grid g = unit_grid(51);
+    for (const double slope : {2.0, -2.0}) {
+        std::vector<double> exit(g.size());
+        for (std::size_t i = 0; i < g.ny; ++i)
+            for (std::size_t j = 0; j < g.nx; ++j) {
+                const double early = (slope > 0 ? 2.0 : 3.0) + slope * g.x(j);
+                exit[i * g.nx + j] = -(g.x(j) < 0.5 ? early : early + 4.0);
+            }
+        const auto edges = exit_jump_edges(g, exit.data(), nullptr, {0.0, horizon, 1.0, 0.2});
+        if (slope < 0) {
+            CHECK(edges.empty());
+            continue;
+        }
+        CHECK(edges.size() == g.ny); // one edge across the line on every row
+        for (const auto &e : edges) {
+            CHECK(e.along_x);
+            CHECK(!e.captured);
+            CHECK(std::fabs(g.x(e.p % g.nx) + 0.5 * g.dx() - 0.5) <= 0.5 * g.dx() + 1e-12);
+        }
+    }
+}
+
+TEST_CASE("across_exit_jumps: a curve on the captured disc's edge lies on its jump, one two cells inside does not") {
+    using geobarrier::hyperbolic::across_exit_jumps;
+    using geobarrier::hyperbolic::near_captured_jump;
+    using geobarrier::hyperbolic::near_leaving_jump;
+    const Grid g = unit_grid(101);
+    const std::vector<double> exit = disc_and_line(g);
+    const ExitJumps rule{2.0, horizon, 2.0, 2.0};
+    const auto circle = [&](double r) {
+        std::vector<double> xy;
+        for (int k = 0; k <= 400; ++k) {
+            const double t = 2.0 * M_PI * k / 400.0;
+            xy.push_back(cx + r * std::cos(t));
+            xy.push_back(cy + r * std::sin(t));
+        }
+        return xy;
+    };
+    const double cell = g.dx();
+    const std::vector<double> on = circle(radius), inside = circle(radius - 2.0 * cell);
+    const auto kind_on = across_exit_jumps(g, exit.data(), nullptr, rule, on.data(), on.size() / 2, cell);
+    for (const std::uint8_t k : kind_on) CHECK(k == near_captured_jump); // the disc's edge, left of the line
+    // Two cells inside every point stays on both sides: nothing, though the band near_exit_jumps marks reaches it.
+    const auto kind_in = across_exit_jumps(g, exit.data(), nullptr, rule, inside.data(), inside.size() / 2, cell);
+    for (const std::uint8_t k : kind_in) CHECK(k == 0);
+    // The line x = 0.8, between points that leave `step` apart: a jump between leaving points.
+    std::vector<double> line;
+    for (int k = 0; k <= 50; ++k) {
+        line.push_back(line_x);
+        line.push_back(0.9 + 0.002 * k);
+    }
+    for (const std::uint8_t k : across_exit_jumps(g, exit.data(), nullptr, rule, line.data(), line.size() / 2, cell))
+        CHECK(k == near_leaving_jump);
+}
+
+TEST_CASE("captured_set_edges: the captured disc's edge is one closed curve on the circle, all jumps") {
+    using geobarrier::hyperbolic::captured_set_edges;
+    const Grid g = unit_grid(101);
+    const std::vector<double> exit = disc_and_line(g);
+    const ExitJumps rule{2.0, horizon, 2.0, 2.0};
+    const auto curves = captured_set_edges(g, exit.data(), nullptr, rule);
+    REQUIRE(curves.size() == 1); // the line x = 0.8 (leaving on both sides) bounds no captured set
+    const std::vector<double> &xy = curves[0].xy;
+    const std::size_t n = xy.size() / 2;
+    CHECK(curves[0].closed);
+    CHECK(curves[0].jumps == 1.0); // every point beside the disc leaves at 1.3, far before the horizon
+    CHECK(xy[0] == xy[2 * n - 2]); // closed: it ends on its first point
+    CHECK(xy[1] == xy[2 * n - 1]);
+    double length = 0.0;
+    for (std::size_t k = 0; k < n; ++k) {
+        // Every point, an edge's midpoint, within half a cell of the circle; consecutive points a cell apart at most.
+        CHECK(distance_to_circle(xy[2 * k], xy[2 * k + 1]) <= 0.5 * g.dx() + 1e-12);
+        if (k > 0) {
+            const double d = std::hypot(xy[2 * k] - xy[2 * k - 2], xy[2 * k + 1] - xy[2 * k - 1]);
+            CHECK(d <= g.dx() + 1e-12);
+            length += d;
+        }
+    }
+    // Around the whole circle (2 pi 0.3 = 1.885), the corners cut at most by a factor 4 / pi (a staircase).
+    CHECK(length >= 2.0 * M_PI * radius);
+    CHECK(length <= 8.0 * radius + 4.0 * g.dx());
+    // Masked points are no part of the captured set: masking the disc leaves no edge.
+    std::vector<std::uint8_t> mask(g.size(), 0);
+    for (std::size_t p = 0; p < g.size(); ++p) mask[p] = std::isnan(exit[p]) ? 1 : 0;
+    CHECK(captured_set_edges(g, exit.data(), mask.data(), rule).empty());
+}
+
+TEST_CASE("captured_set_edges: where the horizon cuts the captured set, its edge's share of jumps falls") {
+    using geobarrier::hyperbolic::captured_set_edges;
+    const Grid g = unit_grid(101);
+    const ExitJumps rule{2.0, horizon, 2.0, 2.0};
+    // The points within three cells outside the disc's right half leave 0.1 before the horizon, within stay_jump:
+    // the horizon's cut. The edge is still one closed curve, about half of it jumps.
+    std::vector<double> cut = disc_and_line(g);
+    const auto ring = [&](std::size_t i, std::size_t j) {
+        const double r = std::hypot(g.x(j) - cx, g.y(i) - cy);
+        return r >= radius && r < radius + 3.0 * g.dx();
+    };
+    for (std::size_t i = 0; i < g.ny; ++i)
+        for (std::size_t j = 0; j < g.nx; ++j)
+            if (g.x(j) > cx && ring(i, j)) cut[i * g.nx + j] = 2.0 - (horizon - 0.1);
+    auto curves = captured_set_edges(g, cut.data(), nullptr, rule);
+    REQUIRE(curves.size() == 1);
+    CHECK(curves[0].closed);
+    CHECK(curves[0].jumps > 0.4);
+    CHECK(curves[0].jumps < 0.6);
+    // Four such points only (a cycle's neighbours whose time to leave diverges): still nearly all jumps.
+    std::vector<double> few = disc_and_line(g);
+    std::size_t changed = 0;
+    for (std::size_t i = 0; i < g.ny && changed < 4; ++i)
+        for (std::size_t j = 0; j < g.nx && changed < 4; ++j)
+            if (ring(i, j) && std::hypot(g.x(j) - cx, g.y(i) - cy) < radius + g.dx()) {
+                few[i * g.nx + j] = 2.0 - (horizon - 0.1);
+                ++changed;
+            }
+    curves = captured_set_edges(g, few.data(), nullptr, rule);
+    REQUIRE(curves.size() == 1);
+    CHECK(curves[0].closed);
+    CHECK(curves[0].jumps < 1.0);
+    CHECK(curves[0].jumps > 0.95);
+    // A captured set that meets the grid's edge (the disc moved onto the left edge): an open curve.
+    std::vector<double> edge(g.size());
+    for (std::size_t i = 0; i < g.ny; ++i)
+        for (std::size_t j = 0; j < g.nx; ++j)
+            edge[i * g.nx + j] = std::hypot(g.x(j), g.y(i) - cy) < radius ? nan_value : -1.0;
+    curves = captured_set_edges(g, edge.data(), nullptr, rule);
+    REQUIRE(curves.size() == 1);
+    CHECK(!curves[0].closed);
+    CHECK(curves[0].jumps == 1.0);
+}

@@ -187,3 +187,17 @@ TEST_CASE("transverse_q_ratio: in a uniform field every parallel is as stretched
     const double ratio = transverse_q_ratio(g, root, {}, segment(0.3, 0.3, 0.7, 0.6, 40), g.dx(), 2 * g.dx(), 0.1);
     CHECK(ratio == doctest::Approx(1.0).epsilon(1e-12));
 }
+
+TEST_CASE("pieces of one line in different groups stay apart; in the same group they join") {
+    // Two pieces of y = 0.5 x with a gap of 0.01, which join when nothing keeps them apart (the first test case).
+    const std::vector<std::vector<double>> pieces = {segment(0.0, 0.0, 0.2, 0.1, 20),
+                                                     segment(0.21, 0.105, 0.4, 0.2, 20)};
+    CHECK(join_end_to_end(pieces, 0.04, 0.04, 0.8, 0.0, 0.0, {}, {0, 0}).size() == 1);
+    // A piece that is no barrier on its own joins no piece that is (the extractor's groups): two chains of one.
+    const auto apart = join_end_to_end(pieces, 0.04, 0.04, 0.8, 0.0, 0.0, {}, {0, 1});
+    REQUIRE(apart.size() == 2);
+    CHECK(apart[0].size() == 1);
+    CHECK(apart[1].size() == 1);
+    // Also where the looser rule for pieces traced off each other would join them (both flagged loose).
+    CHECK(join_end_to_end(pieces, 0.04, 0.04, 0.8, 0.02, 0.08, {1, 1}, {1, 0}).size() == 2);
+}

@@ -66,7 +66,8 @@ std::size_t find_root(std::vector<std::size_t> &parent, std::size_t i) {
 
 std::vector<std::vector<JoinedPart>> join_end_to_end(const std::vector<std::vector<double>> &curves,
                                                      double join_distance, double tangent_length, double min_alignment,
-                                                     double beside, double reach, const std::vector<char> &loose) {
+                                                     double beside, double reach, const std::vector<char> &loose,
+                                                     const std::vector<int> &group) {
     const std::size_t n = curves.size();
     std::vector<End> ends(2 * n);
     std::vector<char> usable(n, 0);
@@ -85,6 +86,7 @@ std::vector<std::vector<JoinedPart>> join_end_to_end(const std::vector<std::vect
     for (std::size_t a = 0; a < 2 * n; ++a)
         for (std::size_t b = a + 1; b < 2 * n; ++b) {
             if (a / 2 == b / 2 || !usable[a / 2] || !usable[b / 2]) continue;
+            if (!group.empty() && group[a / 2] != group[b / 2]) continue;
             const End &ea = ends[a], &eb = ends[b];
             const double d = std::hypot(ea.x - eb.x, ea.y - eb.y);
             const bool may_be_beside = beside > 0.0 && (loose.empty() || (loose[a / 2] && loose[b / 2]));

@@ -12,8 +12,8 @@ its ground truth against what it must satisfy, and the hyperbolic extractor agai
   saddle orbit, as do the escape oscillator's above the threshold; the double gyre's orbit sits on the wall, and its walls are the stable manifolds of the corners and
   of the top wall's orbit (points on them stay on them and run into those saddles within the horizon); the Van der
   Pol cycle closes.
-- End to end (QUICK cases, whose truth costs seconds: the analytic separatrices, the double gyre, and the escape
-  oscillator forward, grown in about 7 s; the others, whose manifolds take minutes to grow the first time, with
+- End to end (QUICK cases, whose truth costs seconds: the analytic separatrices, the double gyre, the escape
+  oscillator forward, grown in about 7 s, and van der Pol's cycle; the others, whose manifolds take minutes to grow the first time, with
   BARRIER_ACCURACY_ALL=1): geobarrier run on the small grid, then precision >= 0.95,
   recall >= 0.9, at most 2 pieces per branch and the rank-1 barrier on the truth, for every case expected to pass.
 - Open systems: the grid edges where a run's exit_time jumps lie on the truth and cover it (van der Pol's cycle,
@@ -38,7 +38,7 @@ import barrier_suite as bs  # noqa: E402
 
 BIN = os.environ.get("GEOBARRIER_BIN", bs.DEFAULT_BIN)
 QUICK = ["duffing-unforced-forward", "duffing-unforced-backward", "pendulum-unforced-forward", "double-gyre-forward",
-         "escape-below-forward"]
+         "escape-below-forward", "van-der-pol-backward"]
 ALL = os.environ.get("BARRIER_ACCURACY_ALL") == "1"
 BOX = ((-2.0, 2.0), (-1.0, 1.0))
 TOL = 0.02

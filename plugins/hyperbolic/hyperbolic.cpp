@@ -456,6 +456,12 @@ struct Selected {
     bool exit_edge = false;    // chosen along the exit time's jumps (exit_edge_barriers), not as a local minimum
     bool along_jumps = false;  // exit_edge, or a local minimum with at least half its points on the jumps
     bool parallels = true;     // a local minimum of q among its parallel curves (open systems: supported_picks)
+    // A remainder that runs on past an end of a barrier kept before it, along the same strainline (continues_barrier):
+    // that barrier's index in the selection (none otherwise), the barrier's end it continues and its own end there
+    // (0: the first point, 1: the last). whole_curves joins the two there, as one curve.
+    static constexpr std::size_t none = static_cast<std::size_t>(-1);
+    std::size_t continues = none;
+    int continued_end = 0, own_end = 0;
 };
 
 // The lengths and distances of Alg. 1 in state units, from the parameters or the box.
@@ -1104,6 +1110,79 @@ std::vector<Selected> picks_of_runs(std::size_t c, const Segment &cand, std::siz
     return picks;
 }
 
+// The distance from (x, y) to the polyline of n points at xy (x, y interleaved).
+double distance_to_polyline(double x, double y, const double *xy, std::size_t n) {
+    double best = HUGE_VAL;
+    for (std::size_t k = 0; k < n; ++k) {
+        const double ax = xy[2 * k], ay = xy[2 * k + 1];
+        double d = std::hypot(x - ax, y - ay);
+        if (k + 1 < n) {
+            const double ex = xy[2 * k + 2] - ax, ey = xy[2 * k + 3] - ay, e2 = ex * ex + ey * ey;
+            const double t = e2 > 0.0 ? std::clamp(((x - ax) * ex + (y - ay) * ey) / e2, 0.0, 1.0) : 0.0;
+            d = std::min(d, std::hypot(x - ax - t * ex, y - ay - t * ey));
+        }
+        best = std::min(best, d);
+    }
+    return best;
+}
+
+// Whether the remainder `pick` of candidate `cand` (`covered`: which of the candidate's points lie along barriers
+// kept) continues a barrier kept past that barrier's end up to the box's edge, and which (pick.continues): next to
+// one of its ends the candidate runs along barrier b, every point of its last `along` of arc length before the
+// remainder within `cover` of b, up to within 2 cover of an end of b, and then on uncovered to its own end, within a
+// grid cell of the box's edge. The remainder is then the same invariant curve as b, traced on by a strainline that
+// b's own left (cut by d_g, or stopped where it turned through a saddle's sector), up to where the box cuts it: one
+// curve, which whole_curves joins, and short only because the box cuts it (the pendulum's separatrix branches from a
+// saddle to the box's edge, 1.17 long, past the heteroclinic orbit into the saddle: docs/extractor-measurements.md).
+// Not in the interior: there the same test let the rests of strainlines that leave a curve near its end (the double
+// gyre's innermost turn) or run beside the best barrier (the damped Duffing attractor) on as barriers.
+bool continues_barrier(const Grid &g, const std::vector<Strainline> &lines, const Segment &cand,
+                       const std::vector<char> &covered, const std::vector<Selected> &selected, double cover,
+                       double along, Selected &pick) {
+    const double *xy = first_point(lines, cand);
+    const std::size_t n = cand.last - cand.first + 1, begin = pick.piece.first - cand.first,
+                      end = pick.piece.last - cand.first; // the remainder's points begin..end of the candidate
+    const double cell = std::max(g.dx(), g.dy());
+    const auto at_edge = [&](std::size_t k) {
+        const double x = xy[2 * k], y = xy[2 * k + 1];
+        return std::min({x - g.x_min, g.x_max - x, y - g.y_min, g.y_max - y}) <= cell;
+    };
+    for (int own = 0; own < 2; ++own) {
+        // The covered point next to the remainder; the remainder's other end must be the candidate's, at the edge.
+        if (own == 0 ? begin == 0 : end + 1 >= n) continue;
+        if (own == 0 ? end + 1 != n || !at_edge(end) : begin != 0 || !at_edge(begin)) continue;
+        const std::size_t next = own == 0 ? begin - 1 : end + 1;
+        if (!covered[next]) continue;
+        const double px = xy[2 * next], py = xy[2 * next + 1];
+        for (std::size_t b = 0; b < selected.size(); ++b) {
+            const Segment &piece = selected[b].piece;
+            const double *bxy = first_point(lines, piece);
+            const std::size_t bn = piece.last - piece.first + 1;
+            for (int bend = 0; bend < 2; ++bend) {
+                const double *e = bxy + (bend == 0 ? 0 : 2 * (bn - 1));
+                if (std::hypot(px - e[0], py - e[1]) > 2.0 * cover) continue;
+                // The candidate's points back from `next` over `along`, each within `cover` of b.
+                bool beside = true;
+                double run = 0.0;
+                std::size_t k = next;
+                while (beside && run < along) {
+                    beside = distance_to_polyline(xy[2 * k], xy[2 * k + 1], bxy, bn) <= cover;
+                    if (own == 0 ? k == 0 : k + 1 >= n) break;
+                    const std::size_t k2 = own == 0 ? k - 1 : k + 1;
+                    run += std::hypot(xy[2 * k2] - xy[2 * k], xy[2 * k2 + 1] - xy[2 * k + 1]);
+                    k = k2;
+                }
+                if (!beside || run < along) continue;
+                pick.continues = b;
+                pick.continued_end = bend;
+                pick.own_end = own;
+                return true;
+            }
+        }
+    }
+    return false;
+}
+
 // The runs of candidate c's points not covered by a barrier of smaller q (at least two points) that pass the
 // selection rule of local_minima, in order along the candidate; a remainder's own q is not measured yet (the caller
 // does, for the few that are kept). `index` holds the segments that are no pieces, its buckets sorted by q. A
@@ -1113,7 +1192,8 @@ std::vector<Selected> picks_of_runs(std::size_t c, const Segment &cand, std::siz
 // min_strength (the double gyre's suite case on 451 x 226: 2.2 units along the bottom and left walls, ranked first).
 std::vector<Selected> uncovered_minima(const std::vector<Strainline> &lines, const Candidates &found, std::size_t c,
                                        const std::vector<char> &covered, const RunIndex &index, const Scales &scale,
-                                       const WallFilter &walls) {
+                                       const WallFilter &walls, const Grid &g, const std::vector<Selected> &selected,
+                                       double cover) {
     std::vector<Selected> picks;
     const std::vector<Segment> &candidates = found.segments;
     const auto q_of = [&](std::size_t d) { return candidates[d].q; };
@@ -1125,7 +1205,11 @@ std::vector<Selected> uncovered_minima(const std::vector<Strainline> &lines, con
             const std::vector<double> piece_xy = points_of(lines, pick.piece);
             const std::vector<double> steps = segment_lengths(piece_xy);
             pick.piece.length = length_from_steps(steps, 0, steps.size());
-            if (pick.piece.length < scale.min_length || 3.0 * pick.piece.length < cand.length) continue;
+            if (pick.piece.length < scale.min_length) continue;
+            // The rule against tiling (local_minima) spares a remainder that extends a barrier past its end.
+            if (3.0 * pick.piece.length < cand.length &&
+                !continues_barrier(g, lines, cand, covered, selected, cover, scale.radius, pick))
+                continue;
             std::vector<double> near_wall;
             if (walls.along(piece_xy.data(), piece_xy.size() / 2, steps.data(), near_wall)) continue;
             piece_probes = probe_points(piece_xy, scale.radius);
@@ -1145,7 +1229,8 @@ std::vector<Selected> uncovered_minima(const std::vector<Strainline> &lines, con
 // already. Each uncovered run at least min_length long is probed about every neighbour distance; it is a local
 // minimum of q among its own neighbours, and a barrier, when at most half of its probes have a segment of smaller q
 // (not a piece, pieces_of_longer) within the neighbour distance. A remainder must also be at least a third of its
-// segment: the shorter leftovers of pieces cut at different places would otherwise tile a curve already reported. So
+// segment: the shorter leftovers of pieces cut at different places would otherwise tile a curve already reported;
+// unless it runs on from a barrier's end to the box's edge (continues_barrier), where nothing is left to tile. So
 // a family of strainlines whose q falls monotonically across it yields only its least member, while two curves that
 // merely touch (the two homoclinic loops of a double well at its saddle) are both barriers, and so is the part of a
 // segment that runs on past a barrier of smaller q (`selection` "remainder"). Ranked by the q of what is reported
@@ -1185,7 +1270,8 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
             const std::size_t n = cand.last - cand.first + 1;
             covered[i - start] = covered_points(kept, xy, n, cand.longest_step, cover, scale.min_length);
             if (!covered[i - start].empty())
-                picks[i - start] = uncovered_minima(lines, found, order[i], covered[i - start], index, scale, walls);
+                picks[i - start] = uncovered_minima(lines, found, order[i], covered[i - start], index, scale, walls, g,
+                                                    selected, cover);
         }
         std::optional<RunIndex> added; // the barriers this chunk added, made with its first
         const std::size_t kept_before = selected.size();
@@ -1194,7 +1280,8 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
             const std::size_t c = order[i];
             if (covered[i - start].empty()) continue; // no uncovered run min_length long: nothing to select
             if (added && add_near_points(*added, first_point(lines, candidates[c]), cover, covered[i - start]))
-                picks[i - start] = uncovered_minima(lines, found, c, covered[i - start], index, scale, walls);
+                picks[i - start] =
+                    uncovered_minima(lines, found, c, covered[i - start], index, scale, walls, g, selected, cover);
             const std::size_t first_new = selected.size();
             for (Selected &pick : picks[i - start])
                 if (!pick.remainder || meter.measure(lines, pick.piece)) selected.push_back(pick);
@@ -1208,13 +1295,28 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
         }
         chunk = selected.size() > kept_before ? std::max(min_chunk, chunk / 2) : std::min(max_chunk, 2 * chunk);
     }
-    std::stable_sort(selected.begin(), selected.end(),
-                     [](const Selected &a, const Selected &b) { return a.piece.q < b.piece.q; });
-    std::size_t remainders = 0;
-    for (const Selected &p : selected) remainders += p.remainder ? 1 : 0;
+    // Ranked by q; each continuation's barrier followed to its new place.
+    std::vector<std::size_t> by_q(selected.size()), place(selected.size());
+    std::iota(by_q.begin(), by_q.end(), std::size_t{0});
+    std::stable_sort(by_q.begin(), by_q.end(),
+                     [&](std::size_t a, std::size_t b) { return selected[a].piece.q < selected[b].piece.q; });
+    std::vector<Selected> sorted;
+    sorted.reserve(selected.size());
+    for (std::size_t i = 0; i < by_q.size(); ++i) {
+        place[by_q[i]] = i;
+        sorted.push_back(selected[by_q[i]]);
+    }
+    for (Selected &pick : sorted)
+        if (pick.continues != Selected::none) pick.continues = place[pick.continues];
+    selected = std::move(sorted);
+    std::size_t remainders = 0, continuations = 0;
+    for (const Selected &p : selected) {
+        remainders += p.remainder ? 1 : 0;
+        continuations += p.continues != Selected::none ? 1 : 0;
+    }
     host.info("" + std::to_string(selected.size()) + " barriers: disjoint local minima of q (neighbour distance " +
               format(scale.radius) + "), " + std::to_string(remainders) + " of them remainders of a segment past a " +
-              "barrier of smaller q");
+              "barrier of smaller q (" + std::to_string(continuations) + " running on past a barrier's end)");
     return selected;
 }
 
@@ -1429,8 +1531,16 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
     std::vector<int> group(selected.size(), 0);
     for (std::size_t b = 0; b < selected.size(); ++b)
         group[b] = selected[b].along_jumps || selected[b].parallels ? 0 : 1;
-    const std::vector<std::vector<hyperbolic::JoinedPart>> chains =
-        hyperbolic::join_end_to_end(pieces, 4.0 * cell, 4.0 * cell, 0.8, 2.0 * cell, 8.0 * cell, along_jumps, group);
+    // A remainder that runs on past a barrier's end along the same strainline to the box's edge (continues_barrier)
+    // is joined to it there, where that end is still free, whatever the angle: the strainline turns through a
+    // saddle's sector where the separatrix has a corner (the pendulum's, at x = +-pi).
+    std::vector<std::pair<std::size_t, std::size_t>> continued;
+    for (std::size_t b = 0; b < selected.size(); ++b)
+        if (selected[b].continues != Selected::none)
+            continued.emplace_back(2 * selected[b].continues + static_cast<std::size_t>(selected[b].continued_end),
+                                   2 * b + static_cast<std::size_t>(selected[b].own_end));
+    const std::vector<std::vector<hyperbolic::JoinedPart>> chains = hyperbolic::join_end_to_end(
+        pieces, 4.0 * cell, 4.0 * cell, 0.8, 2.0 * cell, 8.0 * cell, along_jumps, group, continued);
     std::vector<ReportedCurve> curves(chains.size());
 #pragma omp parallel for schedule(dynamic)
     for (std::size_t c = 0; c < chains.size(); ++c) {

@@ -122,6 +122,28 @@ TEST_CASE("pieces traced a little off each other join when each end lies on the 
     }
 }
 
+TEST_CASE("ends known to be one curve join at a corner too, where no measured join took them") {
+    const double join = 0.05, tangent = 0.04;
+    // A separatrix's corner at a saddle: y = 0 up to x = 0.5, then from (0.51, 0.01) straight up. At a right angle the
+    // ends do not meet (above), but given as one curve (end 1: the first polyline's last point, end 2: the second's
+    // first) they join there.
+    const std::vector<std::vector<double>> corner = {segment(0.0, 0.0, 0.5, 0.0, 30),
+                                                     segment(0.51, 0.01, 0.51, 0.5, 30)};
+    CHECK(join_end_to_end(corner, join, tangent).size() == 2);
+    const auto chains = join_end_to_end(corner, join, tangent, 0.8, 0.0, 0.0, {}, {{1, 2}});
+    REQUIRE(chains.size() == 1);
+    CHECK(chain_points(corner, chains[0]).size() == 2 * 60);
+    // A third polyline in line with the first: the measured join comes first, and the known one finds end 1 taken.
+    std::vector<std::vector<double>> pieces = corner;
+    pieces.push_back(segment(0.52, 0.0, 1.0, 0.0, 30));
+    const auto measured_first = join_end_to_end(pieces, join, tangent, 0.8, 0.0, 0.0, {}, {{1, 2}});
+    REQUIRE(measured_first.size() == 2);
+    REQUIRE(measured_first[0].size() == 2);
+    CHECK(measured_first[0][0].index + measured_first[0][1].index == 2); // the first and third
+    REQUIRE(measured_first[1].size() == 1);
+    CHECK(measured_first[1][0].index == 1);
+}
+
 TEST_CASE("bundled_curves: a curve along better ones adds nothing a candidate's length long") {
     const double distance = 0.02, min_length = 0.1;
     const std::vector<double> best = segment(0.0, 0.0, 1.0, 0.0, 101);

@@ -67,7 +67,8 @@ std::size_t find_root(std::vector<std::size_t> &parent, std::size_t i) {
 std::vector<std::vector<JoinedPart>> join_end_to_end(const std::vector<std::vector<double>> &curves,
                                                      double join_distance, double tangent_length, double min_alignment,
                                                      double beside, double reach, const std::vector<char> &loose,
-                                                     const std::vector<int> &group) {
+                                                     const std::vector<int> &group,
+                                                     const std::vector<std::pair<std::size_t, std::size_t>> &joined) {
     const std::size_t n = curves.size();
     std::vector<End> ends(2 * n);
     std::vector<char> usable(n, 0);
@@ -97,6 +98,11 @@ std::vector<std::vector<JoinedPart>> join_end_to_end(const std::vector<std::vect
             pairs.push_back({d, a, b});
         }
     std::stable_sort(pairs.begin(), pairs.end(), [](const Pair &p, const Pair &q) { return p.distance < q.distance; });
+    // The known joins after the measured ones, where both ends are still free.
+    for (const auto &[a, b] : joined)
+        if (a < 2 * n && b < 2 * n && a / 2 != b / 2 && usable[a / 2] && usable[b / 2] &&
+            (group.empty() || group[a / 2] == group[b / 2]))
+            pairs.push_back({HUGE_VAL, a, b});
     constexpr std::size_t none = std::numeric_limits<std::size_t>::max();
     std::vector<std::size_t> partner(2 * n, none), parent(n);
     std::iota(parent.begin(), parent.end(), std::size_t{0});

@@ -15,6 +15,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <utility>
 #include <vector>
 
 namespace geobarrier::hyperbolic {
@@ -31,16 +32,17 @@ struct JoinedPart {
 // behind). With `beside` > 0, two ends also meet up to `reach` apart when each lies within `beside` of the other's
 // tangent line and at most `beside` behind it: pieces of one curve that the strainlines traced a cell or two off each
 // other, side by side where they overlap, or in line across a gap; only between polylines flagged in `loose` (all
-// when it is empty). With `group` given, only polylines of the same group join. Nearest ends are joined first; each
-// end joins at
-// most once, and no chain closes on itself. Every polyline is in exactly one chain; a polyline no end of which meets
-// another is a chain of one. Chains are in order of their first polyline's index, and each chain's parts in order
-// along it.
-std::vector<std::vector<JoinedPart>> join_end_to_end(const std::vector<std::vector<double>> &curves,
-                                                     double join_distance, double tangent_length,
-                                                     double min_alignment = 0.8, double beside = 0.0,
-                                                     double reach = 0.0, const std::vector<char> &loose = {},
-                                                     const std::vector<int> &group = {});
+// when it is empty). With `group` given, only polylines of the same group join. Nearest ends are joined first; then
+// the pairs of ends in `joined` (end 2 c is curve c's first point, 2 c + 1 its last) where both are still free and of
+// one group, however far apart and whatever their tangents: pieces known to be one curve (a remainder of the selection
+// that runs on from a barrier's end along the same strainline). Each end joins at most once, and no chain closes on
+// itself. Every polyline is in exactly one chain; a polyline no end of which meets another is a chain of one. Chains
+// are in order of their first polyline's index, and each chain's parts in order along it.
+std::vector<std::vector<JoinedPart>>
+join_end_to_end(const std::vector<std::vector<double>> &curves, double join_distance, double tangent_length,
+                double min_alignment = 0.8, double beside = 0.0, double reach = 0.0,
+                const std::vector<char> &loose = {}, const std::vector<int> &group = {},
+                const std::vector<std::pair<std::size_t, std::size_t>> &joined = {});
 
 // The points of a chain: its parts' points in order, each reversed where the chain says. Where a part begins beside
 // the chain's end (the two overlap), it joins at its point nearest that end: its points before it, which run back

@@ -951,14 +951,14 @@ _add(Case(
     also=double_gyre_walls, expected_to_pass=False,
     reason="recall of the interior manifold: with the walls scored as the stable manifolds they are "
     "(double_gyre_walls: the corners' and the top wall's orbit's; for precision and rank 1 only), 301 x 151: "
-    "precision 0.950 (0.759 without the walls; 0.37 of the barriers' length lies along them), recall 0.787 (0.952 "
-    "at |T|/2), 1 piece, the rank-1 barrier on the truth (0.99; 0.86 without the walls); 401 x 201: 0.983, 0.716 "
-    "(0.751 at |T|/2), 1 piece, rank 1 on it (0.98). On 301 x 151 the barriers miss the manifold's innermost turn in "
-    "the right gyre (points that enter the orbit's reach in the last quarter of |T|); on 401 x 201 also the stem "
-    "from the bottom wall's orbit up to y = 0.55 (recall 0.32 at |T|/4), while 1.04 units of the inner turn stay a "
-    "candidate (relative_strength 0.86, 0.92 of its length on the truth). Under refinement of 301 x 151 (line step "
-    "x4/3 and /2, T +-10%) recall 0.71-0.79, but on 451 x 226 (grid x1.5) the one barrier is 2.2 units along the "
-    "walls (precision 0.943 with them, 0.025 without; recall 0.007)"))
+    "precision 1.000, recall 0.797 (0.992 at |T|/2), 1 piece, the rank-1 barrier on the truth (1.00); 401 x 201: "
+    "0.984, 0.762 (0.940 at |T|/2), 1 piece, rank 1 on it (0.98). The barriers miss the manifold's innermost turn in "
+    "the right gyre (points that enter the orbit's reach in the last quarter of |T|; 1.2 and 2.1 units): on 301 x 151 "
+    "the barrier's strainline is cut by d_g there and only leftovers of longer candidates run on; on 401 x 201 1.04 "
+    "units of the turn stay a candidate (relative_strength 0.87, its segment's 0.95); the far part (y = 0.75 back to "
+    "(1.23, 0.15)) lies only on segments mostly along the walls, which the wall filter drops. The stem from the "
+    "bottom wall's orbit is joined to the best barrier past where its strainline ran to max_length (recall at |T|/4 "
+    "0.98 and 0.84). Under refinement of 301 x 151 (line step x4/3 and /2, grid x1.5, T +-10%) recall 0.71-0.80"))
 
 
 

@@ -50,6 +50,9 @@ struct Strainline {
     std::vector<double> xy, xy_t1;
     bool exit_seeded = false; // seeded where the exit time jumps (exit_seeds)
     bool traced = false;      // no strainline: the captured set's edge itself (exit_edge_barriers)
+    // Whether its first (backward) and last (forward) point is where it ran to max_length: there its curve is cut by
+    // the computation, not by the flow (d_g, a singular point, the box), and a barrier ending there is unfinished.
+    bool ran_out[2] = {false, false};
 };
 
 // A compact strainline segment with d_g^xi1 < max_deviation at every point: a barrier candidate.
@@ -451,6 +454,7 @@ struct Selected {
     Segment piece;             // what is reported: a whole candidate segment, or the part of one not yet covered
     std::size_t candidate = 0; // the candidate segment it was selected with
     bool remainder = false;    // a part only: the rest of the candidate lies along barriers of smaller q
+    bool leftover = false;     // a remainder shorter than a third of its candidate (whole_curves)
     std::size_t probes = 0;    // probe points along the piece, about a neighbour distance apart
     std::size_t dominated = 0; // probes with a segment of smaller q within the neighbour distance
     bool exit_edge = false;    // chosen along the exit time's jumps (exit_edge_barriers), not as a local minimum
@@ -485,6 +489,7 @@ struct ReportedCurve {
     std::vector<hyperbolic::JoinedPart> parts; // indices into the selection, in order along the curve
     std::size_t least_q_part = 0;              // the selection's index of the part of least q
     double length = 0.0, stretched_length = 0.0, q = 0.0, mean_deviation = 0.0, max_deviation = 0.0;
+    double own_q = 0.0; // q of its parts that are no leftovers: what the contraction test measures (whole_curves)
     std::size_t probes = 0, dominated = 0;
     double transverse_ratio = nan_value; // transverse_q_ratio (whole_curves.hpp)
     double strength = nan_value;         // log q / log q_best (whole_curves)
@@ -795,6 +800,8 @@ std::vector<Strainline> Hyperbolic::direct_strainlines(const sdk::Host &host, co
                              (batch[k].stop_backward == StopReason::max_length ? 1 : 0);
             lines[start + k].xy = std::move(batch[k].xy);
             lines[start + k].exit_seeded = start + k >= lattice;
+            lines[start + k].ran_out[0] = batch[k].stop_backward == StopReason::max_length;
+            lines[start + k].ran_out[1] = !batch[k].closed && batch[k].stop_forward == StopReason::max_length;
         }
         // Truncated now, batch by batch, rather than after all of them: the fields sampled along a line live only in
         // its thread's buffers, and a batch's points are read again soon after they were written.
@@ -1155,6 +1162,7 @@ bool continues_barrier(const Grid &g, const std::vector<Strainline> &lines, cons
         if (!covered[next]) continue;
         const double px = xy[2 * next], py = xy[2 * next + 1];
         for (std::size_t b = 0; b < selected.size(); ++b) {
+            if (selected[b].leftover) continue; // no barrier (local_minima)
             const Segment &piece = selected[b].piece;
             const double *bxy = first_point(lines, piece);
             const std::size_t bn = piece.last - piece.first + 1;
@@ -1206,10 +1214,10 @@ std::vector<Selected> uncovered_minima(const std::vector<Strainline> &lines, con
             const std::vector<double> steps = segment_lengths(piece_xy);
             pick.piece.length = length_from_steps(steps, 0, steps.size());
             if (pick.piece.length < scale.min_length) continue;
-            // The rule against tiling (local_minima) spares a remainder that extends a barrier past its end.
-            if (3.0 * pick.piece.length < cand.length &&
-                !continues_barrier(g, lines, cand, covered, selected, cover, scale.radius, pick))
-                continue;
+            // The rule against tiling (local_minima) makes a remainder shorter than a third of its candidate a
+            // leftover, unless it extends a barrier past its end to the box's edge (continues_barrier).
+            pick.leftover = 3.0 * pick.piece.length < cand.length &&
+                            !continues_barrier(g, lines, cand, covered, selected, cover, scale.radius, pick);
             std::vector<double> near_wall;
             if (walls.along(piece_xy.data(), piece_xy.size() / 2, steps.data(), near_wall)) continue;
             piece_probes = probe_points(piece_xy, scale.radius);
@@ -1228,9 +1236,11 @@ std::vector<Selected> uncovered_minima(const std::vector<Strainline> &lines, con
 // points within two grid cells of a barrier already chosen are covered: that stretch of it is a barrier of smaller q
 // already. Each uncovered run at least min_length long is probed about every neighbour distance; it is a local
 // minimum of q among its own neighbours, and a barrier, when at most half of its probes have a segment of smaller q
-// (not a piece, pieces_of_longer) within the neighbour distance. A remainder must also be at least a third of its
-// segment: the shorter leftovers of pieces cut at different places would otherwise tile a curve already reported;
-// unless it runs on from a barrier's end to the box's edge (continues_barrier), where nothing is left to tile. So
+// (not a piece, pieces_of_longer) within the neighbour distance. A remainder shorter than a third of its segment is
+// a leftover: the shorter leftovers of pieces cut at different places would otherwise tile a curve already reported,
+// so a leftover covers nothing and is no barrier of its own; whole_curves only runs a barrier on by one past an end
+// where the barrier's strainline ran to max_length (run_on_past_max_length). A short remainder that runs on from a
+// barrier's end to the box's edge (continues_barrier) is no leftover: nothing is left there to tile. So
 // a family of strainlines whose q falls monotonically across it yields only its least member, while two curves that
 // merely touch (the two homoclinic loops of a double well at its saddle) are both barriers, and so is the part of a
 // segment that runs on past a barrier of smaller q (`selection` "remainder"). Ranked by the q of what is reported
@@ -1257,9 +1267,9 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
     // against the barriers its chunk added, the rule again only where they covered more of it. Barriers are rare (a
     // few among thousands of candidates): a chunk that adds none doubles the next one (fewer parallel regions, each
     // with its wait at the end), one that adds some halves it (less serial work on the rest of a chunk).
-    std::size_t chunk = min_chunk;
+    std::size_t chunk = min_chunk, barriers = 0; // barriers: the picks that are no leftovers
     for (std::size_t start = 0, end = 0; start < order.size(); start = end) {
-        if (m_max_barriers > 0 && selected.size() >= m_max_barriers) break;
+        if (m_max_barriers > 0 && barriers >= m_max_barriers) break;
         end = std::min(order.size(), start + chunk);
         std::vector<std::vector<char>> covered(end - start);
         std::vector<std::vector<Selected>> picks(end - start);
@@ -1274,9 +1284,9 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
                                                     selected, cover);
         }
         std::optional<RunIndex> added; // the barriers this chunk added, made with its first
-        const std::size_t kept_before = selected.size();
+        const std::size_t kept_before = barriers;
         for (std::size_t i = start; i < end; ++i) {
-            if (m_max_barriers > 0 && selected.size() >= m_max_barriers) break;
+            if (m_max_barriers > 0 && barriers >= m_max_barriers) break;
             const std::size_t c = order[i];
             if (covered[i - start].empty()) continue; // no uncovered run min_length long: nothing to select
             if (added && add_near_points(*added, first_point(lines, candidates[c]), cover, covered[i - start]))
@@ -1288,12 +1298,14 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
             // This candidate's pieces cover only from now on, not the rest of the same candidate.
             if (selected.size() > first_new && !added) added.emplace(g, cover);
             for (std::size_t b = first_new; b < selected.size(); ++b) {
+                if (selected[b].leftover) continue;
+                ++barriers;
                 const std::size_t n = selected[b].piece.last - selected[b].piece.first + 1;
                 kept.add(first_point(lines, selected[b].piece), n, b);
                 added->add(first_point(lines, selected[b].piece), n, b);
             }
         }
-        chunk = selected.size() > kept_before ? std::max(min_chunk, chunk / 2) : std::min(max_chunk, 2 * chunk);
+        chunk = barriers > kept_before ? std::max(min_chunk, chunk / 2) : std::min(max_chunk, 2 * chunk);
     }
     // Ranked by q; each continuation's barrier followed to its new place.
     std::vector<std::size_t> by_q(selected.size()), place(selected.size());
@@ -1311,12 +1323,13 @@ std::vector<Selected> Hyperbolic::local_minima(const sdk::Host &host, const Grid
     selected = std::move(sorted);
     std::size_t remainders = 0, continuations = 0;
     for (const Selected &p : selected) {
-        remainders += p.remainder ? 1 : 0;
+        remainders += p.remainder && !p.leftover ? 1 : 0;
         continuations += p.continues != Selected::none ? 1 : 0;
     }
-    host.info("" + std::to_string(selected.size()) + " barriers: disjoint local minima of q (neighbour distance " +
+    host.info("" + std::to_string(barriers) + " barriers: disjoint local minima of q (neighbour distance " +
               format(scale.radius) + "), " + std::to_string(remainders) + " of them remainders of a segment past a " +
-              "barrier of smaller q (" + std::to_string(continuations) + " running on past a barrier's end)");
+              "barrier of smaller q (" + std::to_string(continuations) + " running on past a barrier's end); " +
+              std::to_string(selected.size() - barriers) + " leftovers (less than a third of their segment)");
     return selected;
 }
 
@@ -1375,6 +1388,7 @@ void Hyperbolic::on_jumps(const Grid &g, const gb_extract_input &in, std::vector
         const std::vector<std::uint8_t> kind = hyperbolic::across_exit_jumps(g, exit_time, in.mask, exit_jumps(in),
                                                                              first_point(lines, pick.piece), n, cell);
         pick.along_jumps =
+            !pick.leftover &&
             2 * static_cast<std::size_t>(std::count_if(kind.begin(), kind.end(), [](auto k) { return k != 0; })) >= n;
     }
 }
@@ -1443,7 +1457,7 @@ void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_inpu
         kept.add(first_point(lines, selected[b].piece), selected[b].piece.last - selected[b].piece.first + 1, b);
     };
     for (std::size_t b = 0; b < selected.size(); ++b)
-        if (selected[b].along_jumps || selected[b].parallels) keep(b);
+        if (!selected[b].leftover && (selected[b].along_jumps || selected[b].parallels)) keep(b);
     const std::size_t before = selected.size();
     // A part of a candidate is measured here (a remainder, reported with its candidate's q too); a part of a run,
     // which has no candidate behind it, is measured as a whole of its own.
@@ -1501,6 +1515,84 @@ void Hyperbolic::supported_picks(const CauchyGreenField &cg, const std::vector<S
     }
 }
 
+// Where a barrier's strainline ran to max_length, the curve is cut by the computation, not by the flow (d_g, a
+// singular point, the box), and a longer strainline along the same curve may run on: on the double gyre (401 x 201)
+// the best barrier's strainline ran out 0.57 above the bottom wall's orbit, and the stem below it was left of a
+// candidate 7.5 units long, too short a part of it to be a remainder (a leftover). For each end of a piece that is no
+// leftover where its strainline ran out, the leftover of least q with an end within `reach` of it (none: -1), indexed
+// 2 b + end (end 0 the piece's first point).
+std::vector<std::size_t> leftovers_past_max_length(const std::vector<Strainline> &lines,
+                                                   const std::vector<Selected> &selected,
+                                                   const std::vector<std::vector<double>> &pieces, double reach) {
+    constexpr std::size_t none = static_cast<std::size_t>(-1);
+    std::vector<std::size_t> past(2 * selected.size(), none);
+    for (std::size_t b = 0; b < selected.size(); ++b) {
+        const Selected &s = selected[b];
+        if (s.leftover) continue;
+        const Strainline &line = lines[s.piece.line];
+        const std::size_t n = line.xy.size() / 2;
+        for (int end = 0; end < 2; ++end) {
+            const std::size_t at = end == 0 ? s.piece.first : s.piece.last;
+            if (!line.ran_out[end] || at != (end == 0 ? 0 : n - 1)) continue;
+            const double x = line.xy[2 * at], y = line.xy[2 * at + 1];
+            std::size_t &best = past[2 * b + static_cast<std::size_t>(end)];
+            for (std::size_t c = 0; c < selected.size(); ++c) {
+                const std::vector<double> &xy = pieces[c];
+                const std::size_t m = xy.size();
+                if (!selected[c].leftover || m < 4) continue;
+                if (std::hypot(xy[0] - x, xy[1] - y) > reach && std::hypot(xy[m - 2] - x, xy[m - 1] - y) > reach)
+                    continue;
+                if (best == none || selected[c].piece.q < selected[best].piece.q) best = c;
+            }
+        }
+    }
+    return past;
+}
+
+// The chains of join_end_to_end (of the pieces that are no leftovers), each run on at a free end where its strainline
+// ran out by the leftover found there (leftovers_past_max_length), when the two meet as join_end_to_end joins pieces;
+// the other leftovers are left out. Only at a chain's free ends, after the other pieces were joined: a leftover
+// joined among them took the place of a piece of the same loop (unforced Duffing: recall 0.96 -> 0.76), and past any
+// other end leftovers tile a curve already reported or run on past a saddle where strainlines part (a leftover joined
+// at unforced Duffing's saddle turned off the loop: precision 0.85).
+std::vector<std::vector<hyperbolic::JoinedPart>>
+run_on_past_max_length(const std::vector<Strainline> &lines, const std::vector<Selected> &selected,
+                       const std::vector<std::vector<double>> &pieces,
+                       std::vector<std::vector<hyperbolic::JoinedPart>> chains, double cell) {
+    constexpr std::size_t none = static_cast<std::size_t>(-1);
+    const std::vector<std::size_t> past = leftovers_past_max_length(lines, selected, pieces, 4.0 * cell);
+    std::vector<char> used(selected.size(), 0);
+    // The leftover past end `end` of part `part` (in the part's own direction), when the two meet, and whether the
+    // leftover's last point is the one at that end.
+    const auto leftover_at = [&](std::size_t part, int end, std::size_t &l, bool &last_at_end) {
+        l = past[2 * part + static_cast<std::size_t>(end)];
+        if (l == none || used[l] ||
+            hyperbolic::join_end_to_end({pieces[part], pieces[l]}, 4.0 * cell, 4.0 * cell).size() != 1)
+            return false;
+        const std::vector<double> &p = pieces[part], &xy = pieces[l];
+        const std::size_t at = end == 0 ? 0 : p.size() - 2, m = xy.size();
+        last_at_end =
+            std::hypot(xy[m - 2] - p[at], xy[m - 1] - p[at + 1]) < std::hypot(xy[0] - p[at], xy[1] - p[at + 1]);
+        used[l] = 1;
+        return true;
+    };
+    std::vector<std::vector<hyperbolic::JoinedPart>> out;
+    for (std::vector<hyperbolic::JoinedPart> &chain : chains) {
+        if (std::all_of(chain.begin(), chain.end(),
+                        [&](const hyperbolic::JoinedPart &p) { return selected[p.index].leftover; }))
+            continue; // a leftover alone
+        const hyperbolic::JoinedPart back = chain.back(), front = chain.front();
+        std::size_t l = none;
+        bool last_at_end = false;
+        // After the chain, the leftover is traversed from its point at the end; before it, towards that point.
+        if (leftover_at(back.index, back.reversed ? 0 : 1, l, last_at_end)) chain.push_back({l, last_at_end});
+        if (leftover_at(front.index, front.reversed ? 1 : 0, l, last_at_end))
+            chain.insert(chain.begin(), hyperbolic::JoinedPart{l, !last_at_end});
+        out.push_back(std::move(chain));
+    }
+    return out;
+}
+
 // Alg. 1 after step 3, the barriers as wholes (whole_curves.hpp; docs/extractors.md, step 8): the pieces the
 // selection chose, joined where one runs on into another (ends within four grid cells); then each whole is a barrier
 // when it is a local minimum of q among its parallel copies out to the neighbour distance (transverse_q_ratio at
@@ -1518,6 +1610,10 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
     for (std::size_t p = 0; p < g.size(); ++p) root[p] = std::sqrt(cg.lambda1[p]);
     std::vector<std::vector<double>> pieces(selected.size());
     for (std::size_t b = 0; b < selected.size(); ++b) pieces[b] = points_of(lines, selected[b].piece);
+    // The leftovers join only past a barrier's end where its strainline ran out (run_on_past_max_length).
+    std::vector<std::vector<double>> joinable = pieces;
+    for (std::size_t b = 0; b < selected.size(); ++b)
+        if (selected[b].leftover) joinable[b].clear();
     // Ends within four cells that run on into each other join. Pieces chosen along the exit time's jumps come from
     // strainlines on both sides of a jump, a cell or two off each other: those join also up to eight cells apart
     // when each end lies within two cells (the selection's cover distance) of the other's tangent line, side by side
@@ -1539,20 +1635,26 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
         if (selected[b].continues != Selected::none)
             continued.emplace_back(2 * selected[b].continues + static_cast<std::size_t>(selected[b].continued_end),
                                    2 * b + static_cast<std::size_t>(selected[b].own_end));
-    const std::vector<std::vector<hyperbolic::JoinedPart>> chains = hyperbolic::join_end_to_end(
-        pieces, 4.0 * cell, 4.0 * cell, 0.8, 2.0 * cell, 8.0 * cell, along_jumps, group, continued);
+    const std::vector<std::vector<hyperbolic::JoinedPart>> chains =
+        run_on_past_max_length(lines, selected, pieces,
+                               hyperbolic::join_end_to_end(joinable, 4.0 * cell, 4.0 * cell, 0.8, 2.0 * cell,
+                                                           8.0 * cell, along_jumps, group, continued),
+                               cell);
     std::vector<ReportedCurve> curves(chains.size());
 #pragma omp parallel for schedule(dynamic)
     for (std::size_t c = 0; c < chains.size(); ++c) {
         ReportedCurve &rc = curves[c];
         rc.parts = chains[c];
         rc.xy = hyperbolic::chain_points(pieces, chains[c]);
-        double weighted_deviation = 0.0, exit_edge_length = 0.0, along_jumps_length = 0.0;
+        double weighted_deviation = 0.0, exit_edge_length = 0.0, along_jumps_length = 0.0, own_length = 0.0,
+               own_stretched = 0.0;
         rc.least_q_part = chains[c].front().index;
         for (const hyperbolic::JoinedPart &part : chains[c]) {
             const Selected &s = selected[part.index];
             rc.length += s.piece.length;
             rc.stretched_length += s.piece.stretched_length;
+            own_length += s.leftover ? 0.0 : s.piece.length;
+            own_stretched += s.leftover ? 0.0 : s.piece.stretched_length;
             weighted_deviation += s.piece.mean_deviation * s.piece.length;
             rc.max_deviation = std::max(rc.max_deviation, s.piece.max_deviation);
             rc.probes += s.probes;
@@ -1562,6 +1664,7 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
             along_jumps_length += s.along_jumps ? s.piece.length : 0.0;
         }
         rc.q = rc.stretched_length / rc.length;
+        rc.own_q = own_stretched / own_length;
         rc.mean_deviation = weighted_deviation / rc.length;
         rc.exit_edge = 2.0 * exit_edge_length >= rc.length; // mostly chosen along the exit time's jumps
         rc.along_jumps = 2.0 * along_jumps_length >= rc.length;
@@ -1572,12 +1675,16 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
     }
     // The contraction test against the best local minimum: a hyperbolic barrier contracts exponentially in the
     // horizon (q ~ exp(-lambda T)), a curve shaped by shear only algebraically (q ~ 1 / (s T)), so its log q is a
-    // small fraction of the best's. Where even the best is not contracted (q_best >= 1) nothing is hyperbolic.
+    // small fraction of the best's. Where even the best is not contracted (q_best >= 1) nothing is hyperbolic. Both
+    // measured without the leftovers that run a barrier on past where its strainline ran out (own_q): they report
+    // more of the curve, not a better or worse barrier, and a barrier diluted by one would lower the bar for the rest
+    // (damped Duffing, delta 0.2, backward at 0.9 of Melnikov's threshold: a remainder passed and crossed the
+    // repelling barriers, a tangle below the threshold).
     double q_best = HUGE_VAL;
     for (const ReportedCurve &rc : curves)
-        if (rc.significant) q_best = std::min(q_best, rc.q);
+        if (rc.significant) q_best = std::min(q_best, rc.own_q);
     for (ReportedCurve &rc : curves) {
-        rc.strength = q_best < 1.0 ? std::log(rc.q) / std::log(q_best) : nan_value;
+        rc.strength = q_best < 1.0 ? std::log(rc.own_q) / std::log(q_best) : nan_value;
         rc.significant = rc.significant && (rc.along_jumps || rc.strength >= m_min_strength);
     }
     const auto by_significance_and_q = [](const ReportedCurve &a, const ReportedCurve &b) {

@@ -458,7 +458,7 @@ struct Selected {
     std::size_t probes = 0;    // probe points along the piece, about a neighbour distance apart
     std::size_t dominated = 0; // probes with a segment of smaller q within the neighbour distance
     bool exit_edge = false;    // chosen along the exit time's jumps (exit_edge_barriers), not as a local minimum
-    bool along_jumps = false;  // exit_edge, or a local minimum with at least half its points on the jumps
+    bool along_jumps = false;  // at least half its points on the exit time's jumps (on_jumps): significant
     bool parallels = true;     // a local minimum of q among its parallel curves (open systems: supported_picks)
     // A remainder that runs on past an end of a barrier kept before it, along the same strainline (continues_barrier):
     // that barrier's index in the selection (none otherwise), the barrier's end it continues and its own end there
@@ -626,7 +626,7 @@ struct Hyperbolic {
                                        const Candidates &found, const SegmentMeter &meter, const WallFilter &walls,
                                        const Scales &scale) const;
     void on_jumps(const Grid &g, const gb_extract_input &in, std::vector<Selected> &selected,
-                  const std::vector<Strainline> &lines) const;
+                  const std::vector<Strainline> &lines, std::size_t first) const;
     void supported_picks(const CauchyGreenField &cg, const std::vector<Strainline> &lines,
                          std::vector<Selected> &selected) const;
     std::vector<ReportedCurve> whole_curves(const sdk::Host &host, const CauchyGreenField &cg,
@@ -1372,18 +1372,22 @@ std::vector<Segment> jump_runs(const std::vector<Strainline> &lines, const NearJ
     return runs;
 }
 
-// The selection's local minima with at least half their points ON a jump of the exit time (across_exit_jumps: the
-// exit time at the nearest grid points a cell to either side of the curve jumps) lie along the exit time's jumps as
-// the exit-time barriers do, and are as material: the tests of step 8 do not apply to them either (on the escape
-// oscillator, 421 x 361, the unstable manifold's middle turn was a local minimum of q, kept the exit-time runs off
-// it, and was then demoted to a candidate by min_strength: recall 0.53). Near a jump is not enough: on van der Pol
-// (181 x 181) strainlines inside the captured set, a cell or two off its edge where every point stays, were exempted
-// so and joined the pieces along the cycle (precision 0.62).
+// Whether each pick from `first` on lies along the exit time's jumps: at least half its points ON a jump
+// (across_exit_jumps: the exit time at the nearest grid points a cell to either side of the curve jumps). Such a
+// curve separates trajectories that leave a loop apart, or leave from those that stay, and is material whatever its
+// stretching: the tests of step 8 do not apply to it (on the escape oscillator, 421 x 361, the unstable manifold's
+// middle turn was a local minimum of q, kept the exit-time runs off it, and was then demoted to a candidate by
+// min_strength: recall 0.53). Near a jump is not enough: on van der Pol (181 x 181) strainlines inside the captured
+// set, a cell or two off its edge where every point stays, were exempted so and joined the pieces along the cycle
+// (precision 0.80); on the escape oscillator above the threshold (561 x 481) an exit-time piece in a sliver of the
+// captured set, 160 times less contracted than the best barrier, was a third piece of the manifold's branch that
+// covered nothing the others did not.
 void Hyperbolic::on_jumps(const Grid &g, const gb_extract_input &in, std::vector<Selected> &selected,
-                          const std::vector<Strainline> &lines) const {
+                          const std::vector<Strainline> &lines, std::size_t first) const {
     const double *exit_time = find_field(in, "exit_time");
     const double cell = std::max(g.dx(), g.dy());
-    for (Selected &pick : selected) {
+    for (std::size_t b = first; b < selected.size(); ++b) {
+        Selected &pick = selected[b];
         const std::size_t n = pick.piece.last - pick.piece.first + 1;
         const std::vector<std::uint8_t> kind = hyperbolic::across_exit_jumps(g, exit_time, in.mask, exit_jumps(in),
                                                                              first_point(lines, pick.piece), n, cell);
@@ -1450,7 +1454,7 @@ void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_inpu
         scale);
     std::stable_sort(runs.begin(), runs.end(), [](const Segment &a, const Segment &b) { return a.q < b.q; });
     if (order.empty() && runs.empty()) return;
-    on_jumps(g, in, selected, lines);
+    on_jumps(g, in, selected, lines, 0);
     const double cover = cover_distance(g, scale.radius);
     RunIndex kept(g, cover);
     const auto keep = [&](std::size_t b) {
@@ -1462,7 +1466,7 @@ void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_inpu
     // A part of a candidate is measured here (a remainder, reported with its candidate's q too); a part of a run,
     // which has no candidate behind it, is measured as a whole of its own.
     const auto take = [&](Selected pick) {
-        pick.exit_edge = pick.along_jumps = true;
+        pick.exit_edge = true;
         if (pick.remainder) {
             pick.piece.length = polyline_length(points_of(lines, pick.piece));
             if (pick.piece.length < scale.min_length || !meter.measure(lines, pick.piece)) return;
@@ -1492,6 +1496,7 @@ void Hyperbolic::exit_edge_barriers(const sdk::Host &host, const gb_extract_inpu
         for (const Selected &pick : picks_of_runs(c, cand, covered.size(), free)) take(pick);
     }
     take_runs(false);
+    on_jumps(g, in, selected, lines, before);
     host.info("" + std::to_string(selected.size() - before) + " barriers along the exit time's jumps (of " +
               std::to_string(order.size()) + " segments seeded there, " + std::to_string(runs.size()) +
               " runs of those strainlines and of the captured set's closed edges along that edge)");

@@ -98,7 +98,8 @@ std::vector<std::vector<JoinedPart>> join_end_to_end(const std::vector<std::vect
     std::stable_sort(pairs.begin(), pairs.end(), [](const Pair &p, const Pair &q) { return p.distance < q.distance; });
     // The known joins after the measured ones, where both ends are still free.
     for (const auto &[a, b] : joined)
-        if (a < 2 * n && b < 2 * n && a / 2 != b / 2 && usable[a / 2] && usable[b / 2]) pairs.push_back({HUGE_VAL, a, b});
+        if (a < 2 * n && b < 2 * n && a / 2 != b / 2 && usable[a / 2] && usable[b / 2])
+            pairs.push_back({HUGE_VAL, a, b});
     constexpr std::size_t none = std::numeric_limits<std::size_t>::max();
     std::vector<std::size_t> partner(2 * n, none), parent(n);
     std::iota(parent.begin(), parent.end(), std::size_t{0});

@@ -1598,6 +1598,28 @@ run_on_past_max_length(const std::vector<Strainline> &lines, const std::vector<S
     return out;
 }
 
+// Whether every part of the curve is a remainder that continues a barrier to the box's edge (continues_barrier).
+bool only_continuations(const ReportedCurve &rc, const std::vector<Selected> &selected) {
+    return std::all_of(rc.parts.begin(), rc.parts.end(),
+                       [&](const hyperbolic::JoinedPart &p) { return selected[p.index].continues != Selected::none; });
+}
+
+// A continuation that whole_curves could not join to the barrier it continues, because a measured join took that
+// end (where four separatrix branches meet at a saddle, two pieces pass straight through it: the pendulum at
+// T + 10%, 481 x 361), is still that barrier's invariant curve: it is significant when the barrier's curve is (and
+// its own transverse test passed), not by its own relative_strength, which the grid's sampling of a trough narrower
+// than a cell lowers on the branches leaving a saddle (0.85 there; docs/extractor-measurements.md).
+void judge_continuations(std::vector<ReportedCurve> &curves, const std::vector<Selected> &selected) {
+    std::vector<std::size_t> curve_of(selected.size());
+    for (std::size_t c = 0; c < curves.size(); ++c)
+        for (const hyperbolic::JoinedPart &p : curves[c].parts) curve_of[p.index] = c;
+    for (ReportedCurve &rc : curves) {
+        if (!only_continuations(rc, selected)) continue;
+        const ReportedCurve &host = curves[curve_of[selected[rc.parts.front().index].continues]];
+        rc.significant = rc.significant && !only_continuations(host, selected) && host.significant;
+    }
+}
+
 // Alg. 1 after step 3, the barriers as wholes (whole_curves.hpp; docs/extractors.md, step 8): the pieces the
 // selection chose, joined where one runs on into another (ends within four grid cells); then each whole is a barrier
 // when it is a local minimum of q among its parallel copies out to the neighbour distance (transverse_q_ratio at
@@ -1684,14 +1706,17 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
     // measured without the leftovers that run a barrier on past where its strainline ran out (own_q): they report
     // more of the curve, not a better or worse barrier, and a barrier diluted by one would lower the bar for the rest
     // (damped Duffing, delta 0.2, backward at 0.9 of Melnikov's threshold: a remainder passed and crossed the
-    // repelling barriers, a tangle below the threshold).
+    // repelling barriers, a tangle below the threshold). A curve of continuations only is judged with the barrier it
+    // continues (judge_continuations).
     double q_best = HUGE_VAL;
     for (const ReportedCurve &rc : curves)
-        if (rc.significant) q_best = std::min(q_best, rc.own_q);
+        if (rc.significant && !only_continuations(rc, selected)) q_best = std::min(q_best, rc.own_q);
     for (ReportedCurve &rc : curves) {
         rc.strength = q_best < 1.0 ? std::log(rc.own_q) / std::log(q_best) : nan_value;
-        rc.significant = rc.significant && (rc.along_jumps || rc.strength >= m_min_strength);
+        if (!only_continuations(rc, selected))
+            rc.significant = rc.significant && (rc.along_jumps || rc.strength >= m_min_strength);
     }
+    judge_continuations(curves, selected);
     const auto by_significance_and_q = [](const ReportedCurve &a, const ReportedCurve &b) {
         if (a.significant != b.significant) return a.significant;
         return a.q < b.q;

@@ -2,8 +2,9 @@
 // forward in time its repelling barriers are the separatrix, all of it in the box, including the two branches that
 // run from a saddle (x = +-pi, y = 0) to the box's edge, about 1.19 long each. Those are pieces of strainlines that
 // run along a heteroclinic orbit into the saddle and turn there onto the branch: remainders past the barrier on the
-// heteroclinic orbit, far shorter than the strainline's segment, which the selection joins to that barrier as one
-// curve (docs/extractors.md, step 6; docs/extractor-measurements.md).
+// heteroclinic orbit, far shorter than the strainline's segment, which the selection keeps and joins to that barrier
+// as one curve, or judges with it where it cannot be joined (docs/extractors.md, steps 6 and 8;
+// docs/extractor-measurements.md).
 #include <geobarrier/experiment.hpp>
 
 #include <test_support.hpp>
@@ -66,11 +67,16 @@ std::vector<double> points_of(const json &barrier) {
 TEST_CASE("unforced pendulum, forward time, 481 x 361: the barriers are the separatrix y^2 / 2 - cos x = 1, every "
           "branch of it in the box") {
     // The barrier suite's case pendulum-unforced-forward on its full grid (scripts/barrier_suite.py), with the
-    // extractor's defaults.
+    // extractor's defaults; and at T + 10%, where the branches' ends at the saddles are taken by pieces that pass
+    // straight through them, so that the branches are reported as curves of their own, judged with the barrier
+    // they continue.
+    double horizon = 8 * pi;
+    SUBCASE("T = 8 pi") {}
+    SUBCASE("T = 8.8 pi") { horizon = 8.8 * pi; }
     json j = {{"system", {{"plugin", "pendulum"}, {"params", {{"omega0", 1}, {"damping", 0}}}}},
               {"forcing", {{"plugin", "none"}}},
               {"grid", {{"x", {-4, 4}}, {"y", {-3, 3}}, {"n", {481, 361}}}},
-              {"time", {{"t0", 0}, {"t1", 8 * pi}}},
+              {"time", {{"t0", 0}, {"t1", horizon}}},
               {"extractors", {{{"plugin", "hyperbolic"}, {"params", json::object()}}}},
               {"output", {{"plots", false}}}};
     j["plugin_paths"] = {test::plugin_dir().string()};

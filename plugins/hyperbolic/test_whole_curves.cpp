@@ -130,13 +130,13 @@ TEST_CASE("ends known to be one curve join at a corner too, where no measured jo
     const std::vector<std::vector<double>> corner = {segment(0.0, 0.0, 0.5, 0.0, 30),
                                                      segment(0.51, 0.01, 0.51, 0.5, 30)};
     CHECK(join_end_to_end(corner, join, tangent).size() == 2);
-    const auto chains = join_end_to_end(corner, join, tangent, 0.8, 0.0, 0.0, {}, {{1, 2}});
+    const auto chains = join_end_to_end(corner, join, tangent, 0.8, 0.0, 0.0, {}, {}, {{1, 2}});
     REQUIRE(chains.size() == 1);
     CHECK(chain_points(corner, chains[0]).size() == 2 * 60);
     // A third polyline in line with the first: the measured join comes first, and the known one finds end 1 taken.
     std::vector<std::vector<double>> pieces = corner;
     pieces.push_back(segment(0.52, 0.0, 1.0, 0.0, 30));
-    const auto measured_first = join_end_to_end(pieces, join, tangent, 0.8, 0.0, 0.0, {}, {{1, 2}});
+    const auto measured_first = join_end_to_end(pieces, join, tangent, 0.8, 0.0, 0.0, {}, {}, {{1, 2}});
     REQUIRE(measured_first.size() == 2);
     REQUIRE(measured_first[0].size() == 2);
     CHECK(measured_first[0][0].index + measured_first[0][1].index == 2); // the first and third

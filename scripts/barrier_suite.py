@@ -907,8 +907,8 @@ _add(Case(
     # Guess: the linear response x = -(A/2) cos t of x'' - x = A cos t at t = 0 (the saddle multiplies errors by
     # e^{2 pi} per period, so Newton needs a start this close).
     {"guess": [-0.04, 0.0], "reach": 0.1}, expected_to_pass=False, reason=TANGLE_REASON.format(
-        what="stable", grids="301 x 201: precision 1.00, recall 0.68 (0.73 at |T|/2), 6 barriers; 601 x 401: 0.81 "
-        "(0.91 at |T|/2), 6; 1201 x 801: 0.84, 3", length="562", late="95%",
+        what="stable", grids="301 x 201: precision 1.00, recall 0.74 (0.78 at |T|/2), 5 barriers; 601 x 401: 0.82 "
+        "(0.94 at |T|/2), 6; 1201 x 801 (before leftovers ran barriers on, 2026-11-30): 0.84, 3", length="562", late="95%",
         spacing="median distance from a point of it to another strand 0.0003; a cell of 301 x 201 is 0.012",
         early="0.88-1.0", far="0.52-0.71", segments="0.78 (precision 0.50)",
         grown="precision 0.997, recall 0.921 on 301 x 201, 0.998 and 0.960 on 601 x 401 (recall 0.989 over 2 "
@@ -924,8 +924,8 @@ _add(Case(
     # Guess: the linear response Re(A e^{it} / (-2 + i delta)) of x'' + delta x' - x = A cos t and its velocity.
     {"guess": [-0.6 / 4.0225, 0.045 / 4.0225], "reach": 0.1}, cloud=attractor_cloud, expected_to_pass=False,
     reason=TANGLE_REASON.format(
-        what="unstable", grids="301 x 201: precision 1.00, recall 0.62 (0.54 at |T|/2), 3 barriers; 601 x 401: 0.69 "
-        "(0.63), 2; 1201 x 801: 0.77, 3", length="982", late="97%",
+        what="unstable", grids="301 x 201: precision 1.00, recall 0.62 (0.54 at |T|/2), 3 barriers; 601 x 401: 0.72 "
+        "(0.67), 2; 1201 x 801 (before leftovers ran barriers on, 2026-11-30): 0.77, 3", length="982", late="97%",
         spacing="median distance from a point of it to another strand 0.0001", early="0.65-1.0", far="0.29-0.68",
         segments="0.82 (precision 0.28); two curves on the inner lobe stay candidates at relative_strength 0.88 and "
         "0.86, below min_strength 0.9, where off-truth curves of other cases reach 0.79-0.81",

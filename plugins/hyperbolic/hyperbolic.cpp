@@ -1646,27 +1646,27 @@ std::vector<ReportedCurve> Hyperbolic::whole_curves(const sdk::Host &host, const
     // when each end lies within two cells (the selection's cover distance) of the other's tangent line, side by side
     // where they overlap or in line across a gap (van der Pol's cycle came in 11 pieces). Not the local minima of
     // the selection: a level set running beside a separatrix's end would join it (unforced Duffing: precision 0.17).
-    std::vector<char> along_jumps(selected.size());
-    for (std::size_t b = 0; b < selected.size(); ++b) along_jumps[b] = selected[b].along_jumps ? 1 : 0;
+    hyperbolic::JoinRules rules;
+    rules.join_distance = rules.tangent_length = 4.0 * cell;
+    rules.beside = 2.0 * cell;
+    rules.reach = 8.0 * cell;
+    rules.loose.resize(selected.size());
+    for (std::size_t b = 0; b < selected.size(); ++b) rules.loose[b] = selected[b].along_jumps ? 1 : 0;
     // A piece that is no barrier on its own (not along the jumps, and no local minimum of q among its parallels)
     // joins no piece that is: joined, it would pass for part of a barrier (van der Pol, 181 x 181: strainlines inside
     // the captured set, whose ends touch the cycle, joined the pieces along it: precision 0.63).
-    std::vector<int> group(selected.size(), 0);
+    rules.group.resize(selected.size());
     for (std::size_t b = 0; b < selected.size(); ++b)
-        group[b] = selected[b].along_jumps || selected[b].parallels ? 0 : 1;
+        rules.group[b] = selected[b].along_jumps || selected[b].parallels ? 0 : 1;
     // A remainder that runs on past a barrier's end along the same strainline to the box's edge (continues_barrier)
     // is joined to it there, where that end is still free, whatever the angle: the strainline turns through a
     // saddle's sector where the separatrix has a corner (the pendulum's, at x = +-pi).
-    std::vector<std::pair<std::size_t, std::size_t>> continued;
     for (std::size_t b = 0; b < selected.size(); ++b)
         if (selected[b].continues != Selected::none)
-            continued.emplace_back(2 * selected[b].continues + static_cast<std::size_t>(selected[b].continued_end),
-                                   2 * b + static_cast<std::size_t>(selected[b].own_end));
+            rules.joined.emplace_back(2 * selected[b].continues + static_cast<std::size_t>(selected[b].continued_end),
+                                      2 * b + static_cast<std::size_t>(selected[b].own_end));
     const std::vector<std::vector<hyperbolic::JoinedPart>> chains =
-        run_on_past_max_length(lines, selected, pieces,
-                               hyperbolic::join_end_to_end(joinable, 4.0 * cell, 4.0 * cell, 0.8, 2.0 * cell,
-                                                           8.0 * cell, along_jumps, group, continued),
-                               cell);
+        run_on_past_max_length(lines, selected, pieces, hyperbolic::join_end_to_end(joinable, rules), cell);
     std::vector<ReportedCurve> curves(chains.size());
 #pragma omp parallel for schedule(dynamic)
     for (std::size_t c = 0; c < chains.size(); ++c) {

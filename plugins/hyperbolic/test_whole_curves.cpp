@@ -13,6 +13,7 @@ using geobarrier::hyperbolic::bundled_curves;
 using geobarrier::hyperbolic::chain_points;
 using geobarrier::hyperbolic::join_end_to_end;
 using geobarrier::hyperbolic::JoinedPart;
+using geobarrier::hyperbolic::JoinRules;
 using geobarrier::hyperbolic::transverse_q_ratio;
 
 namespace {
@@ -85,13 +86,18 @@ TEST_CASE("the arcs of a whole circle join into one open chain, not a loop") {
 }
 
 TEST_CASE("pieces traced a little off each other join when each end lies on the other's tangent line") {
-    const double join = 0.04, tangent = 0.04, beside = 0.02, reach = 0.08;
+    const double join = 0.04, tangent = 0.04;
+    JoinRules off_each_other;
+    off_each_other.join_distance = join;
+    off_each_other.tangent_length = tangent;
+    off_each_other.beside = 0.02;
+    off_each_other.reach = 0.08;
     SUBCASE("side by side where they overlap: one curve that does not run back") {
         // y = 0 up to x = 0.5, then y = 0.012 from x = 0.4825 on: they overlap by 0.0175, 0.012 apart.
         const std::vector<std::vector<double>> pieces = {segment(0.0, 0.0, 0.5, 0.0, 51),
                                                          segment(1.0, 0.012, 0.4825, 0.012, 116)};
         CHECK(join_end_to_end(pieces, join, tangent).size() == 2); // neither end lies ahead of the other
-        const auto chains = join_end_to_end(pieces, join, tangent, 0.8, beside, reach);
+        const auto chains = join_end_to_end(pieces, off_each_other);
         REQUIRE(chains.size() == 1);
         const std::vector<double> xy = chain_points(pieces, chains[0]);
         const double sign = xy[2] > xy[0] ? 1.0 : -1.0;
@@ -101,24 +107,27 @@ TEST_CASE("pieces traced a little off each other join when each end lies on the 
     SUBCASE("in line across a gap wider than the join distance, up to the reach") {
         const std::vector<std::vector<double>> gap = {segment(0.0, 0.0, 0.5, 0.0, 30),
                                                       segment(0.56, 0.0, 1.0, 0.0, 30)};
-        CHECK(join_end_to_end(gap, join, tangent, 0.8, beside, reach).size() == 1);
+        CHECK(join_end_to_end(gap, off_each_other).size() == 1);
         const std::vector<std::vector<double>> far = {segment(0.0, 0.0, 0.5, 0.0, 30), segment(0.6, 0.0, 1.0, 0.0, 30)};
-        CHECK(join_end_to_end(far, join, tangent, 0.8, beside, reach).size() == 2);
+        CHECK(join_end_to_end(far, off_each_other).size() == 2);
         // Across the gap, but 0.03 off the first one's line: farther than `beside`.
         const std::vector<std::vector<double>> off = {segment(0.0, 0.0, 0.5, 0.0, 30),
                                                       segment(0.56, 0.03, 1.0, 0.03, 30)};
-        CHECK(join_end_to_end(off, join, tangent, 0.8, beside, reach).size() == 2);
+        CHECK(join_end_to_end(off, off_each_other).size() == 2);
     }
     SUBCASE("only between the curves flagged loose, when flags are given") {
         const std::vector<std::vector<double>> gap = {segment(0.0, 0.0, 0.5, 0.0, 30),
                                                       segment(0.56, 0.0, 1.0, 0.0, 30)};
-        CHECK(join_end_to_end(gap, join, tangent, 0.8, beside, reach, {1, 1}).size() == 1);
-        CHECK(join_end_to_end(gap, join, tangent, 0.8, beside, reach, {1, 0}).size() == 2);
+        JoinRules flagged = off_each_other;
+        flagged.loose = {1, 1};
+        CHECK(join_end_to_end(gap, flagged).size() == 1);
+        flagged.loose = {1, 0};
+        CHECK(join_end_to_end(gap, flagged).size() == 2);
     }
     SUBCASE("side by side, ending at the same place: running the same way, so still apart") {
         const std::vector<std::vector<double>> pieces = {segment(0.0, 0.0, 0.5, 0.0, 30),
                                                          segment(0.5, 0.012, 0.0, 0.012, 30)};
-        CHECK(join_end_to_end(pieces, join, tangent, 0.8, beside, reach).size() == 2);
+        CHECK(join_end_to_end(pieces, off_each_other).size() == 2);
     }
 }
 
@@ -130,13 +139,17 @@ TEST_CASE("ends known to be one curve join at a corner too, where no measured jo
     const std::vector<std::vector<double>> corner = {segment(0.0, 0.0, 0.5, 0.0, 30),
                                                      segment(0.51, 0.01, 0.51, 0.5, 30)};
     CHECK(join_end_to_end(corner, join, tangent).size() == 2);
-    const auto chains = join_end_to_end(corner, join, tangent, 0.8, 0.0, 0.0, {}, {}, {{1, 2}});
+    JoinRules known;
+    known.join_distance = join;
+    known.tangent_length = tangent;
+    known.joined = {{1, 2}};
+    const auto chains = join_end_to_end(corner, known);
     REQUIRE(chains.size() == 1);
     CHECK(chain_points(corner, chains[0]).size() == 2 * 60);
     // A third polyline in line with the first: the measured join comes first, and the known one finds end 1 taken.
     std::vector<std::vector<double>> pieces = corner;
     pieces.push_back(segment(0.52, 0.0, 1.0, 0.0, 30));
-    const auto measured_first = join_end_to_end(pieces, join, tangent, 0.8, 0.0, 0.0, {}, {}, {{1, 2}});
+    const auto measured_first = join_end_to_end(pieces, known);
     REQUIRE(measured_first.size() == 2);
     REQUIRE(measured_first[0].size() == 2);
     CHECK(measured_first[0][0].index + measured_first[0][1].index == 2); // the first and third
@@ -214,12 +227,20 @@ TEST_CASE("pieces of one line in different groups stay apart; in the same group 
     // Two pieces of y = 0.5 x with a gap of 0.01, which join when nothing keeps them apart (the first test case).
     const std::vector<std::vector<double>> pieces = {segment(0.0, 0.0, 0.2, 0.1, 20),
                                                      segment(0.21, 0.105, 0.4, 0.2, 20)};
-    CHECK(join_end_to_end(pieces, 0.04, 0.04, 0.8, 0.0, 0.0, {}, {0, 0}).size() == 1);
+    JoinRules grouped;
+    grouped.join_distance = grouped.tangent_length = 0.04;
+    grouped.group = {0, 0};
+    CHECK(join_end_to_end(pieces, grouped).size() == 1);
     // A piece that is no barrier on its own joins no piece that is (the extractor's groups): two chains of one.
-    const auto apart = join_end_to_end(pieces, 0.04, 0.04, 0.8, 0.0, 0.0, {}, {0, 1});
+    grouped.group = {0, 1};
+    const auto apart = join_end_to_end(pieces, grouped);
     REQUIRE(apart.size() == 2);
     CHECK(apart[0].size() == 1);
     CHECK(apart[1].size() == 1);
     // Also where the looser rule for pieces traced off each other would join them (both flagged loose).
-    CHECK(join_end_to_end(pieces, 0.04, 0.04, 0.8, 0.02, 0.08, {1, 1}, {1, 0}).size() == 2);
+    grouped.beside = 0.02;
+    grouped.reach = 0.08;
+    grouped.loose = {1, 1};
+    grouped.group = {1, 0};
+    CHECK(join_end_to_end(pieces, grouped).size() == 2);
 }

@@ -65,10 +65,11 @@ std::size_t find_root(std::vector<std::size_t> &parent, std::size_t i) {
 } // namespace
 
 std::vector<std::vector<JoinedPart>> join_end_to_end(const std::vector<std::vector<double>> &curves,
-                                                     double join_distance, double tangent_length, double min_alignment,
-                                                     double beside, double reach, const std::vector<char> &loose,
-                                                     const std::vector<int> &group,
-                                                     const std::vector<std::pair<std::size_t, std::size_t>> &joined) {
+                                                     const JoinRules &rules) {
+    const double join_distance = rules.join_distance, tangent_length = rules.tangent_length;
+    const double min_alignment = rules.min_alignment, beside = rules.beside, reach = rules.reach;
+    const std::vector<char> &loose = rules.loose;
+    const std::vector<int> &group = rules.group;
     const std::size_t n = curves.size();
     std::vector<End> ends(2 * n);
     std::vector<char> usable(n, 0);
@@ -99,7 +100,7 @@ std::vector<std::vector<JoinedPart>> join_end_to_end(const std::vector<std::vect
         }
     std::stable_sort(pairs.begin(), pairs.end(), [](const Pair &p, const Pair &q) { return p.distance < q.distance; });
     // The known joins after the measured ones, where both ends are still free.
-    for (const auto &[a, b] : joined)
+    for (const auto &[a, b] : rules.joined)
         if (a < 2 * n && b < 2 * n && a / 2 != b / 2 && usable[a / 2] && usable[b / 2] &&
             (group.empty() || group[a / 2] == group[b / 2]))
             pairs.push_back({HUGE_VAL, a, b});

@@ -26,6 +26,21 @@ struct JoinedPart {
     bool reversed = false;
 };
 
+// How join_end_to_end joins ends: the rules as named fields, since several are vectors that a positional call could
+// bind to the wrong parameter.
+struct JoinRules {
+    double join_distance = 0.0;  // ends this close join when they run on into each other
+    double tangent_length = 0.0; // each end's outward tangent is measured over this length from it
+    double min_alignment = 0.8;  // the tangents at least 180 degrees minus acos(min_alignment) apart
+    double beside = 0.0;         // > 0: ends up to `reach` apart also join when each lies within `beside` of the
+    double reach = 0.0;          // other's tangent line and at most `beside` behind it
+    std::vector<char> loose;     // the polylines that may join so (all when empty)
+    std::vector<int> group;      // only polylines of the same group join (all when empty)
+    // Pairs of ends known to be one curve (end 2 c is curve c's first point, 2 c + 1 its last), joined after the
+    // measured ones where both are still free and of one group, however far apart and whatever their tangents.
+    std::vector<std::pair<std::size_t, std::size_t>> joined;
+};
+
 // Chains of the given polylines (x, y interleaved) whose ends meet: an end of one within `join_distance` of an end of
 // another, the two running on into each other (their outward tangents, measured over `tangent_length` from each end,
 // at an angle of at least 180 degrees minus acos(min_alignment) apart, and each end's partner ahead of it, not
@@ -33,16 +48,21 @@ struct JoinedPart {
 // tangent line and at most `beside` behind it: pieces of one curve that the strainlines traced a cell or two off each
 // other, side by side where they overlap, or in line across a gap; only between polylines flagged in `loose` (all
 // when it is empty). With `group` given, only polylines of the same group join. Nearest ends are joined first; then
-// the pairs of ends in `joined` (end 2 c is curve c's first point, 2 c + 1 its last) where both are still free and of
-// one group, however far apart and whatever their tangents: pieces known to be one curve (a remainder of the selection
-// that runs on from a barrier's end along the same strainline). Each end joins at most once, and no chain closes on
-// itself. Every polyline is in exactly one chain; a polyline no end of which meets another is a chain of one. Chains
-// are in order of their first polyline's index, and each chain's parts in order along it.
-std::vector<std::vector<JoinedPart>>
-join_end_to_end(const std::vector<std::vector<double>> &curves, double join_distance, double tangent_length,
-                double min_alignment = 0.8, double beside = 0.0, double reach = 0.0,
-                const std::vector<char> &loose = {}, const std::vector<int> &group = {},
-                const std::vector<std::pair<std::size_t, std::size_t>> &joined = {});
+// the pairs of ends in `joined`: pieces known to be one curve (a remainder of the selection that runs on from a
+// barrier's end along the same strainline). Each end joins at most once, and no chain closes on itself. Every
+// polyline is in exactly one chain; a polyline no end of which meets another is a chain of one. Chains are in order
+// of their first polyline's index, and each chain's parts in order along it.
+std::vector<std::vector<JoinedPart>> join_end_to_end(const std::vector<std::vector<double>> &curves,
+                                                     const JoinRules &rules);
+
+// The same with only the distance and tangent rules (the others at their defaults).
+inline std::vector<std::vector<JoinedPart>> join_end_to_end(const std::vector<std::vector<double>> &curves,
+                                                            double join_distance, double tangent_length) {
+    JoinRules rules;
+    rules.join_distance = join_distance;
+    rules.tangent_length = tangent_length;
+    return join_end_to_end(curves, rules);
+}
 
 // The points of a chain: its parts' points in order, each reversed where the chain says. Where a part begins beside
 // the chain's end (the two overlap), it joins at its point nearest that end: its points before it, which run back

@@ -10,6 +10,7 @@
 #include <geobarrier/output.hpp>
 #include <geobarrier/sdk.hpp>
 #include <geobarrier/sdk_plot.hpp>
+#include <geobarrier/segment_index.hpp>
 #include <geobarrier/tensor_lines.hpp>
 
 #include "exit_edges.hpp"
@@ -1117,19 +1118,12 @@ std::vector<Selected> picks_of_runs(std::size_t c, const Segment &cand, std::siz
     return picks;
 }
 
-// The distance from (x, y) to the polyline of n points at xy (x, y interleaved).
+// The distance from (x, y) to the polyline of n points at xy (x, y interleaved): the extractor kit's segment distance.
 double distance_to_polyline(double x, double y, const double *xy, std::size_t n) {
+    if (n == 1) return std::hypot(x - xy[0], y - xy[1]);
     double best = HUGE_VAL;
-    for (std::size_t k = 0; k < n; ++k) {
-        const double ax = xy[2 * k], ay = xy[2 * k + 1];
-        double d = std::hypot(x - ax, y - ay);
-        if (k + 1 < n) {
-            const double ex = xy[2 * k + 2] - ax, ey = xy[2 * k + 3] - ay, e2 = ex * ex + ey * ey;
-            const double t = e2 > 0.0 ? std::clamp(((x - ax) * ex + (y - ay) * ey) / e2, 0.0, 1.0) : 0.0;
-            d = std::min(d, std::hypot(x - ax - t * ex, y - ay - t * ey));
-        }
-        best = std::min(best, d);
-    }
+    for (std::size_t k = 0; k + 1 < n; ++k)
+        best = std::min(best, distance_to_segment(x, y, {xy[2 * k], xy[2 * k + 1], xy[2 * k + 2], xy[2 * k + 3], 0}));
     return best;
 }
 
@@ -1529,7 +1523,7 @@ void Hyperbolic::supported_picks(const CauchyGreenField &cg, const std::vector<S
 std::vector<std::size_t> leftovers_past_max_length(const std::vector<Strainline> &lines,
                                                    const std::vector<Selected> &selected,
                                                    const std::vector<std::vector<double>> &pieces, double reach) {
-    constexpr std::size_t none = static_cast<std::size_t>(-1);
+    constexpr std::size_t none = Selected::none;
     std::vector<std::size_t> past(2 * selected.size(), none);
     for (std::size_t b = 0; b < selected.size(); ++b) {
         const Selected &s = selected[b];
@@ -1564,7 +1558,7 @@ std::vector<std::vector<hyperbolic::JoinedPart>>
 run_on_past_max_length(const std::vector<Strainline> &lines, const std::vector<Selected> &selected,
                        const std::vector<std::vector<double>> &pieces,
                        std::vector<std::vector<hyperbolic::JoinedPart>> chains, double cell) {
-    constexpr std::size_t none = static_cast<std::size_t>(-1);
+    constexpr std::size_t none = Selected::none;
     const std::vector<std::size_t> past = leftovers_past_max_length(lines, selected, pieces, 4.0 * cell);
     std::vector<char> used(selected.size(), 0);
     // The leftover past end `end` of part `part` (in the part's own direction), when the two meet, and whether the
